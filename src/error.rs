@@ -1,0 +1,73 @@
+//! The crate's error type. Every fallible public function returns [`Result`].
+//!
+//! Errors name what is wrong and where (file and line for malformed files, the field of
+//! `model.toml`, the DoF index, the frequency of a singular pencil) and, where there is one,
+//! the fix. Library code never panics on bad input (DESIGN.md §4).
+
+use std::path::PathBuf;
+
+/// Everything that can go wrong in sparsemor.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A file could not be opened, read or written.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The operating-system error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A file is malformed; `line` is 1-based (0 when the problem is not tied to a line).
+    #[error("{}:{line}: {msg}", path.display())]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line number, 0 if not tied to a line.
+        line: usize,
+        /// What is wrong and how to fix it.
+        msg: String,
+    },
+    /// A model (matrices, nodes, DoF indices, damping) violates DESIGN.md §1/§4.
+    #[error("invalid model: {0}")]
+    InvalidModel(String),
+    /// A setting (scene, band, frequencies, interface, thread count, ...) is impossible.
+    #[error("invalid setting: {0}")]
+    InvalidSetting(String),
+    /// A factorization is numerically singular or inaccurate at a frequency (DESIGN.md §3.1).
+    #[error("A(s) at {freq_hz} Hz is numerically singular: {detail}")]
+    Singular {
+        /// The frequency of the failing pencil.
+        freq_hz: f64,
+        /// Measured evidence (probe error, pivot ratio) and what would help.
+        detail: String,
+    },
+    /// A factorization backend failed for another reason (allocation, library status).
+    #[error("factorization failed: {0}")]
+    Factor(String),
+    /// The work was cancelled through the progress callback.
+    #[error("cancelled by the caller")]
+    Cancelled,
+}
+
+/// `Result` with the crate's [`Error`].
+pub type Result<T> = std::result::Result<T, Error>;
+
+impl Error {
+    /// An I/O error on `path`.
+    pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        Error::Io {
+            path: path.into(),
+            source,
+        }
+    }
+
+    /// A parse error at `path:line`.
+    pub fn parse(path: impl Into<PathBuf>, line: usize, msg: impl Into<String>) -> Self {
+        Error::Parse {
+            path: path.into(),
+            line,
+            msg: msg.into(),
+        }
+    }
+}

@@ -1,0 +1,6 @@
+//! sparsemor: model order reduction of large sparse structural FE models.
+#![warn(missing_docs)]
+
+pub mod error;
+
+pub use error::{Error, Result};
