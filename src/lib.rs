@@ -1,6 +1,20 @@
 //! sparsemor: model order reduction of large sparse structural FE models.
+//!
+//! The full model M q'' + D q' + K q = B u, y = C q (DESIGN.md §1) is loaded or generated
+//! ([`model::Model`], [`io`], [`fe`]); its transfer function H(iω) = C (K − ω²M + iωD)⁻¹ B is
+//! computed sparsely and in parallel over frequencies ([`sweep`]) on a pencil with one
+//! symbolic analysis ([`pencil`], [`factor`]), with the rigid-body part of a free body
+//! separated without cancellation ([`rigid`]).
 #![warn(missing_docs)]
 
 pub mod error;
+pub mod factor;
+pub mod memory;
+pub mod model;
+pub mod pencil;
+pub mod rigid;
+pub mod scene;
+pub mod sparse;
+pub mod sweep;
 
 pub use error::{Error, Result};

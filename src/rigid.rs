@@ -1,0 +1,189 @@
+//! The rigid-body part of a free body (DESIGN.md §3.2, eq. 15–17).
+//!
+//! V0 (N×6) holds the rigid modes built from node coordinates r_k, centered at their
+//! centroid c for conditioning: translations [I₃] and rotations [−skew(r_k − c)] per node
+//! (3 DoFs/node); 6-DoF nodes add [0; I₃] on their rotational DoFs. With M0 = V0ᵀMV0,
+//!
+//! ```text
+//! P  = I − M V0 M0⁻¹ V0ᵀ        (P B has no rigid load: inertia relief)
+//! Pᵀ = I − V0 M0⁻¹ V0ᵀ M        (removes the rigid part of a response)
+//! X(s) = Pᵀ A(s)⁻¹ P B          (the elastic response, no cancellation as s → 0)
+//! H0(s) = C V0 (s²M0 + sD0 + K0)⁻¹ V0ᵀ B          (eq. 16)
+//! ```
+//!
+//! For K V0 = 0 and D V0 ∈ span(M V0) (e.g. Rayleigh damping) A(s) is block diagonal in the
+//! M-orthogonal split rigid ⊕ elastic, so H = H0 + C X exactly; X is computed without forming
+//! H − H0, which loses all digits at low frequency (H and H0 grow like 1/s²).
+//!
+//! Entry points: [`RigidBody::from_nodes`], [`RigidBody::detect`].
+
+use crate::model::{Damping, Model};
+use crate::sparse::{mul_dense, Csc};
+use crate::{Error, Result};
+use faer::linalg::solvers::{DenseSolveCore, Solve};
+use faer::{c64, Mat, MatMut, MatRef};
+
+/// ‖K V0‖_F ≤ this · ‖K‖_F ‖V0‖_F means the body is free (the node rigid modes are in ker K).
+pub const FREE_BODY_RTOL: f64 = 1e-8;
+
+/// Rigid modes and the projections built from them.
+#[derive(Clone, Debug)]
+pub struct RigidBody {
+    v0: Mat<f64>,
+    mv0: Mat<f64>,
+    m0: Mat<f64>,
+    m0_inv: Mat<f64>,
+    d0: Mat<f64>,
+    k0: Mat<f64>,
+    /// ‖K V0‖_F / (‖K‖_F ‖V0‖_F): how rigid the modes are for this K.
+    pub stiffness_residual: f64,
+}
+
+/// Rigid modes (N×6: tx, ty, tz, rx, ry, rz) from node coordinates, centered at the centroid.
+pub fn rigid_modes(nodes: &[[f64; 3]], dofs_per_node: usize) -> Mat<f64> {
+    let nn = nodes.len().max(1) as f64;
+    let mut c = [0.0; 3];
+    for p in nodes {
+        for a in 0..3 {
+            c[a] += p[a] / nn;
+        }
+    }
+    let mut v0 = Mat::<f64>::zeros(nodes.len() * dofs_per_node, 6);
+    for (k, p) in nodes.iter().enumerate() {
+        let r = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
+        let b = k * dofs_per_node;
+        for a in 0..3 {
+            v0[(b + a, a)] = 1.0;
+        }
+        // rotation about axis a: e_a × r
+        v0[(b + 1, 3)] = -r[2];
+        v0[(b + 2, 3)] = r[1];
+        v0[(b, 4)] = r[2];
+        v0[(b + 2, 4)] = -r[0];
+        v0[(b, 5)] = -r[1];
+        v0[(b + 1, 5)] = r[0];
+        if dofs_per_node == 6 {
+            for a in 0..3 {
+                v0[(b + 3 + a, 3 + a)] = 1.0;
+            }
+        }
+    }
+    v0
+}
+
+fn frob(a: MatRef<'_, f64>) -> f64 {
+    a.norm_l2()
+}
+
+fn sparse_frob(a: &Csc) -> f64 {
+    a.val().iter().map(|v| v * v).sum::<f64>().sqrt()
+}
+
+impl RigidBody {
+    /// Builds V0 from the model's nodes and the projections; `None` when the model has no
+    /// nodes or K V0 ≠ 0 (a constrained body: nothing to separate).
+    ///
+    /// # Errors
+    /// [`Error::InvalidModel`] when M0 = V0ᵀMV0 is not positive definite.
+    pub fn detect(model: &Model) -> Result<Option<Self>> {
+        let Some(nodes) = &model.nodes else {
+            return Ok(None);
+        };
+        let rb = Self::from_nodes(model, nodes)?;
+        Ok((rb.stiffness_residual <= FREE_BODY_RTOL).then_some(rb))
+    }
+
+    /// Builds V0 from `nodes` for `model` (does not check K V0 = 0; see [`Self::detect`]).
+    ///
+    /// # Errors
+    /// [`Error::InvalidModel`] when M0 = V0ᵀMV0 is not positive definite.
+    pub fn from_nodes(model: &Model, nodes: &[[f64; 3]]) -> Result<Self> {
+        let v0 = rigid_modes(nodes, model.dofs_per_node);
+        let mv0 = mul_dense(model.mass.as_ref(), v0.as_ref());
+        let kv0 = mul_dense(model.stiffness.as_ref(), v0.as_ref());
+        let stiffness_residual = frob(kv0.as_ref()) / (sparse_frob(&model.stiffness) * frob(v0.as_ref())).max(f64::MIN_POSITIVE);
+        let m0 = sym(v0.transpose() * &mv0);
+        let k0 = sym(v0.transpose() * &kv0);
+        let d0 = match &model.damping {
+            Damping::None => Mat::zeros(6, 6),
+            Damping::Rayleigh { alpha, beta } => Mat::from_fn(6, 6, |i, j| alpha * m0[(i, j)] + beta * k0[(i, j)]),
+            Damping::Matrix(d) => sym(v0.transpose() * mul_dense(d.as_ref(), v0.as_ref())),
+        };
+        let llt = m0.llt(faer::Side::Lower).map_err(|_| {
+            Error::InvalidModel("rigid modes: V0ᵀ M V0 is not positive definite (are the node coordinates right?)".into())
+        })?;
+        let m0_inv = llt.inverse();
+        Ok(RigidBody {
+            v0,
+            mv0,
+            m0,
+            m0_inv,
+            d0,
+            k0,
+            stiffness_residual,
+        })
+    }
+
+    /// The rigid modes V0 (N×6).
+    pub fn modes(&self) -> MatRef<'_, f64> {
+        self.v0.as_ref()
+    }
+
+    /// M0 = V0ᵀ M V0 (6×6).
+    pub fn mass(&self) -> MatRef<'_, f64> {
+        self.m0.as_ref()
+    }
+
+    /// x ← P x = x − M V0 M0⁻¹ V0ᵀ x (removes the rigid load component).
+    pub fn project_load(&self, x: MatMut<'_, c64>) {
+        apply_projector(self.mv0.as_ref(), &self.m0_inv, self.v0.as_ref(), x);
+    }
+
+    /// x ← Pᵀ x = x − V0 M0⁻¹ (M V0)ᵀ x (removes the rigid part of a response).
+    pub fn project_response(&self, x: MatMut<'_, c64>) {
+        apply_projector(self.v0.as_ref(), &self.m0_inv, self.mv0.as_ref(), x);
+    }
+
+    /// H0(iω) = C V0 (−ω²M0 + iωD0 + K0)⁻¹ V0ᵀ B for B, C selecting `inputs`, `outputs`
+    /// (eq. 16). Infinite at ω = 0.
+    pub fn h0(&self, omega: f64, inputs: &[usize], outputs: &[usize]) -> Mat<c64> {
+        let a = Mat::<c64>::from_fn(6, 6, |i, j| {
+            c64::new(self.k0[(i, j)] - omega * omega * self.m0[(i, j)], omega * self.d0[(i, j)])
+        });
+        let b0 = Mat::<c64>::from_fn(6, inputs.len(), |i, j| c64::new(self.v0[(inputs[j], i)], 0.0));
+        let x = a.partial_piv_lu().solve(&b0);
+        Mat::<c64>::from_fn(outputs.len(), inputs.len(), |o, j| {
+            (0..6).map(|i| x[(i, j)] * self.v0[(outputs[o], i)]).sum()
+        })
+    }
+}
+
+fn sym(a: Mat<f64>) -> Mat<f64> {
+    Mat::from_fn(a.nrows(), a.ncols(), |i, j| 0.5 * (a[(i, j)] + a[(j, i)]))
+}
+
+/// x ← x − U G Wᵀ x for N×6 U, W and 6×6 G.
+fn apply_projector(u: MatRef<'_, f64>, g: &Mat<f64>, w: MatRef<'_, f64>, mut x: MatMut<'_, c64>) {
+    let (n, k) = (x.nrows(), x.ncols());
+    for c in 0..k {
+        let mut t = [c64::new(0.0, 0.0); 6];
+        for (a, ta) in t.iter_mut().enumerate() {
+            for i in 0..n {
+                *ta += x[(i, c)] * w[(i, a)];
+            }
+        }
+        let mut s = [c64::new(0.0, 0.0); 6];
+        for (a, sa) in s.iter_mut().enumerate() {
+            for (b, tb) in t.iter().enumerate() {
+                *sa += *tb * g[(a, b)];
+            }
+        }
+        for i in 0..n {
+            let mut acc = c64::new(0.0, 0.0);
+            for (a, sa) in s.iter().enumerate() {
+                acc += *sa * u[(i, a)];
+            }
+            x[(i, c)] -= acc;
+        }
+    }
+}

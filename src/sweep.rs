@@ -1,0 +1,453 @@
+//! Parallel frequency sweep of A(iω) = K − ω²M + iωD (DESIGN.md §3.1–3.2).
+//!
+//! [`Solver`] prepares everything that does not depend on the frequency — pencil pattern,
+//! symbolic analysis, rigid modes, the (projected) load — once. [`Solver::run`] then factors
+//! A(iω_k) for each frequency, solves for the p load columns and hands the full-state
+//! response X_k (N×p) to a caller-supplied step that folds it into a per-worker state (the
+//! streamed QR of line-fitting, or the transfer function of [`transfer_function`]).
+//!
+//! Schedule: frequencies are independent. When `workers × bytes_per_factor` fits the memory
+//! budget, `workers = min(threads, frequencies)` threads each own one numeric factorization
+//! and take frequencies from a shared counter (each factorization sequential inside);
+//! otherwise frequencies run one at a time with all threads inside the factorization. The
+//! decision uses the symbolic analysis' size of the factor, known before any numeric work.
+//!
+//! Verification: every factorization is checked by a probe solve: z is a fixed random vector
+//! (made elastic, Pᵀz = z, on a free body), b = A(iω)z is solved with the load, and
+//! ‖Pᵀ(x − z)‖/‖z‖ must stay below [`SweepOptions::probe_tol`]; otherwise the frequency is
+//! reported as numerically singular ([`Error::Singular`]). On a free body only the elastic
+//! part is checked: the rigid part of a solve at low frequency is ill-conditioned by nature
+//! and removed by Pᵀ (or is dominated by the analytic H0).
+
+use crate::factor::{Analysis, Backend, Numeric, SymbolicStats};
+use crate::model::Model;
+use crate::pencil::Pencil;
+use crate::rigid::RigidBody;
+use crate::{Error, Result};
+use faer::{c64, Mat, MatRef, Par};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::Mutex;
+use std::time::Instant;
+
+/// Options of a sweep.
+#[derive(Clone, Debug)]
+pub struct SweepOptions {
+    /// Worker threads; 0 = all available cores.
+    pub threads: usize,
+    /// Factorization backend.
+    pub backend: Backend,
+    /// Memory the concurrent factorizations may use (bytes); `None` = half of MemAvailable.
+    pub memory_budget: Option<usize>,
+    /// Largest accepted relative probe error of a solve (see module doc).
+    pub probe_tol: f64,
+}
+
+impl Default for SweepOptions {
+    fn default() -> Self {
+        SweepOptions {
+            threads: 0,
+            backend: Backend::Auto,
+            memory_budget: None,
+            probe_tol: 1e-6,
+        }
+    }
+}
+
+/// Which response the solver produces.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Response {
+    /// X = A⁻¹B (eq. 14).
+    Total,
+    /// X = Pᵀ A⁻¹ P B (eq. 17 without cancellation; equals Total on a constrained body).
+    Elastic,
+}
+
+/// How the frequencies were scheduled.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Schedule {
+    /// `workers` frequencies at once, each factorization sequential.
+    FrequencyParallel {
+        /// Concurrent factorizations.
+        workers: usize,
+    },
+    /// One frequency at a time, `threads` threads inside the factorization.
+    FactorParallel {
+        /// Threads inside each factorization.
+        threads: usize,
+    },
+}
+
+/// Per-frequency measurements.
+#[derive(Clone, Debug)]
+pub struct FreqStats {
+    /// Frequency (Hz).
+    pub freq_hz: f64,
+    /// Numeric factorization time (s).
+    pub factor_s: f64,
+    /// Solve time for the load and the probe (s).
+    pub solve_s: f64,
+    /// ‖Pᵀ(x − z)‖/‖z‖ of the probe solve.
+    pub probe_error: f64,
+    /// min/max pivot magnitude (LBLᵀ), rcond (UMFPACK) or NaN (faer LU).
+    pub pivot_ratio: f64,
+}
+
+/// Progress report passed to the caller's callback after each frequency.
+#[derive(Clone, Copy, Debug)]
+pub struct Progress {
+    /// Frequencies finished.
+    pub done: usize,
+    /// Frequencies in this run.
+    pub total: usize,
+    /// The frequency just finished (Hz).
+    pub freq_hz: f64,
+}
+
+/// Progress callback: return `false` to cancel the run ([`Error::Cancelled`]).
+pub type ProgressFn<'a> = &'a (dyn Fn(Progress) -> bool + Sync);
+
+/// A no-op progress callback.
+pub fn no_progress(_: Progress) -> bool {
+    true
+}
+
+/// The response at one frequency, handed to the step of [`Solver::run`].
+pub struct Snapshot<'a> {
+    /// Position of the frequency in the run's list.
+    pub index: usize,
+    /// Frequency (Hz).
+    pub freq_hz: f64,
+    /// Full-state response X (N × p).
+    pub x: MatRef<'a, c64>,
+}
+
+/// Frequency-independent preparation of a sweep; see the module doc.
+pub struct Solver<'m> {
+    model: &'m Model,
+    pencil: Pencil,
+    analysis: Analysis,
+    rigid: Option<RigidBody>,
+    response: Response,
+    inputs: Vec<usize>,
+    load: Mat<c64>,
+    probe: Mat<c64>,
+    threads: usize,
+    memory_budget: usize,
+    probe_tol: f64,
+}
+
+impl<'m> Solver<'m> {
+    /// Prepares a solver for unit loads at `inputs`.
+    ///
+    /// # Errors
+    /// Bad settings ([`Error::InvalidSetting`]) and analysis failures ([`Error::Factor`]).
+    pub fn new(model: &'m Model, inputs: &[usize], response: Response, opts: &SweepOptions) -> Result<Self> {
+        let n = model.n();
+        crate::scene::check_dofs(inputs, n, "inputs")?;
+        if !(opts.probe_tol > 0.0) {
+            return Err(Error::InvalidSetting(format!("probe_tol = {}: must be > 0", opts.probe_tol)));
+        }
+        let threads = if opts.threads == 0 { rayon::current_num_threads() } else { opts.threads };
+        let rigid = RigidBody::detect(model)?;
+        let pencil = Pencil::new(model);
+        let analysis = Analysis::new(&pencil, opts.backend, inputs.len() + 1)?;
+        let mut load = Mat::<c64>::zeros(n, inputs.len());
+        for (j, &d) in inputs.iter().enumerate() {
+            load[(d, j)] = c64::new(1.0, 0.0);
+        }
+        // fixed pseudo-random probe (xorshift), elastic on a free body
+        let mut s = 0x9e3779b97f4a7c15u64;
+        let mut probe = Mat::<c64>::from_fn(n, 1, |_, _| {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            c64::new((s >> 11) as f64 / (1u64 << 53) as f64 - 0.5, 0.0)
+        });
+        if let Some(rb) = &rigid {
+            rb.project_response(probe.as_mut());
+            if response == Response::Elastic {
+                rb.project_load(load.as_mut());
+            }
+        }
+        let memory_budget = opts
+            .memory_budget
+            .unwrap_or_else(|| crate::memory::available_bytes().unwrap_or(8 << 30) / 2);
+        Ok(Solver {
+            model,
+            pencil,
+            analysis,
+            rigid,
+            response,
+            inputs: inputs.to_vec(),
+            load,
+            probe,
+            threads,
+            memory_budget,
+            probe_tol: opts.probe_tol,
+        })
+    }
+
+    /// The symbolic analysis' measurements.
+    pub fn symbolic_stats(&self) -> &SymbolicStats {
+        self.analysis.stats()
+    }
+
+    /// The rigid body, if the model is free.
+    pub fn rigid(&self) -> Option<&RigidBody> {
+        self.rigid.as_ref()
+    }
+
+    /// The model.
+    pub fn model(&self) -> &Model {
+        self.model
+    }
+
+    /// The schedule [`Self::run`] uses for `n_freqs` frequencies.
+    pub fn schedule(&self, n_freqs: usize) -> Schedule {
+        let workers = self.threads.min(n_freqs).max(1);
+        let bytes = self.analysis.stats().bytes_per_factor;
+        if workers > 1 && workers.saturating_mul(bytes) <= self.memory_budget {
+            Schedule::FrequencyParallel { workers }
+        } else {
+            Schedule::FactorParallel { threads: self.threads }
+        }
+    }
+
+    /// Solves at every frequency of `freqs_hz` and folds each [`Snapshot`] into a per-worker
+    /// state made by `init`; returns the states (one per worker) and per-frequency stats in the
+    /// order of `freqs_hz`.
+    ///
+    /// # Errors
+    /// Frequencies < 0, or ≤ 0 on a free body ([`Error::InvalidSetting`]); a numerically
+    /// singular A(iω) ([`Error::Singular`]); the step's own errors; [`Error::Cancelled`].
+    pub fn run<S, I, F>(&self, freqs_hz: &[f64], init: I, step: F, progress: ProgressFn<'_>) -> Result<(Vec<S>, Vec<FreqStats>)>
+    where
+        S: Send,
+        I: Fn() -> S + Sync,
+        F: Fn(&mut S, Snapshot<'_>) -> Result<()> + Sync,
+    {
+        for &f in freqs_hz {
+            if !f.is_finite() || f < 0.0 {
+                return Err(Error::InvalidSetting(format!("frequency {f} Hz: must be finite and >= 0")));
+            }
+            if f == 0.0 && self.rigid.is_some() {
+                return Err(Error::InvalidSetting(
+                    "frequency 0 Hz on a free body: A(0) = K is singular (rigid modes) and H(0) is infinite; \
+                     use frequencies > 0 (e.g. a band starting at 1 Hz)"
+                        .into(),
+                ));
+            }
+        }
+        let schedule = self.schedule(freqs_hz.len());
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(self.threads)
+            .build()
+            .map_err(|e| Error::InvalidSetting(format!("cannot start {} threads: {e}", self.threads)))?;
+        let (workers, par) = match schedule {
+            Schedule::FrequencyParallel { workers } => (workers, Par::Seq),
+            Schedule::FactorParallel { threads } => (1, if threads > 1 { Par::rayon(threads) } else { Par::Seq }),
+        };
+        let next = AtomicUsize::new(0);
+        let done = AtomicUsize::new(0);
+        let stop = AtomicBool::new(false);
+        let first_error: Mutex<Option<Error>> = Mutex::new(None);
+        let stats: Mutex<Vec<Option<FreqStats>>> = Mutex::new(vec![None; freqs_hz.len()]);
+        let states: Mutex<Vec<S>> = Mutex::new(Vec::new());
+        let fail = |e: Error| {
+            stop.store(true, Ordering::Relaxed);
+            first_error.lock().unwrap_or_else(|p| p.into_inner()).get_or_insert(e);
+        };
+        let worker = || {
+            let mut numeric = match self.analysis.numeric(&self.pencil) {
+                Ok(x) => x,
+                Err(e) => return fail(e),
+            };
+            let mut state = init();
+            let mut rhs = Mat::<c64>::zeros(self.model.n(), self.inputs.len() + 1);
+            while !stop.load(Ordering::Relaxed) {
+                let k = next.fetch_add(1, Ordering::Relaxed);
+                let Some(&f) = freqs_hz.get(k) else { break };
+                let r = self
+                    .solve_one(&mut numeric, f, &mut rhs, par)
+                    .and_then(|st| {
+                        let p = self.inputs.len();
+                        step(&mut state, Snapshot { index: k, freq_hz: f, x: rhs.as_ref().subcols(0, p) })?;
+                        Ok(st)
+                    });
+                match r {
+                    Ok(st) => {
+                        stats.lock().unwrap_or_else(|p| p.into_inner())[k] = Some(st);
+                        let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+                        if !progress(Progress { done: d, total: freqs_hz.len(), freq_hz: f }) {
+                            fail(Error::Cancelled);
+                        }
+                    }
+                    Err(e) => fail(e),
+                }
+            }
+            states.lock().unwrap_or_else(|p| p.into_inner()).push(state);
+        };
+        pool.scope(|s| {
+            for _ in 0..workers {
+                s.spawn(|_| worker());
+            }
+        });
+        if let Some(e) = first_error.into_inner().unwrap_or_else(|p| p.into_inner()) {
+            return Err(e);
+        }
+        let stats = stats
+            .into_inner()
+            .unwrap_or_else(|p| p.into_inner())
+            .into_iter()
+            .map(|s| s.expect("every frequency finished"))
+            .collect();
+        Ok((states.into_inner().unwrap_or_else(|p| p.into_inner()), stats))
+    }
+
+    /// Factors at `f`, solves load + probe into `rhs`, checks the probe, projects.
+    fn solve_one(&self, numeric: &mut Numeric, f: f64, rhs: &mut Mat<c64>, par: Par) -> Result<FreqStats> {
+        let omega = 2.0 * std::f64::consts::PI * f;
+        let p = self.inputs.len();
+        let t0 = Instant::now();
+        numeric.factor(&self.analysis, &self.pencil, omega, par)?;
+        let factor_s = t0.elapsed().as_secs_f64();
+        let t1 = Instant::now();
+        rhs.as_mut().subcols_mut(0, p).copy_from(&self.load);
+        self.pencil.apply(omega, self.probe.as_ref(), rhs.as_mut().subcols_mut(p, 1));
+        numeric.solve(&self.analysis, rhs.as_mut(), par);
+        let solve_s = t1.elapsed().as_secs_f64();
+        let mut err = Mat::<c64>::from_fn(rhs.nrows(), 1, |i, _| rhs[(i, p)] - self.probe[(i, 0)]);
+        if let Some(rb) = &self.rigid {
+            rb.project_response(err.as_mut());
+            if self.response == Response::Elastic {
+                rb.project_response(rhs.as_mut().subcols_mut(0, p));
+            }
+        }
+        let probe_error = err.norm_l2() / self.probe.norm_l2();
+        let finite = rhs.as_ref().subcols(0, p).is_all_finite();
+        if !(probe_error <= self.probe_tol) || !finite {
+            return Err(Error::Singular {
+                freq_hz: f,
+                detail: format!(
+                    "probe solve error {probe_error:.2e} > {:.0e} (pivot ratio {:.1e}); an undamped model \
+                     at or very near an eigenfrequency? move the frequency or add damping",
+                    self.probe_tol,
+                    numeric.pivot_ratio()
+                ),
+            });
+        }
+        Ok(FreqStats {
+            freq_hz: f,
+            factor_s,
+            solve_s,
+            probe_error,
+            pivot_ratio: numeric.pivot_ratio(),
+        })
+    }
+}
+
+/// Which part of the transfer function [`transfer_function`] returns.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Part {
+    /// H = C A⁻¹ B (eq. 14), by direct solves.
+    Total,
+    /// H1 = C Pᵀ A⁻¹ P B (eq. 17 without cancellation); equals H on a constrained body.
+    Elastic,
+    /// H0 (eq. 16); needs a free body with nodes.
+    Rigid,
+}
+
+impl std::str::FromStr for Part {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "total" => Ok(Part::Total),
+            "elastic" => Ok(Part::Elastic),
+            "rigid" => Ok(Part::Rigid),
+            _ => Err(Error::InvalidSetting(format!("part '{s}': choose total, elastic or rigid"))),
+        }
+    }
+}
+
+/// A transfer function on a frequency list, with what it cost.
+#[derive(Clone, Debug)]
+pub struct Frf {
+    /// Frequencies (Hz).
+    pub freqs_hz: Vec<f64>,
+    /// H(iω_k): outputs × inputs, one per frequency.
+    pub h: Vec<Mat<c64>>,
+    /// Full-state responses X_k (N × inputs) when requested.
+    pub snapshots: Option<Vec<Mat<c64>>>,
+    /// Symbolic analysis (None for the rigid part, which needs no factorization).
+    pub symbolic: Option<SymbolicStats>,
+    /// Schedule used.
+    pub schedule: Option<Schedule>,
+    /// Per-frequency stats.
+    pub freq_stats: Vec<FreqStats>,
+    /// Wall time of the whole computation (s).
+    pub seconds: f64,
+}
+
+/// H(iω) (or H1, H0) = C X at `freqs_hz` for the scene's inputs and outputs.
+///
+/// # Errors
+/// As [`Solver::new`] and [`Solver::run`]; `Part::Rigid` on a model without rigid part.
+pub fn transfer_function(
+    model: &Model,
+    inputs: &[usize],
+    outputs: &[usize],
+    freqs_hz: &[f64],
+    part: Part,
+    keep_snapshots: bool,
+    opts: &SweepOptions,
+    progress: ProgressFn<'_>,
+) -> Result<Frf> {
+    let start = Instant::now();
+    crate::scene::check_dofs(outputs, model.n(), "outputs")?;
+    if part == Part::Rigid {
+        crate::scene::check_dofs(inputs, model.n(), "inputs")?;
+        let rb = RigidBody::detect(model)?.ok_or_else(|| {
+            Error::InvalidSetting(
+                "part rigid: the model has no rigid part (no nodes, or K V0 != 0: a constrained body)".into(),
+            )
+        })?;
+        let h = freqs_hz
+            .iter()
+            .map(|&f| rb.h0(2.0 * std::f64::consts::PI * f, inputs, outputs))
+            .collect();
+        return Ok(Frf {
+            freqs_hz: freqs_hz.to_vec(),
+            h,
+            snapshots: None,
+            symbolic: None,
+            schedule: None,
+            freq_stats: Vec::new(),
+            seconds: start.elapsed().as_secs_f64(),
+        });
+    }
+    let response = if part == Part::Elastic { Response::Elastic } else { Response::Total };
+    let solver = Solver::new(model, inputs, response, opts)?;
+    type Acc = Vec<(usize, Mat<c64>, Option<Mat<c64>>)>;
+    let (states, freq_stats) = solver.run(
+        freqs_hz,
+        Acc::new,
+        |acc: &mut Acc, snap| {
+            let h = Mat::from_fn(outputs.len(), snap.x.ncols(), |o, j| snap.x[(outputs[o], j)]);
+            acc.push((snap.index, h, keep_snapshots.then(|| snap.x.to_owned())));
+            Ok(())
+        },
+        progress,
+    )?;
+    let mut all: Acc = states.into_iter().flatten().collect();
+    all.sort_by_key(|t| t.0);
+    let (h, snaps): (Vec<_>, Vec<_>) = all.into_iter().map(|(_, h, x)| (h, x)).unzip();
+    Ok(Frf {
+        freqs_hz: freqs_hz.to_vec(),
+        h,
+        snapshots: keep_snapshots.then(|| snaps.into_iter().flatten().collect()),
+        symbolic: Some(solver.symbolic_stats().clone()),
+        schedule: Some(solver.schedule(freqs_hz.len())),
+        freq_stats,
+        seconds: start.elapsed().as_secs_f64(),
+    })
+}

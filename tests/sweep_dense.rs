@@ -1,0 +1,68 @@
+//! The sweep's transfer functions equal dense direct solves (issue: foundation, acceptance 1).
+
+mod common;
+use common::*;
+use sparsemor::factor::Backend;
+use sparsemor::model::Damping;
+use sparsemor::sweep::{no_progress, transfer_function, Part, SweepOptions};
+
+fn check(damping: Damping, backend: Backend, threads: usize) {
+    let model = random_model(400, 7, 11, damping);
+    let (inp, out) = (model.scene.inputs.clone(), model.scene.outputs.clone());
+    let freqs = random_freqs(6, 1.0, 400.0, 5);
+    let opts = SweepOptions {
+        backend,
+        threads,
+        ..Default::default()
+    };
+    let frf = transfer_function(
+        &model,
+        &inp,
+        &out,
+        &freqs,
+        Part::Total,
+        false,
+        &opts,
+        &no_progress,
+    )
+    .unwrap();
+    for (k, &f) in freqs.iter().enumerate() {
+        let reference = dense_h(&model, f, &inp, &out);
+        let e = rel_err(&frf.h[k], &reference);
+        assert!(e <= 1e-9, "{backend:?} f = {f}: rel err {e:.2e}");
+    }
+}
+
+#[test]
+fn lblt_damped_matches_dense() {
+    check(
+        Damping::Rayleigh {
+            alpha: 0.5,
+            beta: 1e-5,
+        },
+        Backend::FaerLblt,
+        2,
+    );
+}
+
+#[test]
+fn lblt_undamped_real_path_matches_dense() {
+    check(Damping::None, Backend::FaerLblt, 2);
+}
+
+#[test]
+fn lu_damped_matches_dense() {
+    check(
+        Damping::Rayleigh {
+            alpha: 0.0,
+            beta: 1e-5,
+        },
+        Backend::FaerLu,
+        1,
+    );
+}
+
+#[test]
+fn lu_undamped_matches_dense() {
+    check(Damping::None, Backend::FaerLu, 2);
+}
