@@ -7,6 +7,7 @@
 //! separated without cancellation ([`rigid`]).
 #![warn(missing_docs)]
 
+pub mod eigen;
 pub mod error;
 pub mod factor;
 pub mod memory;

@@ -132,9 +132,13 @@ impl Pencil {
 
     /// re ← K − ω²M (the real part of A(iω)).
     pub fn fill_real(&self, omega: f64, re: &mut [f64]) {
-        let w2 = omega * omega;
-        for ((r, &k), &m) in re.iter_mut().zip(&self.k).zip(&self.m) {
-            *r = k - w2 * m;
+        self.fill_shifted(omega * omega, re);
+    }
+
+    /// out ← K − σM (σ < 0 gives an SPD matrix for a free body: the eigensolver's shift).
+    pub fn fill_shifted(&self, sigma: f64, out: &mut [f64]) {
+        for ((r, &k), &m) in out.iter_mut().zip(&self.k).zip(&self.m) {
+            *r = k - sigma * m;
         }
     }
 

@@ -5,7 +5,7 @@
 //! row indices per column, as produced by `io::matrix_market::read_sparse` and `fe`.
 
 use faer::sparse::{SparseColMat, SparseColMatRef, SymbolicSparseColMat};
-use faer::{c64, Mat, MatMut, MatRef};
+use faer::{Mat, MatRef};
 
 /// Full-storage real sparse matrix, the crate's matrix type.
 pub type Csc = SparseColMat<usize, f64>;
@@ -66,44 +66,11 @@ pub fn lower_triangle(a: SparseColMatRef<'_, usize, f64>) -> (Vec<usize>, Vec<us
     (col_ptr, row_idx, val)
 }
 
-/// y = A x for a full-storage sparse A and a dense real block x.
+/// y = A x for a full-storage sparse A and a dense real block x (faer's sparse × dense).
 pub fn mul_dense(a: SparseColMatRef<'_, usize, f64>, x: MatRef<'_, f64>) -> Mat<f64> {
     let mut y = Mat::<f64>::zeros(a.nrows(), x.ncols());
-    for c in 0..x.ncols() {
-        for j in 0..a.ncols() {
-            let xj = x[(j, c)];
-            if xj == 0.0 {
-                continue;
-            }
-            for (i, &v) in a
-                .symbolic()
-                .row_idx_of_col_raw(j)
-                .iter()
-                .zip(a.val_of_col(j))
-            {
-                y[(*i, c)] += v * xj;
-            }
-        }
-    }
+    faer::sparse::linalg::matmul::sparse_dense_matmul(y.as_mut(), faer::Accum::Replace, a, x, 1.0, faer::Par::Seq);
     y
-}
-
-/// y = A x for a full-storage sparse real A and a dense complex block x.
-pub fn mul_dense_c(a: SparseColMatRef<'_, usize, f64>, x: MatRef<'_, c64>, mut y: MatMut<'_, c64>) {
-    y.fill(c64::new(0.0, 0.0));
-    for c in 0..x.ncols() {
-        for j in 0..a.ncols() {
-            let xj = x[(j, c)];
-            for (i, &v) in a
-                .symbolic()
-                .row_idx_of_col_raw(j)
-                .iter()
-                .zip(a.val_of_col(j))
-            {
-                y[(*i, c)] += xj * v;
-            }
-        }
-    }
 }
 
 /// Builds a CSC matrix from parts that are known to be valid (sorted, in range).

@@ -114,3 +114,34 @@ pub fn random_freqs(count: usize, lo: f64, hi: f64, seed: u64) -> Vec<f64> {
     let mut rng = StdRng::seed_from_u64(seed);
     (0..count).map(|_| rng.gen_range(lo..hi)).collect()
 }
+
+/// Dense generalized eigendecomposition K Φ = M Φ Λ with ΦᵀMΦ = I (ascending λ).
+pub fn dense_modes(model: &Model) -> (Vec<f64>, Mat<f64>) {
+    use faer::linalg::solvers::DenseSolveCore;
+    let (m, k) = (dense(&model.mass), dense(&model.stiffness));
+    let l = m.llt(faer::Side::Lower).expect("M SPD").L().to_owned();
+    let linv = l.as_ref().partial_piv_lu().inverse();
+    let c = &linv * &k * linv.transpose();
+    let c = Mat::from_fn(c.nrows(), c.ncols(), |i, j| 0.5 * (c[(i, j)] + c[(j, i)]));
+    let eig = c.self_adjoint_eigen(faer::Side::Lower).expect("eigen converges");
+    let lambdas: Vec<f64> = (0..c.nrows()).map(|i| eig.S()[i]).collect();
+    let phi = linv.transpose() * eig.U();
+    (lambdas, phi)
+}
+
+/// Modal elastic transfer function H1(iω) = C Φe diag(1/(λ − ω² + iω(α + βλ))) Φeᵀ B over the
+/// modes with λ > `rigid_below` (Rayleigh damping only): an independent reference without
+/// cancellation at any frequency.
+pub fn modal_h1(lambdas: &[f64], phi: &Mat<f64>, alpha: f64, beta: f64, rigid_below: f64, f: f64, inputs: &[usize], outputs: &[usize]) -> Mat<c64> {
+    let w = 2.0 * std::f64::consts::PI * f;
+    Mat::from_fn(outputs.len(), inputs.len(), |o, i| {
+        let mut s = c64::new(0.0, 0.0);
+        for (j, &l) in lambdas.iter().enumerate() {
+            if l > rigid_below {
+                let d = c64::new(l - w * w, w * (alpha + beta * l));
+                s += c64::new(phi[(outputs[o], j)] * phi[(inputs[i], j)], 0.0) / d;
+            }
+        }
+        s
+    })
+}

@@ -1,0 +1,155 @@
+//! `sparsemor bench sweep`: the performance table of DESIGN.md §8 for the sweep phases.
+//!
+//! For each model (the bar at growing N, a chunky cube) and backend: symbolic time, numeric
+//! factorization time per frequency (complex = damped, real = undamped path), solve time,
+//! factor fill, peak memory of the phase, the reference real Cholesky time of K + σM on the
+//! same pattern and the ratio complex ÷ Cholesky (4 is the arithmetic limit), and a 4-frequency
+//! sweep on 1 vs 2 threads. Timings are single runs: quote ratios from one table.
+
+use super::commands::human_bytes;
+use sparsemor::factor::{reference_cholesky, Analysis, Backend};
+use sparsemor::fe::BoxSpec;
+use sparsemor::model::{Damping, Model};
+use sparsemor::pencil::Pencil;
+use sparsemor::sweep::{no_progress, transfer_function, Part, SweepOptions};
+use sparsemor::{memory, Error, Result};
+use std::time::Instant;
+
+#[derive(clap::Args)]
+pub struct BenchArgs {
+    /// What to measure: `sweep`.
+    what: String,
+    /// Largest N to include (the 10⁶ bar takes minutes and ~10 GB).
+    #[arg(long, default_value_t = 1_100_000)]
+    max_n: usize,
+    /// Backends, comma-separated (faer-lblt, faer-lu, umfpack).
+    #[arg(long, default_value = "faer-lblt,faer-lu,umfpack")]
+    backends: String,
+    /// Largest N for faer LU (its COLAMD fill explodes on 3-D pencils).
+    #[arg(long, default_value_t = 20_000)]
+    lu_max_n: usize,
+}
+
+struct Case {
+    name: &'static str,
+    elements: [usize; 3],
+    size_m: [f64; 3],
+}
+
+const CASES: [Case; 5] = [
+    Case { name: "bar 2x3x45", elements: [2, 3, 45], size_m: [0.006, 0.008, 0.3] },
+    Case { name: "bar 3x4x200", elements: [3, 4, 200], size_m: [0.006, 0.008, 0.3] },
+    Case { name: "bar 4x6x950", elements: [4, 6, 950], size_m: [0.006, 0.008, 0.3] },
+    Case { name: "cube 32^3", elements: [32, 32, 32], size_m: [0.1, 0.1, 0.1] },
+    Case { name: "bar 4x6x9520", elements: [4, 6, 9520], size_m: [0.006, 0.008, 3.0] },
+];
+
+pub fn run(a: &BenchArgs) -> Result<()> {
+    if a.what != "sweep" {
+        return Err(Error::InvalidSetting(format!("bench '{}': available: sweep", a.what)));
+    }
+    let backends: Vec<Backend> = a.backends.split(',').map(|b| b.trim().parse()).collect::<Result<_>>()?;
+    println!("| model | N | backend | symbolic s | factor s (complex) | factor s (real) | solve s | nnz(factor) | peak mem | chol(K) s | complex ÷ chol | sweep 1 thr s | sweep 2 thr s | speed-up |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    for case in &CASES {
+        let spec = BoxSpec { elements: case.elements, size_m: case.size_m, ..BoxSpec::paper_bar() };
+        if spec.n_dofs() > a.max_n {
+            continue;
+        }
+        let model = sparsemor::fe::bar_model(&spec)?;
+        for &backend in &backends {
+            if backend == Backend::FaerLu && model.n() > a.lu_max_n {
+                continue;
+            }
+            if backend == Backend::Umfpack && !cfg!(feature = "umfpack") {
+                continue;
+            }
+            let row = measure(&model, backend)?;
+            println!(
+                "| {} | {} | {} | {:.3} | {:.3} | {:.3} | {:.4} | {} | {} | {:.3} | {:.2} | {:.2} | {:.2} | {:.2} |",
+                case.name,
+                model.n(),
+                backend,
+                row.symbolic_s,
+                row.factor_complex_s,
+                row.factor_real_s,
+                row.solve_s,
+                row.nnz,
+                human_bytes(row.peak as f64),
+                row.chol_s,
+                row.factor_complex_s / row.chol_s,
+                row.sweep1_s,
+                row.sweep2_s,
+                row.sweep1_s / row.sweep2_s
+            );
+        }
+    }
+    Ok(())
+}
+
+struct Row {
+    symbolic_s: f64,
+    factor_complex_s: f64,
+    factor_real_s: f64,
+    solve_s: f64,
+    nnz: usize,
+    peak: usize,
+    chol_s: f64,
+    sweep1_s: f64,
+    sweep2_s: f64,
+}
+
+fn measure(model: &Model, backend: Backend) -> Result<Row> {
+    let omega = 2.0 * std::f64::consts::PI * 300.0;
+    let p = model.scene.inputs.len();
+    memory::reset_peak_rss();
+    let base = memory::rss_bytes().unwrap_or(0);
+    let pencil = Pencil::new(model);
+    let an = Analysis::new(&pencil, backend, p + 1)?;
+    let mut num = an.numeric(&pencil)?;
+    let t = Instant::now();
+    num.factor(&an, &pencil, omega, faer::Par::Seq)?;
+    let factor_complex_s = t.elapsed().as_secs_f64();
+    let mut rhs = faer::Mat::<faer::c64>::from_fn(model.n(), p, |i, j| {
+        faer::c64::new(if i == model.scene.inputs[j] { 1.0 } else { 0.0 }, 0.0)
+    });
+    let t = Instant::now();
+    num.solve(&an, rhs.as_mut(), faer::Par::Seq);
+    let solve_s = t.elapsed().as_secs_f64();
+    let peak = memory::peak_rss_bytes().unwrap_or(0).saturating_sub(base);
+    let nnz = an.stats().factor_nnz;
+    let symbolic_s = an.stats().seconds;
+    drop(num);
+    drop(an);
+    // real path: the same model without damping
+    let undamped = Model { damping: Damping::None, ..model.clone() };
+    let pencil_r = Pencil::new(&undamped);
+    let an_r = Analysis::new(&pencil_r, backend, p + 1)?;
+    let mut num_r = an_r.numeric(&pencil_r)?;
+    let t = Instant::now();
+    num_r.factor(&an_r, &pencil_r, omega, faer::Par::Seq)?;
+    let factor_real_s = t.elapsed().as_secs_f64();
+    drop(num_r);
+    drop(an_r);
+    let (_, chol_s) = reference_cholesky(&pencil, faer::Par::Seq)?;
+    let freqs = [150.0, 350.0, 550.0, 750.0];
+    let sweep = |threads| -> Result<f64> {
+        let opts = SweepOptions { threads, backend, ..Default::default() };
+        let t = Instant::now();
+        transfer_function(model, &model.scene.inputs, &model.scene.outputs, &freqs, Part::Elastic, false, &opts, &no_progress)?;
+        Ok(t.elapsed().as_secs_f64())
+    };
+    let sweep1_s = sweep(1)?;
+    let sweep2_s = sweep(2)?;
+    Ok(Row {
+        symbolic_s,
+        factor_complex_s,
+        factor_real_s,
+        solve_s,
+        nnz,
+        peak,
+        chol_s,
+        sweep1_s,
+        sweep2_s,
+    })
+}

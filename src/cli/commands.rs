@@ -1,0 +1,281 @@
+//! `generate`, `info`, `sweep`.
+
+use indicatif::{ProgressBar, ProgressStyle};
+use sparsemor::factor::{Analysis, Backend};
+use sparsemor::fe::BoxSpec;
+use sparsemor::io::model_dir;
+use sparsemor::pencil::Pencil;
+use sparsemor::rigid::RigidBody;
+use sparsemor::sweep::{transfer_function, Part, Progress, SweepOptions};
+use sparsemor::{Error, Result};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Parses `AxBxC` into three values.
+pub fn parse_triple<T: std::str::FromStr>(s: &str, what: &str) -> Result<[T; 3]> {
+    let parts: Vec<&str> = s.split(['x', 'X']).collect();
+    let bad = || Error::InvalidSetting(format!("{what} '{s}': expected three values like 2x3x45"));
+    if parts.len() != 3 {
+        return Err(bad());
+    }
+    let v: Vec<T> = parts.iter().map(|p| p.trim().parse::<T>().map_err(|_| bad())).collect::<Result<_>>()?;
+    let mut it = v.into_iter();
+    Ok([it.next().ok_or_else(bad)?, it.next().ok_or_else(bad)?, it.next().ok_or_else(bad)?])
+}
+
+/// Parses `LO:HI` (Hz).
+pub fn parse_band(s: &str) -> Result<[f64; 2]> {
+    let bad = || Error::InvalidSetting(format!("--band '{s}': expected LO:HI in Hz, e.g. 1:1000"));
+    let (a, b) = s.split_once(':').ok_or_else(bad)?;
+    let band = [a.trim().parse().map_err(|_| bad())?, b.trim().parse().map_err(|_| bad())?];
+    if !(band[0] >= 0.0 && band[1] > band[0] && band[1].is_finite()) {
+        return Err(Error::InvalidSetting(format!("--band '{s}': need 0 <= LO < HI (empty band)")));
+    }
+    Ok(band)
+}
+
+/// Parses a comma-separated list of numbers.
+pub fn parse_list<T: std::str::FromStr>(s: &str, what: &str) -> Result<Vec<T>> {
+    s.split(',')
+        .map(|p| {
+            p.trim()
+                .parse::<T>()
+                .map_err(|_| Error::InvalidSetting(format!("{what}: '{}' is not a valid value", p.trim())))
+        })
+        .collect()
+}
+
+/// `points` linearly spaced frequencies including both ends of `band`.
+pub fn linspace(band: [f64; 2], points: usize) -> Vec<f64> {
+    if points == 1 {
+        return vec![band[0]];
+    }
+    (0..points)
+        .map(|k| band[0] + (band[1] - band[0]) * k as f64 / (points - 1) as f64)
+        .collect()
+}
+
+/// A progress bar on stderr and the library callback that drives it.
+pub fn progress_bar(total: usize, msg: &str) -> ProgressBar {
+    let pb = ProgressBar::new(total as u64);
+    pb.set_style(
+        ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} {elapsed_precise} (eta {eta})")
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    pb.set_message(msg.to_string());
+    pb
+}
+
+pub fn generate(kind: &str, elements: Option<&str>, size: Option<&str>, out: &Path) -> Result<()> {
+    if kind != "bar" {
+        return Err(Error::InvalidSetting(format!("generate '{kind}': the built-in model is `bar`")));
+    }
+    let mut spec = BoxSpec::paper_bar();
+    if let Some(e) = elements {
+        spec.elements = parse_triple(e, "--elements")?;
+    }
+    if let Some(s) = size {
+        spec.size_m = parse_triple(s, "--size")?;
+    }
+    let t = Instant::now();
+    let model = sparsemor::fe::bar_model(&spec)?;
+    let t_asm = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    model_dir::write(out, &model)?;
+    eprintln!(
+        "wrote {} (N = {}, nnz(M)+nnz(K) = {}; assembled in {:.2} s, written in {:.2} s)",
+        out.display(),
+        model.n(),
+        model.nnz(),
+        t_asm,
+        t.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+pub fn info(dir: &Path) -> Result<()> {
+    let t = Instant::now();
+    let (model, report) = model_dir::read(dir)?;
+    let t_read = t.elapsed().as_secs_f64();
+    println!("model            {} ({})", model.name, dir.display());
+    println!("N                {}", model.n());
+    println!(
+        "nnz              M {}  K {}  (full storage)",
+        model.mass.compute_nnz(),
+        model.stiffness.compute_nnz()
+    );
+    println!(
+        "symmetry         |M-Mᵀ|/|M| = {:.1e}  |K-Kᵀ|/|K| = {:.1e}  (tolerance {:.0e})",
+        report.mass_asymmetry,
+        report.stiffness_asymmetry,
+        sparsemor::model::SYMMETRY_RTOL
+    );
+    println!(
+        "diag(M)          min {:.3e}  max {:.3e}",
+        report.mass_diagonal[0], report.mass_diagonal[1]
+    );
+    println!("dofs per node    {}", model.dofs_per_node);
+    println!("damping          {}", describe_damping(&model.damping));
+    match &model.nodes {
+        None => println!("nodes            none (rigid part cannot be separated; fine for constrained bodies)"),
+        Some(nodes) => {
+            println!("nodes            {}", nodes.len());
+            let rb = RigidBody::from_nodes(&model, nodes)?;
+            let free = rb.stiffness_residual <= sparsemor::rigid::FREE_BODY_RTOL;
+            println!(
+                "rigid modes      {} (|K V0| / |K||V0| = {:.1e})",
+                if free { "6: free body, elastic part separated by inertia relief" } else { "none: constrained body" },
+                rb.stiffness_residual
+            );
+        }
+    }
+    println!(
+        "scene            {} inputs, {} outputs, band {:?} Hz",
+        model.scene.inputs.len(),
+        model.scene.outputs.len(),
+        model.scene.band_hz
+    );
+    let pencil = Pencil::new(&model);
+    let chol = sparsemor::factor::symbolic_cholesky(&pencil)?;
+    let an = Analysis::new(&pencil, Backend::FaerLblt, model.scene.inputs.len() + 1)?;
+    let s = an.stats();
+    println!(
+        "factorization    {} path; real Cholesky fill nnz(L) = {}; LBLᵀ factor {} entries, ~{} per factorization",
+        if s.real { "real (D = 0)" } else { "complex (2N interleaved)" },
+        chol.len_val(),
+        s.factor_nnz,
+        human_bytes(s.bytes_per_factor as f64)
+    );
+    println!("read in          {t_read:.2} s; symbolic analysis {:.2} s", s.seconds);
+    Ok(())
+}
+
+fn describe_damping(d: &sparsemor::model::Damping) -> String {
+    match d {
+        sparsemor::model::Damping::None => "none (real pencil)".into(),
+        sparsemor::model::Damping::Rayleigh { alpha, beta } => format!("Rayleigh alpha = {alpha:e}, beta = {beta:e}"),
+        sparsemor::model::Damping::Matrix(m) => format!("explicit D ({} entries)", m.compute_nnz()),
+    }
+}
+
+/// 1234567 → "1.2 MB".
+pub fn human_bytes(b: f64) -> String {
+    let units = ["B", "kB", "MB", "GB", "TB"];
+    let mut v = b;
+    let mut u = 0;
+    while v >= 1000.0 && u + 1 < units.len() {
+        v /= 1000.0;
+        u += 1;
+    }
+    format!("{v:.1} {}", units[u])
+}
+
+#[derive(clap::Args)]
+pub struct SweepArgs {
+    /// Model directory.
+    model: PathBuf,
+    /// Band LO:HI in Hz (with --points).
+    #[arg(long, conflicts_with = "freqs")]
+    band: Option<String>,
+    /// Number of linearly spaced points in the band, both ends included.
+    #[arg(long, default_value_t = 500)]
+    points: usize,
+    /// Explicit frequencies F1,F2,... in Hz.
+    #[arg(long)]
+    freqs: Option<String>,
+    /// total (H, eq. 14), elastic (H1, eq. 17) or rigid (H0, eq. 16).
+    #[arg(long, default_value = "total")]
+    part: String,
+    /// Worker threads (0 = all cores).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Factorization backend: auto, faer-lblt, faer-lu, umfpack.
+    #[arg(long, default_value = "auto")]
+    backend: String,
+    /// Memory budget for concurrent factorizations in GB (default: half of available).
+    #[arg(long)]
+    memory_gb: Option<f64>,
+    /// Output CSV: f_hz,output,input,re,im.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+pub fn sweep(a: &SweepArgs, verbose: bool) -> Result<()> {
+    let (model, _) = model_dir::read(&a.model)?;
+    let freqs = match (&a.freqs, &a.band) {
+        (Some(f), _) => parse_list::<f64>(f, "--freqs")?,
+        (None, Some(b)) => linspace(parse_band(b)?, a.points),
+        (None, None) => {
+            return Err(Error::InvalidSetting("sweep needs --band LO:HI (with --points) or --freqs F1,F2,...".into()))
+        }
+    };
+    if freqs.is_empty() || a.points == 0 {
+        return Err(Error::InvalidSetting("sweep: no frequencies (--points must be >= 1)".into()));
+    }
+    let part: Part = a.part.parse()?;
+    let opts = SweepOptions {
+        threads: a.threads,
+        backend: a.backend.parse()?,
+        memory_budget: a.memory_gb.map(|g| (g * 1e9) as usize),
+        ..Default::default()
+    };
+    let pb = progress_bar(freqs.len(), "sweep");
+    let cb = |p: Progress| {
+        pb.set_position(p.done as u64);
+        true
+    };
+    let frf = transfer_function(&model, &model.scene.inputs, &model.scene.outputs, &freqs, part, false, &opts, &cb)?;
+    pb.finish_and_clear();
+    write_frf_csv(&a.out, &frf.freqs_hz, &frf.h, &model.scene.outputs, &model.scene.inputs)?;
+    eprintln!(
+        "{} frequencies in {:.2} s -> {}",
+        freqs.len(),
+        frf.seconds,
+        a.out.display()
+    );
+    if verbose {
+        if let (Some(s), Some(sch)) = (&frf.symbolic, &frf.schedule) {
+            let fs = &frf.freq_stats;
+            let worst = fs.iter().map(|s| s.probe_error).fold(0.0, f64::max);
+            let mean_factor = fs.iter().map(|s| s.factor_s).sum::<f64>() / fs.len().max(1) as f64;
+            eprintln!(
+                "backend {} ({}), symbolic {:.3} s, factor nnz {}, {:?}, mean factor {:.4} s, worst probe error {:.1e}",
+                s.backend,
+                if s.real { "real" } else { "complex" },
+                s.seconds,
+                s.factor_nnz,
+                sch,
+                mean_factor,
+                worst
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Writes `f_hz,output,input,re,im`, one row per frequency × output × input (DoF indices),
+/// full precision, atomically (temporary file + rename).
+pub fn write_frf_csv(path: &Path, freqs: &[f64], h: &[faer::Mat<faer::c64>], outputs: &[usize], inputs: &[usize]) -> Result<()> {
+    let tmp: PathBuf = path.with_extension("csv.tmp");
+    let file = std::fs::File::create(&tmp).map_err(|e| Error::io(&tmp, e))?;
+    let mut w = std::io::BufWriter::new(file);
+    let mut go = || -> std::io::Result<()> {
+        writeln!(w, "f_hz,output,input,re,im")?;
+        for (f, hk) in freqs.iter().zip(h) {
+            for (o, &od) in outputs.iter().enumerate() {
+                for (i, &id) in inputs.iter().enumerate() {
+                    let z = hk[(o, i)];
+                    writeln!(w, "{f:?},{od},{id},{:?},{:?}", z.re, z.im)?;
+                }
+            }
+        }
+        w.flush()
+    };
+    if let Err(e) = go() {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(Error::io(&tmp, e));
+    }
+    std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e))
+}

@@ -1,0 +1,236 @@
+//! The model directory (DESIGN.md §4): `model.toml` + Matrix Market matrices + `nodes.csv`.
+//!
+//! ```toml
+//! name = "bar"
+//! mass = "M.mtx"            # Matrix Market coordinate real, symmetric or general; .gz ok
+//! stiffness = "K.mtx"
+//! # damping = "D.mtx"       # optional explicit damping; else [rayleigh]
+//! nodes = "nodes.csv"       # optional, header x,y,z; node i owns DoFs dofs_per_node·i ..
+//! dofs_per_node = 3
+//! [rayleigh]                # D = alpha*M + beta*K when no damping file
+//! alpha = 0.0
+//! beta = 1e-5
+//! [scene]                   # CLI flags override
+//! inputs = [0, 1, 2]
+//! outputs = [0, 1, 2]
+//! band_hz = [0.0, 1000.0]
+//! ```
+//!
+//! Paths are relative to the directory. Unknown keys are errors (a typo must not silently
+//! drop a setting). [`read`] validates the whole model ([`Model::new`]); [`write`] writes a
+//! directory atomically (a temporary sibling renamed at the end), so an interrupted write
+//! never leaves a directory that looks complete.
+
+use crate::io::matrix_market;
+use crate::model::{Damping, Model, ValidationReport};
+use crate::scene::Scene;
+use crate::{Error, Result};
+use serde::{Deserialize, Serialize};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// The manifest file name.
+pub const MANIFEST: &str = "model.toml";
+
+/// `model.toml` as written on disk.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Manifest {
+    /// Model name.
+    pub name: String,
+    /// Mass matrix file.
+    pub mass: String,
+    /// Stiffness matrix file.
+    pub stiffness: String,
+    /// Optional damping matrix file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub damping: Option<String>,
+    /// Optional node coordinates file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nodes: Option<String>,
+    /// DoFs per node (3 or 6).
+    #[serde(default = "three")]
+    pub dofs_per_node: usize,
+    /// Rayleigh coefficients (used when there is no damping file).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rayleigh: Option<Rayleigh>,
+    /// The default scene.
+    pub scene: SceneToml,
+}
+
+fn three() -> usize {
+    3
+}
+
+/// `[rayleigh]`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Rayleigh {
+    /// α (1/s).
+    #[serde(default)]
+    pub alpha: f64,
+    /// β (s).
+    #[serde(default)]
+    pub beta: f64,
+}
+
+/// `[scene]`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneToml {
+    /// Input DoFs (0-based).
+    pub inputs: Vec<usize>,
+    /// Output DoFs (0-based).
+    pub outputs: Vec<usize>,
+    /// Band [f_lo, f_hi] in Hz.
+    pub band_hz: [f64; 2],
+}
+
+/// Reads only the manifest.
+///
+/// # Errors
+/// [`Error::Io`] or [`Error::Parse`] with the line of the TOML error.
+pub fn read_manifest(dir: &Path) -> Result<Manifest> {
+    let path = dir.join(MANIFEST);
+    let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
+    toml::from_str(&text).map_err(|e| {
+        let line = e.span().map(|s| text[..s.start].lines().count().max(1)).unwrap_or(0);
+        Error::parse(&path, line, e.message().to_string())
+    })
+}
+
+/// Reads and validates a model directory.
+///
+/// # Errors
+/// Any file error names the file (and line); validation errors name the field.
+pub fn read(dir: &Path) -> Result<(Model, ValidationReport)> {
+    let man = read_manifest(dir)?;
+    let mass = matrix_market::read_sparse(&dir.join(&man.mass))?;
+    let stiffness = matrix_market::read_sparse(&dir.join(&man.stiffness))?;
+    let damping = match (&man.damping, &man.rayleigh) {
+        (Some(d), _) => Damping::Matrix(matrix_market::read_sparse(&dir.join(d))?),
+        (None, Some(r)) => Damping::Rayleigh { alpha: r.alpha, beta: r.beta },
+        (None, None) => Damping::None,
+    };
+    let nodes = man.nodes.as_ref().map(|f| read_nodes(&dir.join(f))).transpose()?;
+    let scene = Scene {
+        inputs: man.scene.inputs,
+        outputs: man.scene.outputs,
+        band_hz: man.scene.band_hz,
+    };
+    Model::new(man.name, mass, stiffness, damping, nodes, man.dofs_per_node, scene).map_err(|e| match e {
+        Error::InvalidModel(m) => Error::InvalidModel(format!("{}: {m}", dir.join(MANIFEST).display())),
+        Error::InvalidSetting(m) => Error::InvalidSetting(format!("{}: {m}", dir.join(MANIFEST).display())),
+        e => e,
+    })
+}
+
+/// Reads `nodes.csv`: header `x,y,z`, then one node per line.
+///
+/// # Errors
+/// [`Error::Parse`] naming the line for a bad header, a wrong column count or a bad number.
+pub fn read_nodes(path: &Path) -> Result<Vec<[f64; 3]>> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let mut lines = text.lines().enumerate();
+    match lines.next() {
+        Some((_, h)) if h.split(',').map(str::trim).eq(["x", "y", "z"]) => {}
+        _ => return Err(Error::parse(path, 1, "expected the header `x,y,z`")),
+    }
+    let mut nodes = Vec::new();
+    for (i, line) in lines {
+        if line.trim().is_empty() {
+            continue;
+        }
+        let mut xyz = [0.0; 3];
+        let fields: Vec<&str> = line.split(',').collect();
+        if fields.len() != 3 {
+            return Err(Error::parse(path, i + 1, format!("expected 3 comma-separated values, found {}", fields.len())));
+        }
+        for (c, f) in xyz.iter_mut().zip(&fields) {
+            *c = f
+                .trim()
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| Error::parse(path, i + 1, format!("'{}' is not a finite number", f.trim())))?;
+        }
+        nodes.push(xyz);
+    }
+    Ok(nodes)
+}
+
+/// Writes `model` into a new directory `dir` (M.mtx, K.mtx, [D.mtx], [nodes.csv],
+/// model.toml), atomically.
+///
+/// # Errors
+/// [`Error::InvalidSetting`] if `dir` exists and is not empty; I/O errors.
+pub fn write(dir: &Path, model: &Model) -> Result<()> {
+    write_atomically(dir, |tmp| {
+        matrix_market::write_coordinate(&tmp.join("M.mtx"), model.mass.as_ref(), true)?;
+        matrix_market::write_coordinate(&tmp.join("K.mtx"), model.stiffness.as_ref(), true)?;
+        let (damping, rayleigh) = match &model.damping {
+            Damping::None => (None, None),
+            Damping::Rayleigh { alpha, beta } => (None, Some(Rayleigh { alpha: *alpha, beta: *beta })),
+            Damping::Matrix(d) => {
+                matrix_market::write_coordinate(&tmp.join("D.mtx"), d.as_ref(), true)?;
+                (Some("D.mtx".to_string()), None)
+            }
+        };
+        if let Some(nodes) = &model.nodes {
+            let mut s = String::with_capacity(nodes.len() * 40);
+            s.push_str("x,y,z\n");
+            for p in nodes {
+                let _ = writeln!(s, "{:?},{:?},{:?}", p[0], p[1], p[2]);
+            }
+            let path = tmp.join("nodes.csv");
+            std::fs::write(&path, s).map_err(|e| Error::io(&path, e))?;
+        }
+        let man = Manifest {
+            name: model.name.clone(),
+            mass: "M.mtx".into(),
+            stiffness: "K.mtx".into(),
+            damping,
+            nodes: model.nodes.as_ref().map(|_| "nodes.csv".into()),
+            dofs_per_node: model.dofs_per_node,
+            rayleigh,
+            scene: SceneToml {
+                inputs: model.scene.inputs.clone(),
+                outputs: model.scene.outputs.clone(),
+                band_hz: model.scene.band_hz,
+            },
+        };
+        let text = toml::to_string(&man).map_err(|e| Error::InvalidModel(format!("cannot serialize manifest: {e}")))?;
+        let path = tmp.join(MANIFEST);
+        std::fs::write(&path, text).map_err(|e| Error::io(&path, e))
+    })
+}
+
+/// Creates `dir` by filling a temporary sibling with `fill` and renaming it; on any error the
+/// temporary directory is removed and `dir` is left as it was.
+///
+/// # Errors
+/// [`Error::InvalidSetting`] if `dir` exists and is not empty; `fill`'s errors; I/O errors.
+pub fn write_atomically(dir: &Path, fill: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+    if let Ok(mut it) = std::fs::read_dir(dir) {
+        if it.next().is_some() {
+            return Err(Error::InvalidSetting(format!(
+                "{} exists and is not empty: remove it or choose another output directory",
+                dir.display()
+            )));
+        }
+    }
+    let name = dir.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "out".into());
+    let tmp: PathBuf = dir.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&tmp);
+    std::fs::create_dir_all(&tmp).map_err(|e| Error::io(&tmp, e))?;
+    let result = fill(&tmp).and_then(|_| {
+        if dir.exists() {
+            std::fs::remove_dir(dir).map_err(|e| Error::io(dir, e))?;
+        }
+        std::fs::rename(&tmp, dir).map_err(|e| Error::io(dir, e))
+    });
+    if result.is_err() {
+        let _ = std::fs::remove_dir_all(&tmp);
+    }
+    result
+}

@@ -1,0 +1,260 @@
+//! Line-fitting (paper §3.2, DESIGN.md §3.3–3.4): V = Πᵀ[I; W] with W fitted by least
+//! squares so that the elastic responses of the non-interface DoFs are W times those of the
+//! interface DoFs at the reference frequencies:
+//!
+//! ```text
+//! X_k = Pᵀ A(iω_k)⁻¹ P B                       elastic snapshot (N×p), k = 1..z
+//! G_k = [Re X_k[I,:], Im X_k[I,:]]ᵀ  (2p×n),   F_k = [Re X_k[R,:], Im X_k[R,:]]ᵀ  (2p×(N−n))
+//! min_W ‖T_oᵀ Wᵀ − T_nᵀ‖_F,  T_oᵀ = [G_1; …; G_z],  T_nᵀ = [F_1; …; F_z]     (eq. 22)
+//! ```
+//!
+//! Each frequency's block is absorbed into the worker's streamed QR as soon as it is solved
+//! and then dropped ([`crate::lsq`]); the workers' states merge at the end (TSQR), so the
+//! peak memory is O(threads · n · N) on top of the factorizations — T_nᵀ is never formed.
+//!
+//! Entry point: [`reduce`].
+
+use super::{project, Definiteness, FitReport, Method, Rom, Timing};
+use crate::lsq::{LsqOptions, StreamedQr};
+use crate::model::Model;
+use crate::scene::check_dofs;
+use crate::sweep::{ProgressFn, Response, Solver, SweepOptions};
+use crate::{Error, Result};
+use faer::Mat;
+use std::time::Instant;
+
+/// How the interface (the ROM's DoFs, order n) is chosen.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Interface {
+    /// These DoFs (must contain every output).
+    Explicit(Vec<usize>),
+    /// The outputs plus k DoFs spread along the body by [`spread_dofs`].
+    OutputsPlus(usize),
+}
+
+/// Settings of a line-fitting reduction.
+#[derive(Clone, Debug)]
+pub struct LineFitOptions {
+    /// The interface.
+    pub interface: Interface,
+    /// Reference frequencies (Hz), each > 0 on a free body.
+    pub ref_freqs_hz: Vec<f64>,
+    /// Keep V (N×n) in the result.
+    pub keep_basis: bool,
+    /// Sweep settings (threads, backend, memory).
+    pub sweep: SweepOptions,
+    /// Least-squares settings (rank truncation).
+    pub lsq: LsqOptions,
+}
+
+/// `k` DoFs spread uniformly along the body, none of them in `exclude`.
+///
+/// Rule (with nodes): the long axis a is the longest side of the nodes' bounding box; the
+/// targets are the points at fractions (j + ½)/k of its length on the line through the
+/// centroid; the node nearest to each target is taken (the lower index on a tie; the next
+/// nearest if its DoF is excluded or taken), and its DoF in a direction cycling through the
+/// two axes perpendicular to a (bending carries most of a slender body's low-frequency
+/// dynamics). Without nodes: DoFs at fractions (j + ½)/k of 0..N.
+///
+/// # Errors
+/// [`Error::InvalidSetting`] when fewer than k DoFs are available.
+pub fn spread_dofs(model: &Model, k: usize, exclude: &[usize]) -> Result<Vec<usize>> {
+    let n = model.n();
+    if k + exclude.len() > n {
+        return Err(Error::InvalidSetting(format!("cannot spread {k} extra interface DoFs over a model with N = {n}")));
+    }
+    let mut taken: Vec<bool> = vec![false; n];
+    for &d in exclude {
+        taken[d] = true;
+    }
+    let mut out = Vec::with_capacity(k);
+    let Some(nodes) = &model.nodes else {
+        for j in 0..k {
+            let mut d = ((j as f64 + 0.5) / k as f64 * n as f64) as usize % n;
+            while taken[d] {
+                d = (d + 1) % n;
+            }
+            taken[d] = true;
+            out.push(d);
+        }
+        return Ok(out);
+    };
+    let (mut lo, mut hi, mut c) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3], [0.0; 3]);
+    for p in nodes {
+        for a in 0..3 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+            c[a] += p[a] / nodes.len() as f64;
+        }
+    }
+    let axis = (0..3).max_by(|&a, &b| (hi[a] - lo[a]).total_cmp(&(hi[b] - lo[b]))).unwrap_or(2);
+    let perp = [(axis + 1) % 3, (axis + 2) % 3];
+    let dpn = model.dofs_per_node;
+    for j in 0..k {
+        let mut target = c;
+        target[axis] = lo[axis] + (j as f64 + 0.5) / k as f64 * (hi[axis] - lo[axis]);
+        let dir = perp[j % 2];
+        let dist = |p: &[f64; 3]| (0..3).map(|a| (p[a] - target[a]).powi(2)).sum::<f64>();
+        let best = (0..nodes.len())
+            .filter(|&i| !taken[i * dpn + dir])
+            .min_by(|&x, &y| dist(&nodes[x]).total_cmp(&dist(&nodes[y])).then(x.cmp(&y)))
+            .ok_or_else(|| Error::InvalidSetting("no free DoF left to spread the interface over".into()))?;
+        taken[best * dpn + dir] = true;
+        out.push(best * dpn + dir);
+    }
+    Ok(out)
+}
+
+struct Worker {
+    qr: StreamedQr,
+    g: Mat<f64>,
+    f: Mat<f64>,
+    absorb_s: f64,
+}
+
+/// Reduces `model` for unit loads at `inputs` and outputs `outputs` by line-fitting.
+///
+/// # Errors
+/// Bad settings ([`Error::InvalidSetting`]: outputs not in the interface, duplicate DoFs,
+/// 2pz < n, no frequency, frequency ≤ 0 on a free body), and the sweep's errors.
+pub fn reduce(model: &Model, inputs: &[usize], outputs: &[usize], opts: &LineFitOptions, progress: ProgressFn<'_>) -> Result<Rom> {
+    let n_full = model.n();
+    check_dofs(inputs, n_full, "inputs")?;
+    check_dofs(outputs, n_full, "outputs")?;
+    let interface = match &opts.interface {
+        Interface::Explicit(i) => i.clone(),
+        Interface::OutputsPlus(k) => {
+            let mut i = outputs.to_vec();
+            i.extend(spread_dofs(model, *k, outputs)?);
+            i
+        }
+    };
+    check_dofs(&interface, n_full, "interface")?;
+    if let Some(o) = outputs.iter().find(|o| !interface.contains(o)) {
+        return Err(Error::InvalidSetting(format!(
+            "output DoF {o} is not in the interface: line-fitting keeps the outputs as ROM coordinates (V = [I; W]); add it to the interface"
+        )));
+    }
+    let freqs = &opts.ref_freqs_hz;
+    if freqs.is_empty() {
+        return Err(Error::InvalidSetting("line-fitting needs at least one reference frequency".into()));
+    }
+    let (n, p, z) = (interface.len(), inputs.len(), freqs.len());
+    if 2 * p * z < n {
+        return Err(Error::InvalidSetting(format!(
+            "2pz = 2·{p}·{z} = {} < n = {n}: the least-squares fit of eq. 22 is underdetermined; \
+             use at least {} reference frequencies or a smaller interface",
+            2 * p * z,
+            n.div_ceil(2 * p)
+        )));
+    }
+    let mut is_interface = vec![usize::MAX; n_full];
+    for (c, &d) in interface.iter().enumerate() {
+        is_interface[d] = c;
+    }
+    let rest: Vec<usize> = (0..n_full).filter(|&d| is_interface[d] == usize::MAX).collect();
+    let m = rest.len();
+
+    let t_sweep = Instant::now();
+    let solver = Solver::new(model, inputs, Response::Elastic, &opts.sweep)?;
+    let (workers, _) = solver.run(
+        freqs,
+        || Worker {
+            qr: StreamedQr::new(n, m),
+            g: Mat::zeros(2 * p, n),
+            f: Mat::zeros(2 * p, m),
+            absorb_s: 0.0,
+        },
+        |w: &mut Worker, snap| {
+            let t = Instant::now();
+            let x = snap.x;
+            for j in 0..p {
+                for (c, &d) in interface.iter().enumerate() {
+                    w.g[(j, c)] = x[(d, j)].re;
+                    w.g[(p + j, c)] = x[(d, j)].im;
+                }
+                for (r, &d) in rest.iter().enumerate() {
+                    w.f[(j, r)] = x[(d, j)].re;
+                    w.f[(p + j, r)] = x[(d, j)].im;
+                }
+            }
+            w.qr.absorb(w.g.as_ref(), w.f.as_ref())?;
+            w.absorb_s += t.elapsed().as_secs_f64();
+            Ok(())
+        },
+        progress,
+    )?;
+    let sweep_s = t_sweep.elapsed().as_secs_f64();
+    let absorb_s: f64 = workers.iter().map(|w| w.absorb_s).sum();
+
+    let t_fit = Instant::now();
+    let mut it = workers.into_iter().map(|w| w.qr);
+    let first = it.next().ok_or_else(|| Error::InvalidSetting("no reference frequency was solved".into()))?;
+    let qr = it.try_fold(first, |a, b| a.merge(b))?;
+    let sol = qr.finish(&opts.lsq)?;
+    drop(qr);
+    let fit_s = t_fit.elapsed().as_secs_f64();
+
+    let t_proj = Instant::now();
+    let mut v = Mat::<f64>::zeros(n_full, n);
+    for (c, &d) in interface.iter().enumerate() {
+        v[(d, c)] = 1.0;
+    }
+    for (r, &d) in rest.iter().enumerate() {
+        for c in 0..n {
+            v[(d, c)] = sol.w[(r, c)];
+        }
+    }
+    let pr = project(model, v.as_ref(), inputs, outputs, solver.rigid());
+    let proj_s = t_proj.elapsed().as_secs_f64();
+
+    let mut warnings = Vec::new();
+    if sol.truncated {
+        warnings.push(format!(
+            "T_o has numerical rank {} < n = {n} (cond {:.1e} after equilibration): the fit was truncated; \
+             add reference frequencies or remove interface DoFs",
+            sol.rank, sol.cond_equilibrated
+        ));
+    }
+    let mass_definiteness = Definiteness::of(pr.mr.as_ref());
+    let stiffness_definiteness = Definiteness::of(pr.kr.as_ref());
+    for (name, d) in [("Mr", &mass_definiteness), ("Kr", &stiffness_definiteness)] {
+        if !d.positive_definite {
+            warnings.push(format!("{name} is not positive definite (eigenvalues in [{:.3e}, {:.3e}])", d.min_eig, d.max_eig));
+        }
+    }
+    Ok(Rom {
+        method: Method::LineFit,
+        mr: pr.mr,
+        dr: pr.dr,
+        kr: pr.kr,
+        br: pr.br,
+        cr: pr.cr,
+        dofs: interface,
+        inputs: inputs.to_vec(),
+        outputs: outputs.to_vec(),
+        ref_freqs_hz: freqs.clone(),
+        modes: Vec::new(),
+        fit: Some(FitReport {
+            cond_raw: sol.cond_raw,
+            cond_equilibrated: sol.cond_equilibrated,
+            rank: sol.rank,
+            truncated: sol.truncated,
+            residual_max: sol.residual_max,
+            residual_mean: sol.residual_mean,
+            residual_argmax_dof: rest.get(sol.residual_argmax).copied().unwrap_or(0),
+            rows: sol.rows,
+        }),
+        mass_definiteness,
+        stiffness_definiteness,
+        timings: vec![
+            Timing { phase: "symbolic".into(), seconds: solver.symbolic_stats().seconds },
+            Timing { phase: "sweep (factor + solve + absorb)".into(), seconds: sweep_s },
+            Timing { phase: "absorb (streamed QR, summed over workers)".into(), seconds: absorb_s },
+            Timing { phase: "fit (merge + finish)".into(), seconds: fit_s },
+            Timing { phase: "projection".into(), seconds: proj_s },
+        ],
+        warnings,
+        basis: opts.keep_basis.then_some(v),
+    })
+}
