@@ -10,9 +10,14 @@
 pub mod eigen;
 pub mod error;
 pub mod factor;
+pub mod fe;
+pub mod io;
+pub mod lsq;
 pub mod memory;
+pub mod metrics;
 pub mod model;
 pub mod pencil;
+pub mod reduce;
 pub mod rigid;
 pub mod scene;
 pub mod sparse;

@@ -14,7 +14,8 @@ use crate::reduce::Rom;
 use crate::rigid::RigidBody;
 use crate::sweep::{transfer_function, Part, ProgressFn, SweepOptions};
 use crate::{Error, Result};
-use faer::Mat;
+use crate::eigen::Modes;
+use faer::{Mat, MatRef};
 
 /// ε(f) on a frequency grid.
 #[derive(Clone, Debug)]
@@ -67,31 +68,111 @@ pub fn transfer_error(model: &Model, rom: &Rom, freqs_hz: &[f64], opts: &SweepOp
     })
 }
 
-/// Eigenfrequencies (Hz, ascending) of Kr φ = λ Mr φ, as sign(λ)·√|λ| / 2π.
-///
-/// # Errors
-/// [`Error::InvalidSetting`] when Mr is not positive definite.
-pub fn rom_eigenfrequencies(rom: &Rom) -> Result<Vec<f64>> {
-    generalized_eigenfrequencies(&rom.kr, &rom.mr)
+/// Frequency (Hz) of an eigenvalue λ = ω²: sign(λ)·√|λ| / 2π.
+pub fn lambda_to_hz(l: f64) -> f64 {
+    l.signum() * l.abs().sqrt() / (2.0 * std::f64::consts::PI)
 }
 
-/// Eigenfrequencies of a small dense symmetric pencil (K, M), M positive definite.
+/// Eigenpairs of the ROM, Kr φ̃ = λ Mr φ̃ (ascending λ, Mr-orthonormal φ̃).
 ///
 /// # Errors
-/// [`Error::InvalidSetting`] when M is not positive definite or the eigensolver fails.
-pub fn generalized_eigenfrequencies(k: &Mat<f64>, m: &Mat<f64>) -> Result<Vec<f64>> {
+/// [`Error::InvalidSetting`] when Mr is not positive definite or the eigensolver fails.
+pub fn rom_modes(rom: &Rom) -> Result<(Vec<f64>, Mat<f64>)> {
     use faer::linalg::solvers::DenseSolveCore;
-    let llt = m
+    let llt = rom
+        .mr
         .llt(faer::Side::Lower)
-        .map_err(|_| Error::InvalidSetting("the reduced mass matrix is not positive definite".into()))?;
+        .map_err(|_| Error::InvalidSetting("the reduced mass matrix Mr is not positive definite".into()))?;
     let linv = llt.L().to_owned().partial_piv_lu().inverse();
-    let c = &linv * k * linv.transpose();
+    let c = &linv * &rom.kr * linv.transpose();
     let c = Mat::from_fn(c.nrows(), c.ncols(), |i, j| 0.5 * (c[(i, j)] + c[(j, i)]));
-    let ev = c
-        .self_adjoint_eigenvalues(faer::Side::Lower)
+    let eig = c
+        .self_adjoint_eigen(faer::Side::Lower)
         .map_err(|_| Error::InvalidSetting("dense eigensolver did not converge".into()))?;
-    Ok(ev
-        .iter()
-        .map(|&l| l.signum() * l.abs().sqrt() / (2.0 * std::f64::consts::PI))
-        .collect())
+    let lambdas = (0..c.nrows()).map(|i| eig.S()[i]).collect();
+    Ok((lambdas, linv.transpose() * eig.U()))
+}
+
+/// Eigenfrequencies (Hz, ascending) of the ROM.
+///
+/// # Errors
+/// As [`rom_modes`].
+pub fn rom_eigenfrequencies(rom: &Rom) -> Result<Vec<f64>> {
+    Ok(rom_modes(rom)?.0.into_iter().map(lambda_to_hz).collect())
+}
+
+/// MAC(a, b) = (aᵀb)² / (aᵀa · bᵀb).
+pub fn mac(a: MatRef<'_, f64>, b: MatRef<'_, f64>) -> f64 {
+    let ab = (a.transpose() * b)[(0, 0)];
+    ab * ab / ((a.transpose() * a)[(0, 0)] * (b.transpose() * b)[(0, 0)])
+}
+
+/// One full-model deformation mode in the band and the ROM mode paired with it.
+#[derive(Clone, Debug)]
+pub struct ModePair {
+    /// 1-based number of the full mode among all modes (rigid included).
+    pub full_mode: usize,
+    /// Its frequency (Hz).
+    pub full_hz: f64,
+    /// 1-based number of the paired ROM mode.
+    pub rom_mode: usize,
+    /// Its frequency (Hz).
+    pub rom_hz: f64,
+    /// |f_rom − f_full| / f_full.
+    pub rel_freq_error: f64,
+    /// MAC of the pair.
+    pub mac: f64,
+}
+
+/// Eigenfrequency errors and MAC of a ROM (paper §4.3).
+#[derive(Clone, Debug)]
+pub struct ModalComparison {
+    /// One pair per full deformation mode.
+    pub pairs: Vec<ModePair>,
+    /// True when the MAC used expanded ROM modes V φ̃ over all N DoFs; false when it was taken
+    /// on the ROM's DoFs only (no V available: ROM coordinates are physical DoF values).
+    pub expanded: bool,
+}
+
+/// Pairs every deformation mode of `full` (rigid ones skipped) with the ROM mode of largest
+/// MAC — the documented pairing — and reports the relative frequency error of the pair.
+/// The MAC uses V φ̃ when `basis` (V) is given, else the mode shapes on the ROM's DoFs.
+///
+/// # Errors
+/// As [`rom_modes`].
+pub fn modal_comparison(rom: &Rom, full: &Modes, basis: Option<MatRef<'_, f64>>) -> Result<ModalComparison> {
+    let (lam_r, phi_r) = rom_modes(rom)?;
+    let lam_max = lam_r.iter().copied().fold(0.0, f64::max);
+    let rom_elastic: Vec<usize> = (0..lam_r.len()).filter(|&j| lam_r[j] > 1e-10 * lam_max).collect();
+    let expanded_modes = basis.map(|v| v * &phi_r);
+    let mut pairs = Vec::new();
+    for i in full.rigid..full.lambdas.len() {
+        let phi_full = full.vectors.as_ref().col(i).as_mat();
+        let a = match &expanded_modes {
+            Some(_) => phi_full.to_owned(),
+            None => Mat::from_fn(rom.dofs.len(), 1, |r, _| phi_full[(rom.dofs[r], 0)]),
+        };
+        let best = rom_elastic
+            .iter()
+            .map(|&j| {
+                let b = match &expanded_modes {
+                    Some(e) => e.as_ref().col(j).as_mat().to_owned(),
+                    None => phi_r.as_ref().col(j).as_mat().to_owned(),
+                };
+                (j, mac(a.as_ref(), b.as_ref()))
+            })
+            .max_by(|x, y| x.1.total_cmp(&y.1));
+        if let Some((j, m)) = best {
+            let (f, fr) = (lambda_to_hz(full.lambdas[i]), lambda_to_hz(lam_r[j]));
+            pairs.push(ModePair {
+                full_mode: i + 1,
+                full_hz: f,
+                rom_mode: j + 1,
+                rom_hz: fr,
+                rel_freq_error: (fr - f).abs() / f,
+                mac: m,
+            });
+        }
+    }
+    Ok(ModalComparison { pairs, expanded: expanded_modes.is_some() })
 }

@@ -3,6 +3,7 @@
 
 mod bench;
 mod commands;
+mod reduce;
 
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
@@ -19,9 +20,14 @@ pub struct Cli {
 }
 
 const EXAMPLES: &str = "Examples:
+  sparsemor demo
   sparsemor generate bar --out bar
   sparsemor info bar
   sparsemor sweep bar --band 1:1000 --points 500 --part elastic --out frf.csv
+  sparsemor reduce bar --method linefit --extra-interface 5 --ref-freqs 50,100,200,400,800 --out rom
+  sparsemor reduce bar --method serep --modes 9 --out rom9
+  sparsemor evaluate bar rom --csv eps.csv
+  sparsemor modes bar --band 0:1000
   sparsemor bench sweep";
 
 #[derive(Subcommand)]
@@ -47,6 +53,18 @@ enum Command {
     },
     /// Transfer functions H(iω) over a band or a list of frequencies, written as CSV.
     Sweep(commands::SweepArgs),
+    /// Reduce a model: line-fitting or SEREP, written as a ROM directory.
+    Reduce(reduce::ReduceArgs),
+    /// Transfer-function error, eigenfrequency errors and MAC of a ROM against its model.
+    Evaluate(reduce::EvaluateArgs),
+    /// Eigenfrequencies (partial, shift-invert Krylov; counted exactly up to a frequency).
+    Modes(reduce::ModesArgs),
+    /// The paper's comparison on the built-in bar: line-fitting vs SEREP.
+    Demo {
+        /// Worker threads (0 = all cores).
+        #[arg(long, default_value_t = 0)]
+        threads: usize,
+    },
     /// Performance tables (markdown): `bench sweep`.
     Bench(bench::BenchArgs),
 }
@@ -63,6 +81,10 @@ pub fn run() -> sparsemor::Result<()> {
         } => commands::generate(&kind, elements.as_deref(), size.as_deref(), &out),
         Command::Info { model } => commands::info(&model),
         Command::Sweep(args) => commands::sweep(&args, cli.verbose),
+        Command::Reduce(args) => reduce::reduce(&args),
+        Command::Evaluate(args) => reduce::evaluate(&args),
+        Command::Modes(args) => reduce::modes(&args),
+        Command::Demo { threads } => reduce::demo(threads),
         Command::Bench(args) => bench::run(&args),
     }
 }

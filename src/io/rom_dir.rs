@@ -33,6 +33,8 @@ struct Manifest {
     #[serde(default)]
     timings_s: Vec<(String, f64)>,
     has_basis: bool,
+    #[serde(default)]
+    serep_cond: Option<f64>,
 }
 
 /// Writes `rom` into a new directory.
@@ -64,6 +66,7 @@ pub fn write(dir: &Path, rom: &Rom) -> Result<()> {
             warnings: rom.warnings.clone(),
             timings_s: rom.timings.iter().map(|t| (t.phase.clone(), t.seconds)).collect(),
             has_basis: rom.basis.is_some(),
+            serep_cond: rom.serep_cond,
         };
         let text = toml::to_string(&man).map_err(|e| Error::InvalidSetting(format!("cannot serialize rom.toml: {e}")))?;
         let path = tmp.join("rom.toml");
@@ -117,5 +120,6 @@ pub fn read(dir: &Path) -> Result<Rom> {
         timings: man.timings_s.into_iter().map(|(phase, seconds)| Timing { phase, seconds }).collect(),
         warnings: man.warnings,
         basis,
+        serep_cond: man.serep_cond,
     })
 }

@@ -2,6 +2,7 @@
 //! the methods that build V: [`linefit`] (§3.3) and, later, SEREP (§3.6).
 
 pub mod linefit;
+pub mod serep;
 
 use crate::model::{Damping, Model};
 use crate::rigid::RigidBody;
@@ -121,6 +122,8 @@ pub struct Rom {
     pub warnings: Vec<String>,
     /// V (N×n) when requested.
     pub basis: Option<Mat<f64>>,
+    /// cond(U_cr) of a SEREP ROM.
+    pub serep_cond: Option<f64>,
 }
 
 impl Rom {

@@ -1,0 +1,413 @@
+//! `reduce`, `evaluate`, `modes`, `demo`.
+
+use super::commands::{linspace, parse_band, parse_list, progress_bar};
+use sparsemor::eigen::{eigenpairs, EigenOptions, Modes, Request};
+use sparsemor::fe::{bar_model, BoxSpec};
+use sparsemor::io::{model_dir, rom_dir};
+use sparsemor::metrics::{modal_comparison, rom_eigenfrequencies, transfer_error, ErrorCurve, ModalComparison};
+use sparsemor::model::Model;
+use sparsemor::reduce::linefit::{self, place_reference_frequencies, Interface, LineFitOptions};
+use sparsemor::reduce::serep::{self, ModeChoice, SerepOptions};
+use sparsemor::reduce::Rom;
+use sparsemor::sweep::{no_progress, Progress, SweepOptions};
+use sparsemor::{Error, Result};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+#[derive(clap::Args)]
+pub struct ReduceArgs {
+    /// Model directory.
+    model: PathBuf,
+    /// linefit or serep.
+    #[arg(long)]
+    method: String,
+    /// Interface DoFs D1,D2,... (line-fitting; must contain the outputs).
+    #[arg(long, conflicts_with = "extra_interface")]
+    interface: Option<String>,
+    /// Interface = outputs + K DoFs spread along the body (line-fitting).
+    #[arg(long)]
+    extra_interface: Option<usize>,
+    /// Reference frequencies F1,F2,... in Hz (line-fitting).
+    #[arg(long)]
+    ref_freqs: Option<String>,
+    /// Number of modes c (SEREP: the c lowest deformation modes).
+    #[arg(long)]
+    modes: Option<usize>,
+    /// Retained DoFs (SEREP; default: the outputs).
+    #[arg(long)]
+    retain: Option<String>,
+    /// Also write V.mtx (N×n).
+    #[arg(long)]
+    keep_basis: bool,
+    /// Worker threads (0 = all cores).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Output ROM directory.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+pub fn reduce(a: &ReduceArgs) -> Result<()> {
+    let (model, _) = model_dir::read(&a.model)?;
+    let (inputs, outputs) = (&model.scene.inputs, &model.scene.outputs);
+    let t = Instant::now();
+    let rom = match a.method.as_str() {
+        "linefit" => {
+            let interface = match (&a.interface, a.extra_interface) {
+                (Some(i), _) => Interface::Explicit(parse_list(i, "--interface")?),
+                (None, Some(k)) => Interface::OutputsPlus(k),
+                (None, None) => return Err(Error::InvalidSetting("linefit needs --interface D1,D2,... or --extra-interface K".into())),
+            };
+            let ref_freqs_hz = parse_list(
+                a.ref_freqs.as_deref().ok_or_else(|| Error::InvalidSetting("linefit needs --ref-freqs F1,F2,... (Hz)".into()))?,
+                "--ref-freqs",
+            )?;
+            let opts = LineFitOptions {
+                interface,
+                ref_freqs_hz,
+                keep_basis: a.keep_basis,
+                sweep: SweepOptions { threads: a.threads, ..Default::default() },
+                lsq: Default::default(),
+            };
+            let pb = progress_bar(opts.ref_freqs_hz.len(), "reference frequencies");
+            let cb = |p: Progress| {
+                pb.set_position(p.done as u64);
+                true
+            };
+            let rom = linefit::reduce(&model, inputs, outputs, &opts, &cb)?;
+            pb.finish_and_clear();
+            rom
+        }
+        "serep" => {
+            let c = a.modes.ok_or_else(|| Error::InvalidSetting("serep needs --modes C".into()))?;
+            let opts = SerepOptions {
+                modes: ModeChoice::LowestDeformation(c),
+                retain: a.retain.as_deref().map(|r| parse_list(r, "--retain")).transpose()?,
+                keep_basis: a.keep_basis,
+                eigen: EigenOptions::default(),
+            };
+            serep::reduce(&model, inputs, outputs, &opts)?
+        }
+        m => return Err(Error::InvalidSetting(format!("--method '{m}': choose linefit or serep"))),
+    };
+    let secs = t.elapsed().as_secs_f64();
+    rom_dir::write(&a.out, &rom)?;
+    print_rom(&rom);
+    eprintln!("reduced in {secs:.2} s -> {}", a.out.display());
+    Ok(())
+}
+
+fn print_rom(rom: &Rom) {
+    println!("method           {}", rom.method);
+    println!("order            {}", rom.order());
+    if let Some(f) = &rom.fit {
+        println!(
+            "fit              cond(T_o) {:.2e} (equilibrated {:.2e}), rank {}/{}{}, residual max {:.2e} (DoF {}) mean {:.2e}",
+            f.cond_raw,
+            f.cond_equilibrated,
+            f.rank,
+            rom.order(),
+            if f.truncated { " TRUNCATED" } else { "" },
+            f.residual_max,
+            f.residual_argmax_dof,
+            f.residual_mean
+        );
+    }
+    if let Some(c) = rom.serep_cond {
+        println!("cond(U_cr)       {c:.2e}");
+    }
+    for (name, d) in [("Mr", &rom.mass_definiteness), ("Kr", &rom.stiffness_definiteness)] {
+        println!(
+            "{name}               {} (eigenvalues {:.3e} .. {:.3e})",
+            if d.positive_definite { "positive definite" } else { "NOT positive definite" },
+            d.min_eig,
+            d.max_eig
+        );
+    }
+    for t in &rom.timings {
+        println!("time             {:<44} {:.4} s", t.phase, t.seconds);
+    }
+    for w in &rom.warnings {
+        println!("warning          {w}");
+    }
+}
+
+#[derive(clap::Args)]
+pub struct EvaluateArgs {
+    /// Model directory.
+    model: PathBuf,
+    /// ROM directory.
+    rom: PathBuf,
+    /// Band LO:HI in Hz (default: the model's band, starting at 1 Hz on a free body if it starts at 0).
+    #[arg(long)]
+    band: Option<String>,
+    /// Grid points, both ends included.
+    #[arg(long, default_value_t = 500)]
+    points: usize,
+    /// Write ε(f) as CSV: f_hz,eps_elastic,eps_total.
+    #[arg(long)]
+    csv: Option<PathBuf>,
+    /// Worker threads (0 = all cores).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+}
+
+/// The model's band with f_lo = 0 moved to 1 Hz (H is infinite at 0 Hz on a free body).
+fn evaluation_band(model: &Model, band: Option<&str>) -> Result<[f64; 2]> {
+    let mut b = match band {
+        Some(s) => parse_band(s)?,
+        None => model.scene.band_hz,
+    };
+    if b[0] == 0.0 {
+        b[0] = 1.0_f64.min(0.5 * b[1]);
+    }
+    Ok(b)
+}
+
+pub fn evaluate(a: &EvaluateArgs) -> Result<()> {
+    let (model, _) = model_dir::read(&a.model)?;
+    let rom = rom_dir::read(&a.rom)?;
+    if rom.inputs.iter().chain(&rom.outputs).chain(&rom.dofs).any(|&d| d >= model.n()) {
+        return Err(Error::InvalidSetting(format!("{} does not belong to this model (DoF out of range)", a.rom.display())));
+    }
+    let band = evaluation_band(&model, a.band.as_deref())?;
+    if a.points < 2 {
+        return Err(Error::InvalidSetting("--points must be >= 2".into()));
+    }
+    let freqs = linspace(band, a.points);
+    let opts = SweepOptions { threads: a.threads, ..Default::default() };
+    let pb = progress_bar(freqs.len(), "evaluate");
+    let cb = |p: Progress| {
+        pb.set_position(p.done as u64);
+        true
+    };
+    let curve = transfer_error(&model, &rom, &freqs, &opts, &cb)?;
+    pb.finish_and_clear();
+    let full = eigenpairs(&model, Request::UpTo(band[1]), &EigenOptions::default())?;
+    let modal = modal_comparison(&rom, &full, rom.basis.as_ref().map(|v| v.as_ref()))?;
+    print_evaluation(&rom, &curve, &modal)?;
+    if let Some(path) = &a.csv {
+        write_eps_csv(path, &curve)?;
+        eprintln!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+fn print_evaluation(rom: &Rom, curve: &ErrorCurve, modal: &ModalComparison) -> Result<()> {
+    let (emax, emean) = ErrorCurve::max_mean(&curve.eps_elastic);
+    let (tmax, tmean) = ErrorCurve::max_mean(&curve.eps_total);
+    println!(
+        "eps elastic      max {:.3e}  mean {:.3e}   ({} points in [{}, {}] Hz)",
+        emax,
+        emean,
+        curve.freqs_hz.len(),
+        curve.freqs_hz[0],
+        curve.freqs_hz[curve.freqs_hz.len() - 1]
+    );
+    println!("eps total        max {tmax:.3e}  mean {tmean:.3e}");
+    let f = rom_eigenfrequencies(rom)?;
+    println!("ROM eigenfreqs   {}", f.iter().map(|x| format!("{x:.1}")).collect::<Vec<_>>().join(" "));
+    println!("largest          {:.1} Hz", f.last().copied().unwrap_or(f64::NAN));
+    println!(
+        "stability        Mr {}, Kr {}",
+        if rom.mass_definiteness.positive_definite { "SPD" } else { "NOT SPD" },
+        if rom.stiffness_definiteness.positive_definite { "SPD" } else { "NOT SPD" }
+    );
+    println!(
+        "modes in band    (MAC {})",
+        if modal.expanded { "of expanded modes V·phi" } else { "on the ROM DoFs; --keep-basis gives expanded MAC" }
+    );
+    for p in &modal.pairs {
+        println!(
+            "  full {:>3} {:>9.2} Hz   rom {:>3} {:>9.2} Hz   rel err {:.2e}   MAC {:.5}",
+            p.full_mode, p.full_hz, p.rom_mode, p.rom_hz, p.rel_freq_error, p.mac
+        );
+    }
+    Ok(())
+}
+
+fn write_eps_csv(path: &Path, c: &ErrorCurve) -> Result<()> {
+    let mut s = String::from("f_hz,eps_elastic,eps_total\n");
+    for k in 0..c.freqs_hz.len() {
+        s.push_str(&format!("{:?},{:?},{:?}\n", c.freqs_hz[k], c.eps_elastic[k], c.eps_total[k]));
+    }
+    let tmp = path.with_extension("csv.tmp");
+    std::fs::write(&tmp, s).map_err(|e| Error::io(&tmp, e))?;
+    std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e))
+}
+
+#[derive(clap::Args)]
+pub struct ModesArgs {
+    /// Model directory.
+    model: PathBuf,
+    /// All modes with f <= HI (counted exactly); LO only filters the printout.
+    #[arg(long, conflicts_with = "count")]
+    band: Option<String>,
+    /// The C lowest modes, rigid ones included.
+    #[arg(long)]
+    count: Option<usize>,
+    /// CSV: index,f_hz,kind.
+    #[arg(long)]
+    csv: Option<PathBuf>,
+}
+
+pub fn modes(a: &ModesArgs) -> Result<()> {
+    let (model, _) = model_dir::read(&a.model)?;
+    let (req, lo) = match (&a.band, a.count) {
+        (Some(b), _) => {
+            let b = parse_band(b)?;
+            (Request::UpTo(b[1]), b[0])
+        }
+        (None, Some(c)) => (Request::Lowest(c), f64::NEG_INFINITY),
+        (None, None) => (Request::UpTo(model.scene.band_hz[1]), f64::NEG_INFINITY),
+    };
+    let t = Instant::now();
+    let m = eigenpairs(&model, req, &EigenOptions::default())?;
+    let secs = t.elapsed().as_secs_f64();
+    print_modes(&m, lo);
+    println!(
+        "{} modes ({} rigid) in {secs:.3} s: Cholesky {:.3} s, inertia count {:.3} s, Krylov {:.3} s ({} solves, {} restarts, dim {})",
+        m.lambdas.len(),
+        m.rigid,
+        m.stats.factor_s,
+        m.stats.count_s,
+        m.stats.iterate_s,
+        m.stats.solves,
+        m.stats.restarts,
+        m.stats.krylov_dim
+    );
+    if let Some(path) = &a.csv {
+        let mut s = String::from("index,f_hz,kind\n");
+        for (k, f) in m.freqs_hz().iter().enumerate() {
+            s.push_str(&format!("{},{:?},{}\n", k + 1, f, if k < m.rigid { "rigid" } else { "elastic" }));
+        }
+        std::fs::write(path, s).map_err(|e| Error::io(path, e))?;
+    }
+    Ok(())
+}
+
+fn print_modes(m: &Modes, lo: f64) {
+    for (k, f) in m.freqs_hz().iter().enumerate() {
+        if *f >= lo || k < m.rigid {
+            println!(
+                "{:>4} {:>12.4} Hz  {:<8} residual {:.1e}",
+                k + 1,
+                f,
+                if k < m.rigid { "rigid" } else { "elastic" },
+                m.residuals[k]
+            );
+        }
+    }
+}
+
+/// The demo: the paper's bar, line-fitting (order 14) vs SEREP 9/9 and 14/14.
+pub fn demo(threads: usize) -> Result<()> {
+    let t0 = Instant::now();
+    let spec = BoxSpec::paper_bar();
+    let model = bar_model(&spec)?;
+    let (inputs, outputs) = (&model.scene.inputs, &model.scene.outputs);
+    let band = model.scene.band_hz;
+    println!(
+        "paper bar: {} x {} x {} mm, N = {}, {} inputs = outputs, band [{}, {}] Hz, Rayleigh beta = {:e}",
+        spec.size_m[0] * 1e3,
+        spec.size_m[1] * 1e3,
+        spec.size_m[2] * 1e3,
+        model.n(),
+        inputs.len(),
+        band[0],
+        band[1],
+        sparsemor::fe::PAPER_RAYLEIGH_BETA
+    );
+    let t = Instant::now();
+    let full = eigenpairs(&model, Request::UpTo(band[1]), &EigenOptions::default())?;
+    let eig_s = t.elapsed().as_secs_f64();
+    let res: Vec<f64> = full.freqs_hz()[full.rigid..].to_vec();
+    println!(
+        "full model: {} rigid + {} deformation modes below {} Hz: {} Hz ({:.3} s)",
+        full.rigid,
+        res.len(),
+        band[1],
+        res.iter().map(|f| format!("{f:.1}")).collect::<Vec<_>>().join(", "),
+        eig_s
+    );
+    let ref_freqs = place_reference_frequencies(&res, band, 20)?;
+    let sweep = SweepOptions { threads, ..Default::default() };
+    let t = Instant::now();
+    let lf = linefit::reduce(
+        &model,
+        inputs,
+        outputs,
+        &LineFitOptions {
+            interface: Interface::OutputsPlus(5),
+            ref_freqs_hz: ref_freqs.clone(),
+            keep_basis: true,
+            sweep: sweep.clone(),
+            lsq: Default::default(),
+        },
+        &no_progress,
+    )?;
+    let lf_s = t.elapsed().as_secs_f64();
+    println!(
+        "line-fitting: interface {:?}; 20 reference frequencies {} Hz",
+        lf.dofs,
+        ref_freqs.iter().map(|f| format!("{f:.0}")).collect::<Vec<_>>().join(",")
+    );
+    let serep = |c: usize, retain: Vec<usize>| -> Result<(Rom, f64)> {
+        let t = Instant::now();
+        let r = serep::reduce(
+            &model,
+            inputs,
+            outputs,
+            &SerepOptions { modes: ModeChoice::LowestDeformation(c), retain: Some(retain), keep_basis: true, eigen: EigenOptions::default() },
+        )?;
+        Ok((r, t.elapsed().as_secs_f64()))
+    };
+    let (s9, s9_s) = serep(9, outputs.clone())?;
+    let (s14, s14_s) = serep(14, lf.dofs.clone())?;
+    let grid = linspace([1.0, band[1]], 1000);
+    println!();
+    println!("| ROM | order | reduce s | max eps | mean eps | max eigfreq err | min MAC | largest ROM freq Hz | Mr, Kr SPD |");
+    println!("|---|---|---|---|---|---|---|---|---|");
+    let mut eval_s = 0.0;
+    for (name, rom, secs) in [("line-fitting", &lf, lf_s), ("SEREP 9 modes / 9 DoFs", &s9, s9_s), ("SEREP 14 modes / 14 DoFs", &s14, s14_s)] {
+        let t = Instant::now();
+        let curve = transfer_error(&model, rom, &grid, &sweep, &no_progress)?;
+        let modal = modal_comparison(rom, &full, rom.basis.as_ref().map(|v| v.as_ref()))?;
+        eval_s += t.elapsed().as_secs_f64();
+        let (emax, emean) = ErrorCurve::max_mean(&curve.eps_elastic);
+        let ferr = modal.pairs.iter().map(|p| p.rel_freq_error).fold(0.0, f64::max);
+        let mac = modal.pairs.iter().map(|p| p.mac).fold(1.0, f64::min);
+        let fmax = rom_eigenfrequencies(rom)?.last().copied().unwrap_or(f64::NAN);
+        println!(
+            "| {name} | {} | {secs:.3} | {:.2} % | {:.2} % | {:.2e} | {:.4} | {:.0} | {} |",
+            rom.order(),
+            100.0 * emax,
+            100.0 * emean,
+            ferr,
+            mac,
+            fmax,
+            if rom.mass_definiteness.positive_definite && rom.stiffness_definiteness.positive_definite { "yes" } else { "NO" }
+        );
+    }
+    println!();
+    println!(
+        "eps = elastic transfer-function error (eq. 23) on 1000 points in [1, {}] Hz; eigenfrequency error and MAC over the {} deformation modes in the band (expanded modes, best-MAC pairing)",
+        band[1],
+        res.len()
+    );
+    if let Some(f) = &lf.fit {
+        println!(
+            "line-fitting fit: cond(T_o) {:.2e} (equilibrated {:.2e}), rank {}, max residual {:.2e} at DoF {}",
+            f.cond_raw, f.cond_equilibrated, f.rank, f.residual_max, f.residual_argmax_dof
+        );
+    }
+    let _ = std::io::stdout().flush();
+    println!(
+        "compute: line-fitting {lf_s:.3} s, SEREP {:.3} s + {:.3} s, full eigenpairs {eig_s:.3} s, evaluation sweeps {eval_s:.2} s, total {:.2} s",
+        s9_s,
+        s14_s,
+        t0.elapsed().as_secs_f64()
+    );
+    Ok(())
+}

@@ -1,0 +1,141 @@
+//! SEREP (paper §3.1, eq. 6–13; DESIGN.md §3.6): V = U_c U_cr⁺, where U_c (N×c) holds c
+//! eigenvectors and U_cr its rows at the r retained DoFs; the pseudo-inverse comes from an
+//! SVD of the small U_cr (r×c). The ROM's coordinates are the retained DoFs.
+//!
+//! With c = r and U_cr invertible, span V = span U_c and the ROM reproduces the c
+//! eigenfrequencies exactly. With c > r, U_cr has rank ≤ r and the ROM cannot hold all c
+//! modes; an ill-conditioned U_cr gives nearly rank-deficient Mr, Kr. Both are reported.
+//!
+//! Entry point: [`reduce`].
+
+use super::{project, Definiteness, Method, Rom, Timing};
+use crate::eigen::{eigenpairs, EigenOptions, Request};
+use crate::model::Model;
+use crate::rigid::RigidBody;
+use crate::scene::check_dofs;
+use crate::{Error, Result};
+use faer::Mat;
+use std::time::Instant;
+
+/// cond(U_cr) above this is reported as ill-conditioned.
+pub const ILL_CONDITIONED: f64 = 1e8;
+
+/// Which modes SEREP keeps.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ModeChoice {
+    /// The c lowest deformation (non-rigid) modes.
+    LowestDeformation(usize),
+    /// These mode numbers, 1-based among all modes in ascending order, rigid ones included
+    /// (on a free body modes 1–6 are rigid).
+    Numbers(Vec<usize>),
+}
+
+/// Settings of a SEREP reduction.
+#[derive(Clone, Debug)]
+pub struct SerepOptions {
+    /// The modes.
+    pub modes: ModeChoice,
+    /// Retained DoFs (the ROM coordinates); `None` = the outputs.
+    pub retain: Option<Vec<usize>>,
+    /// Keep V (N×r).
+    pub keep_basis: bool,
+    /// Eigensolver settings.
+    pub eigen: EigenOptions,
+}
+
+/// Reduces `model` by SEREP for unit loads at `inputs` and outputs `outputs`.
+///
+/// # Errors
+/// [`Error::InvalidSetting`] for c = 0, more modes than DoFs, bad or duplicate DoF lists,
+/// mode numbers out of range; the eigensolver's errors.
+pub fn reduce(model: &Model, inputs: &[usize], outputs: &[usize], opts: &SerepOptions) -> Result<Rom> {
+    let n_full = model.n();
+    check_dofs(inputs, n_full, "inputs")?;
+    check_dofs(outputs, n_full, "outputs")?;
+    let retain = opts.retain.clone().unwrap_or_else(|| outputs.to_vec());
+    check_dofs(&retain, n_full, "retained DoFs")?;
+    let t = Instant::now();
+    let rigid = RigidBody::detect(model)?;
+    let n_rigid = if rigid.is_some() { 6 } else { 0 };
+    let (request, pick): (usize, Box<dyn Fn(usize) -> Vec<usize>>) = match &opts.modes {
+        ModeChoice::LowestDeformation(0) => return Err(Error::InvalidSetting("SEREP with 0 modes: choose c >= 1".into())),
+        ModeChoice::LowestDeformation(c) => {
+            let c = *c;
+            (c + n_rigid, Box::new(move |rig| (rig..rig + c).collect()))
+        }
+        ModeChoice::Numbers(v) => {
+            if v.is_empty() || v.contains(&0) {
+                return Err(Error::InvalidSetting("SEREP mode numbers are 1-based and the list must not be empty".into()));
+            }
+            let v2: Vec<usize> = v.iter().map(|k| k - 1).collect();
+            (v.iter().copied().max().unwrap_or(1), Box::new(move |_| v2.clone()))
+        }
+    };
+    if request > n_full {
+        return Err(Error::InvalidSetting(format!("SEREP needs {request} modes but the model has only N = {n_full} DoFs")));
+    }
+    let modes = eigenpairs(model, Request::Lowest(request), &opts.eigen)?;
+    let eigen_s = t.elapsed().as_secs_f64();
+    let chosen = pick(modes.rigid);
+    if let Some(&k) = chosen.iter().find(|&&k| k >= modes.lambdas.len()) {
+        return Err(Error::InvalidSetting(format!("mode number {} is not available ({} modes computed)", k + 1, modes.lambdas.len())));
+    }
+    let t = Instant::now();
+    let (c, r) = (chosen.len(), retain.len());
+    let u_cr = Mat::<f64>::from_fn(r, c, |i, j| modes.vectors[(retain[i], chosen[j])]);
+    let svd = u_cr.thin_svd().map_err(|_| Error::Factor("SVD of U_cr did not converge".into()))?;
+    let s = svd.S();
+    let smax = (0..s.dim()).map(|i| s[i]).fold(0.0, f64::max);
+    let smin = (0..s.dim()).map(|i| s[i]).fold(f64::INFINITY, f64::min);
+    let cond = smax / smin;
+    let tol = smax * f64::EPSILON * r.max(c) as f64;
+    // U_cr⁺ = V_s Σ⁺ U_sᵀ (c×r), truncating σ ≤ tol
+    let pinv = Mat::<f64>::from_fn(c, r, |i, j| {
+        (0..s.dim())
+            .filter(|&k| s[k] > tol)
+            .map(|k| svd.V()[(i, k)] * svd.U()[(j, k)] / s[k])
+            .sum()
+    });
+    let u_c = Mat::<f64>::from_fn(n_full, c, |i, j| modes.vectors[(i, chosen[j])]);
+    let v = &u_c * &pinv;
+    drop(u_c);
+    let mut warnings = Vec::new();
+    if c > r {
+        warnings.push(format!("c = {c} modes > r = {r} retained DoFs: U_cr has rank <= {r}, the ROM cannot reproduce all {c} modes"));
+    }
+    if !(cond <= ILL_CONDITIONED) {
+        warnings.push(format!("U_cr is ill-conditioned (cond {cond:.1e}): Mr and Kr may be nearly singular; choose other retained DoFs or modes"));
+    }
+    let pr = project(model, v.as_ref(), inputs, outputs, rigid.as_ref());
+    let proj_s = t.elapsed().as_secs_f64();
+    let mass_definiteness = Definiteness::of(pr.mr.as_ref());
+    let stiffness_definiteness = Definiteness::of(pr.kr.as_ref());
+    for (name, d) in [("Mr", &mass_definiteness), ("Kr", &stiffness_definiteness)] {
+        if !d.positive_definite {
+            warnings.push(format!("{name} is not positive definite (eigenvalues in [{:.3e}, {:.3e}])", d.min_eig, d.max_eig));
+        }
+    }
+    Ok(Rom {
+        method: Method::Serep,
+        mr: pr.mr,
+        dr: pr.dr,
+        kr: pr.kr,
+        br: pr.br,
+        cr: pr.cr,
+        dofs: retain,
+        inputs: inputs.to_vec(),
+        outputs: outputs.to_vec(),
+        ref_freqs_hz: Vec::new(),
+        modes: chosen.iter().map(|k| k + 1).collect(),
+        fit: None,
+        mass_definiteness,
+        stiffness_definiteness,
+        timings: vec![
+            Timing { phase: "eigenpairs".into(), seconds: eigen_s },
+            Timing { phase: "pseudo-inverse + projection".into(), seconds: proj_s },
+        ],
+        warnings,
+        basis: opts.keep_basis.then_some(v),
+        serep_cond: Some(cond),
+    })
+}
