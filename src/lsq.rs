@@ -1,0 +1,725 @@
+//! Line-fitting least squares with a streamed QR / TSQR state (DESIGN.md §3.3, paper eq. 18–22).
+//!
+//! # Problem
+//!
+//! The line-fitting matrix `W` (m × n, m = N − n non-interface DoFs, n interface DoFs) solves
+//!
+//! ```text
+//!     min_W ‖T_oᵀ Wᵀ − T_nᵀ‖_F,    T_oᵀ = [G_1; …; G_z]  (rows × n),
+//!                                   T_nᵀ = [F_1; …; F_z]  (rows × m),
+//! ```
+//!
+//! where block k holds the q_k = 2p rows of frequency k (real and imaginary parts of the
+//! snapshot). `rows = Σ q_k = 2pz` is small (tens to thousands), `n` is small (≤ a few hundred)
+//! but `m` can be 10⁶–10⁷, so the stacked `T_nᵀ` is never formed.
+//!
+//! # State and invariant
+//!
+//! A [`StreamedQr`] holds `R` (n × n upper triangular), `Y` (n × m), `e` (m) and `fnorm2` (m).
+//! After blocks with `rows` rows in total have been absorbed there is an orthogonal `Q` (never
+//! stored) with
+//!
+//! ```text
+//!     Qᵀ [0    0  ]   [R  Y]
+//!        [T_oᵀ T_nᵀ] = [0  B],     e_j = ‖B e_j‖²,   fnorm2_j = ‖T_nᵀ e_j‖²
+//! ```
+//!
+//! (the leading n zero rows are the empty starting state). Because `Q` is orthogonal, for every
+//! column j and every x ∈ Rⁿ:  ‖T_oᵀ x − T_nᵀ e_j‖² = ‖R x − Y e_j‖² + e_j. So `R`, `Y`, `e`
+//! carry everything the least-squares problem needs, in O(n·m) memory.
+//!
+//! * [`StreamedQr::absorb`] — Householder QR of `[R; G]`, the same reflectors applied
+//!   (transposed) to `[Y; F]`: the top n rows become the new `Y`, the squares of the bottom
+//!   rows add to `e`. The reflectors exploit that `R` is triangular: reflector j touches only
+//!   row j of `R`/`Y` and the q rows of `G`/`F` (LAPACK's `dtpqrt` structure), so absorbing a
+//!   block costs ≈ 4·n·q flops per column of `F` (plus n·32 for the blocked application),
+//!   independent of how many rows were absorbed before.
+//! * [`StreamedQr::merge`] — the same operation on `[R1; R2]`, `[Y1; Y2]` (a TSQR reduction
+//!   step); `e` and `fnorm2` add.
+//! * [`StreamedQr::finish`] — column equilibration, SVD of the small `R·S`, rank decision,
+//!   truncated-SVD solve, per-column fit residuals.
+
+use crate::error::{Error, Result};
+use faer::linalg::matmul::matmul;
+use faer::prelude::{Reborrow, ReborrowMut};
+use faer::{Accum, Mat, MatMut, MatRef, Par};
+use rayon::prelude::*;
+
+/// Number of reflectors applied together as one compact-WY block `I − V T Vᵀ`.
+const PANEL: usize = 32;
+
+/// Target size of the per-thread working set of one column chunk (bytes).
+const CHUNK_TARGET_BYTES: usize = 1 << 20;
+
+/// Options of [`StreamedQr::finish`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LsqOptions {
+    /// Relative singular-value threshold of the rank decision (DESIGN.md §3.3 "below a
+    /// relative threshold truncate").
+    ///
+    /// Singular values σ_i of the equilibrated triangle `R·S` with
+    /// `σ_i ≤ τ · σ_max` are dropped, where
+    ///
+    /// ```text
+    ///     τ = max(rcond_tol, max(rows, n) · f64::EPSILON)
+    /// ```
+    ///
+    /// The second term is the rounding floor (the rule of LAPACK's `xGELSS` callers, NumPy's
+    /// `lstsq` and MATLAB's `rank`): the backward error of the Householder QR of the
+    /// equilibrated `T_oᵀ` is of that size, so singular values below it carry no information
+    /// and a solve through them only amplifies rounding. The default `rcond_tol = 0.0` uses
+    /// exactly that floor; raise it (e.g. to the relative accuracy of the snapshots, 1e-10 for
+    /// a factorization with that residual) to regularize a nearly dependent interface set.
+    /// The threshold actually applied is reported in [`LsqSolution::rcond_used`].
+    pub rcond_tol: f64,
+}
+
+impl Default for LsqOptions {
+    fn default() -> Self {
+        LsqOptions { rcond_tol: 0.0 }
+    }
+}
+
+impl LsqOptions {
+    /// The rounding floor `max(rows, n) · ε` of the rank threshold (see [`LsqOptions::rcond_tol`]).
+    pub fn rounding_floor(rows: usize, n: usize) -> f64 {
+        rows.max(n) as f64 * f64::EPSILON
+    }
+
+    /// The threshold `τ` actually used for `rows` absorbed rows and `n` unknowns.
+    pub fn effective_tol(&self, rows: usize, n: usize) -> f64 {
+        self.rcond_tol.max(Self::rounding_floor(rows, n))
+    }
+}
+
+/// Result of [`StreamedQr::finish`] (DESIGN.md §3.3).
+#[derive(Clone, Debug)]
+pub struct LsqSolution {
+    /// The line-fitting matrix `W` (m × n): `Wᵀ = S·(R S)⁺·Y`, the (truncated) least-squares
+    /// solution of `T_oᵀ Wᵀ ≈ T_nᵀ`. With full rank it is *the* least-squares solution. When
+    /// truncated it is the solution of minimum `‖S⁻¹ Wᵀ‖` (minimum norm in the equilibrated
+    /// variables); this is the ordinary minimum-norm solution whenever the dependent interface
+    /// columns have equal norms (e.g. duplicated columns).
+    pub w: Mat<f64>,
+    /// Singular values of the equilibrated triangle `R·S` (= those of `T_oᵀ S`), nonincreasing.
+    pub singular_values: Vec<f64>,
+    /// Column norms of `T_oᵀ` (= of `R`); `S = diag(1 / col_norms)` (zero columns get 1).
+    pub col_norms: Vec<f64>,
+    /// cond₂(T_oᵀ) = σ_max(R)/σ_min(R) before equilibration (∞ if singular).
+    pub cond_raw: f64,
+    /// cond₂(T_oᵀ S) after column equilibration (∞ if singular) — the number that governs the
+    /// accuracy of `W`.
+    pub cond_equilibrated: f64,
+    /// Numerical rank: number of kept singular values.
+    pub rank: usize,
+    /// `true` if singular values were dropped (`rank < n`).
+    pub truncated: bool,
+    /// The relative threshold τ applied (see [`LsqOptions::rcond_tol`]).
+    pub rcond_used: f64,
+    /// Per-column relative fit residual `‖T_oᵀ w_j − t_j‖ / ‖t_j‖`, t_j = column j of `T_nᵀ`
+    /// (= row j of T_n, the paper's residuum of eq. 22 for non-interface DoF j); 0 when
+    /// `t_j = 0`. Exact for the returned `W`, truncated or not: the truncated directions'
+    /// contribution `‖U_dropᵀ Y e_j‖²` is added to the accumulated `e_j`.
+    pub residual: Vec<f64>,
+    /// max_j residual_j (0 if m = 0).
+    pub residual_max: f64,
+    /// mean_j residual_j (0 if m = 0).
+    pub residual_mean: f64,
+    /// A column j with residual_j = residual_max — where an extra interface DoF helps most.
+    pub residual_argmax: usize,
+    /// Rows absorbed (2pz).
+    pub rows: usize,
+}
+
+/// Streamed QR / TSQR state of the line-fitting least-squares problem (DESIGN.md §3.3).
+///
+/// See the [module documentation](self) for the invariant. Memory: `8·(n² + n·m + 2m)` bytes
+/// plus, during [`absorb`](StreamedQr::absorb), a transient of
+/// [`absorb_workspace_bytes`](StreamedQr::absorb_workspace_bytes) — O(n·chunk) per thread,
+/// independent of m.
+#[derive(Clone)]
+pub struct StreamedQr {
+    n: usize,
+    m: usize,
+    r: Mat<f64>,
+    y: Mat<f64>,
+    e: Vec<f64>,
+    fnorm2: Vec<f64>,
+    rows: usize,
+    chunk_cols: usize,
+}
+
+impl std::fmt::Debug for StreamedQr {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("StreamedQr")
+            .field("n", &self.n)
+            .field("m", &self.m)
+            .field("rows", &self.rows)
+            .field("chunk_cols", &self.chunk_cols)
+            .finish_non_exhaustive()
+    }
+}
+
+/// Per-worker buffers of the chunked application (reused across chunks of one block).
+struct Workspace {
+    /// Copy of the F chunk, transformed in place into the bottom rows (q × chunk).
+    f: Mat<f64>,
+    /// `Vᵀ [Y; F]` for one panel (PANEL × chunk).
+    w: Mat<f64>,
+    /// `Tᵀ Vᵀ [Y; F]` for one panel (PANEL × chunk).
+    tw: Mat<f64>,
+}
+
+/// The reflectors of one absorbed block in compact-WY form.
+struct Reflectors {
+    /// Essential parts of the reflectors (q × n): reflector j is `I − τ_j v_j v_jᵀ` with
+    /// `v_j = e_j` on the top n rows and `vg.col(j)` on the q bottom rows.
+    vg: Mat<f64>,
+    /// Upper-triangular `T` factors, one per panel of `PANEL` reflectors (stored in a
+    /// PANEL × n matrix: panel b occupies columns `b·PANEL ..`).
+    t: Mat<f64>,
+}
+
+impl StreamedQr {
+    /// An empty state for `n` interface unknowns and `m` right-hand-side columns
+    /// (allocates `R`, `Y`, `e`, `fnorm2`: 8·(n² + n·m + 2m) bytes).
+    pub fn new(n: usize, m: usize) -> Self {
+        let chunk_cols = (CHUNK_TARGET_BYTES / (8 * (n.min(PANEL) * 2 + 32 + n.max(1))))
+            .next_power_of_two()
+            .clamp(4096, 32768);
+        StreamedQr {
+            n,
+            m,
+            r: Mat::zeros(n, n),
+            y: Mat::zeros(n, m),
+            e: vec![0.0; m],
+            fnorm2: vec![0.0; m],
+            rows: 0,
+            chunk_cols,
+        }
+    }
+
+    /// Number of unknowns per column (columns of `T_oᵀ`, interface DoFs).
+    pub fn n(&self) -> usize {
+        self.n
+    }
+
+    /// Number of right-hand-side columns (columns of `T_nᵀ`).
+    pub fn m(&self) -> usize {
+        self.m
+    }
+
+    /// Rows absorbed so far (2pz).
+    pub fn rows(&self) -> usize {
+        self.rows
+    }
+
+    /// The current triangle `R` (n × n, upper triangular; `RᵀR = T_oᵀᵀ T_oᵀ`).
+    pub fn r(&self) -> MatRef<'_, f64> {
+        self.r.as_ref()
+    }
+
+    /// Columns of `Y`/`F` processed per parallel task.
+    pub fn chunk_cols(&self) -> usize {
+        self.chunk_cols
+    }
+
+    /// Sets the number of columns per parallel task (≥ 1; the transient memory of
+    /// [`absorb`](Self::absorb) is O((q + 64)·chunk) per thread).
+    pub fn set_chunk_cols(&mut self, cols: usize) {
+        self.chunk_cols = cols.max(1);
+    }
+
+    /// Bytes held by the state: `R`, `Y` (with faer's column padding), `e`, `fnorm2`.
+    pub fn memory_bytes(&self) -> usize {
+        let f = std::mem::size_of::<f64>();
+        let mat = |a: &Mat<f64>| a.col_stride().unsigned_abs() * a.ncols() * f;
+        mat(&self.r) + mat(&self.y) + (self.e.capacity() + self.fnorm2.capacity()) * f
+    }
+
+    /// Upper bound of the transient bytes one [`absorb`](Self::absorb) of a q-row block
+    /// allocates: the reflectors (q·n + 32·n) plus, per rayon worker, the chunk buffers
+    /// ((q + 2·min(n, 32))·chunk).
+    pub fn absorb_workspace_bytes(&self, q: usize) -> usize {
+        let nb = self.n.min(PANEL);
+        let chunk = self.chunk_cols.min(self.m);
+        let per_worker = (q + 2 * nb) * chunk;
+        8 * (q * self.n + nb * self.n + self.n + rayon::current_num_threads() * per_worker)
+    }
+
+    /// Absorbs one block of rows: `g` (q × n, rows of `T_oᵀ`) and `f` (q × m, the same rows of
+    /// `T_nᵀ`), any q ≥ 0 (DESIGN.md §3.3 "to absorb a block").
+    ///
+    /// Householder QR of `[R; G]` gives the new `R`; the same reflectors, transposed, are
+    /// applied to `[Y; F]`: the top n rows are the new `Y`, the squared column norms of the
+    /// bottom q rows add to `e`. `F` is processed in column chunks in parallel (rayon); the
+    /// blocks may be dropped afterwards.
+    ///
+    /// Errors (`Error::InvalidSetting`, state unchanged): `g.ncols() != n`, `f.ncols() != m`,
+    /// `g.nrows() != f.nrows()`, a NaN or ±∞ entry.
+    pub fn absorb(&mut self, g: MatRef<'_, f64>, f: MatRef<'_, f64>) -> Result<()> {
+        if g.ncols() != self.n {
+            return Err(Error::InvalidSetting(format!(
+                "least-squares block G has {} columns, but the state has n = {} interface \
+                 unknowns",
+                g.ncols(),
+                self.n
+            )));
+        }
+        if f.ncols() != self.m {
+            return Err(Error::InvalidSetting(format!(
+                "least-squares block F has {} columns, but the state has m = {} right-hand-side \
+                 columns",
+                f.ncols(),
+                self.m
+            )));
+        }
+        if g.nrows() != f.nrows() {
+            return Err(Error::InvalidSetting(format!(
+                "least-squares blocks G and F must have the same rows: G has {}, F has {}",
+                g.nrows(),
+                f.nrows()
+            )));
+        }
+        check_finite("G", g, self.chunk_cols)?;
+        check_finite("F", f, self.chunk_cols)?;
+        self.absorb_unchecked(g, f, true);
+        self.rows += g.nrows();
+        Ok(())
+    }
+
+    /// TSQR step: combines two states built from disjoint row sets into the state of all their
+    /// rows — the QR of `[R1; R2]` applied to `[Y1; Y2]`; `e`, `fnorm2` and `rows` add.
+    ///
+    /// Errors: different `n` or `m` (`Error::InvalidSetting`).
+    pub fn merge(mut self, other: StreamedQr) -> Result<StreamedQr> {
+        if self.n != other.n || self.m != other.m {
+            return Err(Error::InvalidSetting(format!(
+                "cannot merge least-squares states of different shapes: n×m = {}×{} and {}×{}",
+                self.n, self.m, other.n, other.m
+            )));
+        }
+        if other.rows == 0 {
+            return Ok(self);
+        }
+        if self.rows == 0 {
+            let chunk_cols = self.chunk_cols;
+            let mut other = other;
+            other.chunk_cols = chunk_cols;
+            return Ok(other);
+        }
+        self.absorb_unchecked(other.r.as_ref(), other.y.as_ref(), false);
+        let chunk = self.chunk_cols;
+        self.e
+            .par_chunks_mut(chunk)
+            .zip(other.e.par_chunks(chunk))
+            .zip(self.fnorm2.par_chunks_mut(chunk))
+            .zip(other.fnorm2.par_chunks(chunk))
+            .for_each(|(((e1, e2), f1), f2)| {
+                e1.iter_mut().zip(e2).for_each(|(a, b)| *a += b);
+                f1.iter_mut().zip(f2).for_each(|(a, b)| *a += b);
+            });
+        self.rows += other.rows;
+        Ok(self)
+    }
+
+    /// The core of absorb/merge: `[R; G]`, `[Y; F]` → new `R`, `Y`, `e` (+ `fnorm2` if
+    /// `count_fnorm`, i.e. when `F` holds original rows of `T_nᵀ`). Inputs already validated.
+    fn absorb_unchecked(&mut self, g: MatRef<'_, f64>, f: MatRef<'_, f64>, count_fnorm: bool) {
+        let q = g.nrows();
+        if q == 0 {
+            return;
+        }
+        let refl = self.factor_block(g);
+        if self.m == 0 {
+            return;
+        }
+        let n = self.n;
+        let chunk = self.chunk_cols;
+        let wrows = n.min(PANEL);
+        let refl = &refl;
+        self.y
+            .as_mut()
+            .par_col_chunks_mut(chunk)
+            .zip(self.e.par_chunks_mut(chunk))
+            .zip(self.fnorm2.par_chunks_mut(chunk))
+            .enumerate()
+            .for_each_init(
+                || Workspace {
+                    f: Mat::zeros(q, chunk.min(f.ncols())),
+                    w: Mat::zeros(wrows, chunk.min(f.ncols())),
+                    tw: Mat::zeros(wrows, chunk.min(f.ncols())),
+                },
+                |ws, (idx, ((y, e), fnorm2))| {
+                    let c0 = idx * chunk;
+                    let c = y.ncols();
+                    apply_chunk(
+                        refl,
+                        y,
+                        f.subcols(c0, c),
+                        e,
+                        count_fnorm.then_some(fnorm2),
+                        ws,
+                    );
+                },
+            );
+    }
+
+    /// Householder QR of `[R; G]` in place: `R` becomes the new triangle, the returned
+    /// reflectors hold the essential parts (in a copy of `G`) and the compact-WY `T` factors.
+    fn factor_block(&mut self, g: MatRef<'_, f64>) -> Reflectors {
+        let n = self.n;
+        let q = g.nrows();
+        let mut vg = Mat::<f64>::zeros(q, n);
+        vg.as_mut().copy_from(g);
+        let mut tau = vec![0.0; n];
+        for (j, tau_j) in tau.iter_mut().enumerate() {
+            let (left, mut right) = vg.as_mut().split_at_col_mut(j + 1);
+            let mut vj = left.col_mut(j);
+            let xnorm = vj.rb().norm_l2();
+            if xnorm == 0.0 {
+                // G's column j is already zero below R[j, j]: the reflector is the identity.
+                continue;
+            }
+            let alpha = self.r[(j, j)];
+            // LAPACK dlarfg: β = −sign(α)·‖(α, x)‖, τ = (β − α)/β, v = x/(α − β).
+            let beta = -alpha.signum() * alpha.hypot(xnorm);
+            let beta = if alpha == 0.0 { -xnorm } else { beta };
+            let t = (beta - alpha) / beta;
+            let denom = alpha - beta;
+            for x in vj.rb_mut().iter_mut() {
+                *x /= denom;
+            }
+            self.r[(j, j)] = beta;
+            *tau_j = t;
+            let vj = vj.rb();
+            for c in 0..n - j - 1 {
+                let mut gc = right.rb_mut().col_mut(c);
+                let dot = self.r[(j, j + 1 + c)] + dot_col(vj, gc.rb());
+                let s = t * dot;
+                self.r[(j, j + 1 + c)] -= s;
+                for (x, v) in gc.rb_mut().iter_mut().zip(vj.iter()) {
+                    *x -= s * v;
+                }
+            }
+        }
+        // Compact-WY T factor per panel (LAPACK dlarft, forward, columnwise): for the panel's
+        // reflectors H_a ⋯ H_{a+nb−1} = I − V T Vᵀ with V = [E; vg_panel]; the top parts of two
+        // different reflectors are orthogonal unit vectors, so Vᵀ V's off-diagonal comes from
+        // vg alone.
+        let nbmax = n.min(PANEL);
+        let mut t = Mat::<f64>::zeros(nbmax, n);
+        let mut tmp = vec![0.0; nbmax];
+        let mut p0 = 0;
+        while p0 < n {
+            let nb = PANEL.min(n - p0);
+            for i in 0..nb {
+                let ti = tau[p0 + i];
+                t[(i, p0 + i)] = ti;
+                if ti == 0.0 {
+                    continue;
+                }
+                let vi = vg.col(p0 + i);
+                for (k, tk) in tmp.iter_mut().enumerate().take(i) {
+                    *tk = -ti * dot_col(vg.col(p0 + k), vi);
+                }
+                // T[0..i, i] = T[0..i, 0..i] · tmp (upper triangular).
+                for r in 0..i {
+                    let mut s = 0.0;
+                    for (k, tk) in tmp.iter().enumerate().take(i).skip(r) {
+                        s += t[(r, p0 + k)] * tk;
+                    }
+                    t[(r, p0 + i)] = s;
+                }
+            }
+            p0 += nb;
+        }
+        Reflectors { vg, t }
+    }
+
+    /// Solves the least-squares problem from the state (DESIGN.md §3.3 "Finish").
+    ///
+    /// 1. Column equilibration: the column norms of `T_oᵀ` equal those of `R` (`Q` is
+    ///    orthogonal), and QR commutes with column scaling, so with `S = diag(1/‖R e_j‖)` the
+    ///    triangle of the equilibrated problem `T_oᵀ S` is `R·S` — no second pass over the
+    ///    data. (Householder QR is column-wise backward stable, so `R·S` is as accurate as if
+    ///    the data had been scaled before the QR.)
+    /// 2. SVD `R·S = U Σ Vᵀ` (n × n); `cond_equilibrated = σ_max/σ_min`; `cond_raw` from the
+    ///    singular values of `R`.
+    /// 3. Rank: keep σ_i > τ·σ_max, τ from [`LsqOptions::rcond_tol`].
+    /// 4. `Wᵀ = S V_r Σ_r⁻¹ U_rᵀ Y`, returned as `W = Yᵀ (U_r Σ_r⁻¹ V_rᵀ S)` (m × n).
+    /// 5. Residual: `‖T_oᵀ w_j − t_j‖² = e_j + ‖U_dropᵀ Y e_j‖²` (the second term only when
+    ///    truncated), reported relative to `‖t_j‖ = √fnorm2_j`.
+    ///
+    /// Errors (`Error::InvalidSetting`): fewer rows than unknowns (2pz < n), `n = 0`,
+    /// all-zero `T_oᵀ`, a negative/non-finite `rcond_tol`. `Error::Factor` if the SVD fails.
+    pub fn finish(&self, opts: &LsqOptions) -> Result<LsqSolution> {
+        let n = self.n;
+        let m = self.m;
+        if !(opts.rcond_tol.is_finite() && opts.rcond_tol >= 0.0) {
+            return Err(Error::InvalidSetting(format!(
+                "least-squares rcond_tol must be finite and ≥ 0, got {}",
+                opts.rcond_tol
+            )));
+        }
+        if n == 0 {
+            return Err(Error::InvalidSetting(
+                "least squares with n = 0 interface unknowns: choose at least one interface DoF"
+                    .into(),
+            ));
+        }
+        if self.rows < n {
+            return Err(Error::InvalidSetting(format!(
+                "least squares needs 2pz ≥ n rows: {} rows absorbed, at least n = {} needed \
+                 ({} more; add reference frequencies or inputs, or use fewer interface DoFs)",
+                self.rows,
+                n,
+                n - self.rows
+            )));
+        }
+        let col_norms: Vec<f64> = (0..n).map(|j| self.r.col(j).norm_l2()).collect();
+        if col_norms.iter().all(|&x| x == 0.0) {
+            return Err(Error::InvalidSetting(format!(
+                "least squares: T_oᵀ is all zero ({} rows absorbed) — the interface DoFs do not \
+                 respond to the inputs at the reference frequencies",
+                self.rows
+            )));
+        }
+        if col_norms.iter().any(|x| !x.is_finite()) {
+            return Err(Error::InvalidSetting(
+                "least squares: the triangle R overflowed (|T_oᵀ| entries near f64::MAX); \
+                 rescale the snapshots"
+                    .into(),
+            ));
+        }
+        let scale: Vec<f64> = col_norms
+            .iter()
+            .map(|&d| if d > 0.0 { 1.0 / d } else { 1.0 })
+            .collect();
+        let rs = Mat::<f64>::from_fn(n, n, |i, j| self.r[(i, j)] * scale[j]);
+        let svd = rs
+            .thin_svd()
+            .map_err(|e| Error::Factor(format!("SVD of the equilibrated R failed: {e:?}")))?;
+        let sigma: Vec<f64> = (0..n).map(|i| svd.S()[i]).collect();
+        let sigma_raw = self
+            .r
+            .singular_values()
+            .map_err(|e| Error::Factor(format!("SVD of R failed: {e:?}")))?;
+        let cond = |s: &[f64]| {
+            let (max, min) = (s[0], s[s.len() - 1]);
+            if min > 0.0 {
+                max / min
+            } else {
+                f64::INFINITY
+            }
+        };
+        let cond_raw = cond(&sigma_raw);
+        let cond_equilibrated = cond(&sigma);
+        let tol = opts.effective_tol(self.rows, n);
+        let smax = sigma[0];
+        let rank = sigma.iter().take_while(|&&s| s > tol * smax).count();
+        let truncated = rank < n;
+
+        // M = U_r Σ_r⁻¹ V_rᵀ S (n × n), W = Yᵀ M.
+        let u = svd.U();
+        let v = svd.V();
+        let ur_scaled = Mat::<f64>::from_fn(n, rank, |i, k| u[(i, k)] / sigma[k]);
+        let vs = Mat::<f64>::from_fn(rank, n, |k, j| v[(j, k)] * scale[j]);
+        let mut mm = Mat::<f64>::zeros(n, n);
+        matmul(
+            mm.as_mut(),
+            Accum::Replace,
+            ur_scaled.as_ref(),
+            vs.as_ref(),
+            1.0,
+            Par::Seq,
+        );
+        let mut w = Mat::<f64>::zeros(m, n);
+        matmul(
+            w.as_mut(),
+            Accum::Replace,
+            self.y.transpose(),
+            mm.as_ref(),
+            1.0,
+            Par::rayon(0),
+        );
+
+        // Residuals: e_j (+ ‖U_dropᵀ Y e_j‖² when truncated).
+        let chunk = self.chunk_cols;
+        let mut residual = vec![0.0; m];
+        let udrop = u.subcols(rank, n - rank);
+        residual
+            .par_chunks_mut(chunk)
+            .enumerate()
+            .for_each(|(idx, res)| {
+                let c0 = idx * chunk;
+                let c = res.len();
+                let extra = truncated.then(|| {
+                    let mut z = Mat::<f64>::zeros(n - rank, c);
+                    matmul(
+                        z.as_mut(),
+                        Accum::Replace,
+                        udrop.transpose(),
+                        self.y.subcols(c0, c),
+                        1.0,
+                        Par::Seq,
+                    );
+                    z
+                });
+                for (j, r) in res.iter_mut().enumerate() {
+                    let mut e = self.e[c0 + j];
+                    if let Some(z) = &extra {
+                        e += z.col_as_slice(j).iter().map(|x| x * x).sum::<f64>();
+                    }
+                    let f2 = self.fnorm2[c0 + j];
+                    *r = if f2 > 0.0 { (e / f2).sqrt() } else { 0.0 };
+                }
+            });
+        let (mut residual_max, mut residual_argmax) = (0.0, 0);
+        for (j, &r) in residual.iter().enumerate() {
+            if r > residual_max {
+                residual_max = r;
+                residual_argmax = j;
+            }
+        }
+        let residual_mean = if m > 0 {
+            residual.iter().sum::<f64>() / m as f64
+        } else {
+            0.0
+        };
+        Ok(LsqSolution {
+            w,
+            singular_values: sigma,
+            col_norms,
+            cond_raw,
+            cond_equilibrated,
+            rank,
+            truncated,
+            rcond_used: tol,
+            residual,
+            residual_max,
+            residual_mean,
+            residual_argmax,
+            rows: self.rows,
+        })
+    }
+}
+
+/// Applies the block's reflectors (transposed) to one column chunk: `[y; f] ← Qᵀ [y; f]`,
+/// `e += ‖new bottom rows‖²` per column, `fnorm2 += ‖f‖²` per column if given.
+fn apply_chunk(
+    refl: &Reflectors,
+    mut y: MatMut<'_, f64>,
+    f: MatRef<'_, f64>,
+    e: &mut [f64],
+    fnorm2: Option<&mut [f64]>,
+    ws: &mut Workspace,
+) {
+    let n = y.nrows();
+    let c = y.ncols();
+    let q = f.nrows();
+    let mut fb = ws.f.as_mut().subcols_mut(0, c);
+    fb.copy_from(f);
+    if let Some(fnorm2) = fnorm2 {
+        for (j, x) in fnorm2.iter_mut().enumerate() {
+            *x += sum_sq(fb.rb().col(j));
+        }
+    }
+    let mut p0 = 0;
+    while p0 < n {
+        let nb = PANEL.min(n - p0);
+        let vg = refl.vg.subcols(p0, nb);
+        let t = refl.t.submatrix(0, p0, nb, nb);
+        let mut w = ws.w.as_mut().submatrix_mut(0, 0, nb, c);
+        let mut tw = ws.tw.as_mut().submatrix_mut(0, 0, nb, c);
+        let mut yb = y.rb_mut().subrows_mut(p0, nb);
+        // W = Vᵀ [Y; F] = Y[panel rows] + vgᵀ F
+        w.copy_from(yb.rb());
+        if q > 0 {
+            matmul(
+                w.rb_mut(),
+                Accum::Add,
+                vg.transpose(),
+                fb.rb(),
+                1.0,
+                Par::Seq,
+            );
+        }
+        // TW = Tᵀ W;  Y[panel] −= TW;  F −= vg TW
+        matmul(
+            tw.rb_mut(),
+            Accum::Replace,
+            t.transpose(),
+            w.rb(),
+            1.0,
+            Par::Seq,
+        );
+        faer::zip!(yb.rb_mut(), tw.rb()).for_each(|faer::unzip!(a, b)| *a -= *b);
+        matmul(fb.rb_mut(), Accum::Add, vg, tw.rb(), -1.0, Par::Seq);
+        p0 += nb;
+    }
+    for (j, x) in e.iter_mut().enumerate() {
+        *x += sum_sq(fb.rb().col(j));
+    }
+}
+
+fn sum_sq(c: faer::ColRef<'_, f64>) -> f64 {
+    c.iter().map(|x| x * x).sum()
+}
+
+fn dot_col(a: faer::ColRef<'_, f64>, b: faer::ColRef<'_, f64>) -> f64 {
+    a.iter().zip(b.iter()).map(|(x, y)| x * y).sum()
+}
+
+/// `Err` naming the first NaN/±∞ entry of `a`; the scan runs over column chunks in parallel.
+fn check_finite(name: &str, a: MatRef<'_, f64>, chunk: usize) -> Result<()> {
+    if a.nrows() == 0 || a.ncols() == 0 {
+        return Ok(());
+    }
+    let bad = (0..a.ncols().div_ceil(chunk)).into_par_iter().any(|idx| {
+        let c0 = idx * chunk;
+        let c = chunk.min(a.ncols() - c0);
+        !all_finite(a.subcols(c0, c))
+    });
+    if !bad {
+        return Ok(());
+    }
+    for j in 0..a.ncols() {
+        for i in 0..a.nrows() {
+            let x = a[(i, j)];
+            if !x.is_finite() {
+                return Err(Error::InvalidSetting(format!(
+                    "least-squares block {name} has a non-finite entry {x} at row {i}, column \
+                     {j}"
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// `true` if every entry is finite: `x·0` is 0 for finite x and NaN otherwise, summed with
+/// independent accumulators so the loop vectorizes.
+fn all_finite(a: MatRef<'_, f64>) -> bool {
+    let mut acc = 0.0f64;
+    for j in 0..a.ncols() {
+        let col = a.col(j);
+        if let Some(s) = col.try_as_col_major() {
+            let s = s.as_slice();
+            let mut lanes = [0.0f64; 4];
+            let mut it = s.chunks_exact(4);
+            for ch in &mut it {
+                for k in 0..4 {
+                    lanes[k] += ch[k] * 0.0;
+                }
+            }
+            for &x in it.remainder() {
+                lanes[0] += x * 0.0;
+            }
+            acc += lanes.iter().sum::<f64>();
+        } else {
+            acc += col.iter().map(|x| x * 0.0).sum::<f64>();
+        }
+    }
+    acc == 0.0
+}
