@@ -3,7 +3,7 @@
 //!
 //! Entry points: [`BoxSpec`] (what to mesh; [`BoxSpec::paper_bar`] is the paper's bar),
 //! [`assemble`] (consistent mass `M` and stiffness `K` as full symmetric CSC matrices),
-//! [`paper_io_dofs`] (the paper's nine input/output DoFs) and [`rigid_modes_from_nodes`]
+//! [`paper_io_dofs`] (the paper's nine input/output DoFs) (rigid modes: [`crate::rigid::rigid_modes`])
 //! (the six rigid-body modes `V0`, eq. 15 of the paper).
 //!
 //! # The model
@@ -62,7 +62,6 @@
 
 use crate::{Error, Result};
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
-use faer::Mat;
 use rayon::prelude::*;
 
 /// Rayleigh stiffness-proportional damping factor of the paper's bar: $D = \alpha M + \beta K$
@@ -405,45 +404,6 @@ pub fn paper_io_dofs(spec: &BoxSpec) -> Vec<usize> {
         .collect()
 }
 
-/// Rigid-body modes $V_0$ ($N\times 6$, $N = 3\cdot$`nodes.len()`) of a body whose node $i$
-/// has position $r_i$ and owns DoFs $3i..3i+2$ (eq. 15 of the paper):
-/// $$V_0^{(i)} = \begin{pmatrix} I_3 & -[\,r_i - c\,]_\times \end{pmatrix},\qquad
-///   c = \tfrac1{n}\textstyle\sum_i r_i,$$
-/// columns $t_x, t_y, t_z, r_x, r_y, r_z$. Column $3 + a$ is the small rotation about axis
-/// $a$ through the node centroid $c$: node $i$ moves by $e_a\times(r_i-c)$. Centering on
-/// $c$ keeps the columns well conditioned (the translations and rotations are
-/// Euclidean-orthogonal); the span is the same for any centre.
-pub fn rigid_modes_from_nodes(nodes: &[[f64; 3]]) -> Mat<f64> {
-    let n = nodes.len();
-    let mut c = [0.0f64; 3];
-    for r in nodes {
-        for d in 0..3 {
-            c[d] += r[d];
-        }
-    }
-    if n > 0 {
-        for v in &mut c {
-            *v /= n as f64;
-        }
-    }
-    let mut v = Mat::<f64>::zeros(3 * n, 6);
-    for (i, r) in nodes.iter().enumerate() {
-        let p = [r[0] - c[0], r[1] - c[1], r[2] - c[2]];
-        for d in 0..3 {
-            v[(3 * i + d, d)] = 1.0;
-        }
-        // e_x × p = (0, -p_z, p_y)
-        v[(3 * i + 1, 3)] = -p[2];
-        v[(3 * i + 2, 3)] = p[1];
-        // e_y × p = (p_z, 0, -p_x)
-        v[(3 * i, 4)] = p[2];
-        v[(3 * i + 2, 4)] = -p[0];
-        // e_z × p = (-p_y, p_x, 0)
-        v[(3 * i, 5)] = -p[1];
-        v[(3 * i + 1, 5)] = p[0];
-    }
-    v
-}
 
 // ---------------------------------------------------------------------------------------
 // Element matrices
@@ -778,7 +738,7 @@ mod tests {
         let pos: Vec<[f64; 3]> = (0..8)
             .map(|a| std::array::from_fn(|d| ((a >> d) & 1) as f64 * h[d]))
             .collect();
-        let v0 = rigid_modes_from_nodes(&pos);
+        let v0 = crate::rigid::rigid_modes(&pos, 3);
         for c in 0..6 {
             for p in 0..24 {
                 let f: f64 = (0..24).map(|q| el.k[p][q] * v0[(q, c)]).sum();
@@ -905,19 +865,6 @@ mod tests {
     }
 
     #[test]
-    fn rigid_modes_columns() {
-        let nodes = [[1.0, 2.0, 3.0], [3.0, 2.0, 3.0]];
-        let v = rigid_modes_from_nodes(&nodes);
-        assert_eq!((v.nrows(), v.ncols()), (6, 6));
-        // Centroid (2,2,3): node 0 at p = (-1,0,0). Rotation about z moves it by
-        // e_z × p = (0,-1,0).
-        assert_eq!([v[(0, 5)], v[(1, 5)], v[(2, 5)]], [0.0, -1.0, 0.0]);
-        // Rotation about y: e_y × p = (0,0,1).
-        assert_eq!([v[(0, 4)], v[(1, 4)], v[(2, 4)]], [0.0, 0.0, 1.0]);
-        assert_eq!(rigid_modes_from_nodes(&[]).nrows(), 0);
-    }
-
-    #[test]
     fn io_dofs() {
         let s = BoxSpec::paper_bar();
         assert_eq!(
@@ -1010,4 +957,20 @@ mod tests {
             }
         }
     }
+}
+
+/// The built-in model as a validated [`crate::model::Model`]: the box of `spec` with the
+/// paper's damping (Rayleigh α = 0, β = 10⁻⁵), inputs = outputs = [`paper_io_dofs`] and band
+/// [`PAPER_BAND_HZ`].
+///
+/// # Errors
+/// As [`assemble`].
+pub fn bar_model(spec: &BoxSpec) -> Result<crate::model::Model> {
+    let body = assemble(spec)?;
+    let io = paper_io_dofs(spec);
+    let scene = crate::scene::Scene { inputs: io.clone(), outputs: io, band_hz: PAPER_BAND_HZ };
+    let name = format!("bar {}x{}x{}", spec.elements[0], spec.elements[1], spec.elements[2]);
+    let damping = crate::model::Damping::Rayleigh { alpha: PAPER_RAYLEIGH_ALPHA, beta: PAPER_RAYLEIGH_BETA };
+    let (model, _) = crate::model::Model::new(name, body.mass, body.stiffness, damping, Some(body.nodes), 3, scene)?;
+    Ok(model)
 }

@@ -15,7 +15,7 @@ use crate::rigid::RigidBody;
 use crate::sweep::{transfer_function, Part, ProgressFn, SweepOptions};
 use crate::{Error, Result};
 use crate::eigen::Modes;
-use faer::{Mat, MatRef};
+use faer::{c64, Mat, MatRef};
 
 /// ε(f) on a frequency grid.
 #[derive(Clone, Debug)]
@@ -26,8 +26,6 @@ pub struct ErrorCurve {
     pub eps_elastic: Vec<f64>,
     /// ε of the total transfer function.
     pub eps_total: Vec<f64>,
-    /// Wall time of the full-model sweep (s).
-    pub sweep_seconds: f64,
 }
 
 impl ErrorCurve {
@@ -38,34 +36,71 @@ impl ErrorCurve {
     }
 }
 
-/// ε(f) of `rom` against `model` at `freqs_hz` (both variants; see the module doc).
-///
-/// # Errors
-/// The sweep's errors (e.g. f = 0 on a free body).
-pub fn transfer_error(model: &Model, rom: &Rom, freqs_hz: &[f64], opts: &SweepOptions, progress: ProgressFn<'_>) -> Result<ErrorCurve> {
-    if freqs_hz.is_empty() {
-        return Err(Error::InvalidSetting("error curve: no frequencies".into()));
+/// The full model's transfer functions on a grid, computed once and compared with any
+/// number of ROMs.
+#[derive(Clone, Debug)]
+pub struct Reference {
+    /// Frequencies (Hz).
+    pub freqs_hz: Vec<f64>,
+    /// Input DoFs.
+    pub inputs: Vec<usize>,
+    /// Output DoFs.
+    pub outputs: Vec<usize>,
+    /// H1 (elastic part) per frequency.
+    pub h1: Vec<Mat<c64>>,
+    /// H = H0 + H1 per frequency (= H1 on a constrained body).
+    pub h: Vec<Mat<c64>>,
+    /// Wall time of the full-model sweep (s).
+    pub sweep_seconds: f64,
+}
+
+impl Reference {
+    /// Sweeps the full model at `freqs_hz` (see the module doc for H = H0 + H1).
+    ///
+    /// # Errors
+    /// The sweep's errors (e.g. f = 0 on a free body).
+    pub fn compute(model: &Model, inputs: &[usize], outputs: &[usize], freqs_hz: &[f64], opts: &SweepOptions, progress: ProgressFn<'_>) -> Result<Self> {
+        if freqs_hz.is_empty() {
+            return Err(Error::InvalidSetting("error curve: no frequencies".into()));
+        }
+        let frf = transfer_function(model, inputs, outputs, freqs_hz, Part::Elastic, false, opts, progress)?;
+        let rigid = RigidBody::detect(model)?;
+        let h = frf
+            .h
+            .iter()
+            .zip(freqs_hz)
+            .map(|(h1, &f)| match &rigid {
+                Some(rb) => h1 + rb.h0(2.0 * std::f64::consts::PI * f, inputs, outputs),
+                None => h1.clone(),
+            })
+            .collect();
+        Ok(Reference {
+            freqs_hz: freqs_hz.to_vec(),
+            inputs: inputs.to_vec(),
+            outputs: outputs.to_vec(),
+            h1: frf.h,
+            h,
+            sweep_seconds: frf.seconds,
+        })
     }
-    let h1 = transfer_function(model, &rom.inputs, &rom.outputs, freqs_hz, Part::Elastic, false, opts, progress)?;
-    let rigid = RigidBody::detect(model)?;
-    let mut eps_elastic = Vec::with_capacity(freqs_hz.len());
-    let mut eps_total = Vec::with_capacity(freqs_hz.len());
-    for (k, &f) in freqs_hz.iter().enumerate() {
-        let hr = rom.transfer(f);
-        let diff = (&h1.h[k] - &hr).norm_l2();
-        eps_elastic.push(diff / h1.h[k].norm_l2());
-        let total = match &rigid {
-            Some(rb) => &h1.h[k] + rb.h0(2.0 * std::f64::consts::PI * f, &rom.inputs, &rom.outputs),
-            None => h1.h[k].clone(),
-        };
-        eps_total.push(diff / total.norm_l2());
+
+    /// ε(f) of `rom` (both variants).
+    ///
+    /// # Errors
+    /// [`Error::InvalidSetting`] when the ROM has other inputs/outputs than the reference.
+    pub fn error(&self, rom: &Rom) -> Result<ErrorCurve> {
+        if rom.inputs != self.inputs || rom.outputs != self.outputs {
+            return Err(Error::InvalidSetting("the ROM's inputs/outputs differ from the reference's".into()));
+        }
+        let mut eps_elastic = Vec::with_capacity(self.freqs_hz.len());
+        let mut eps_total = Vec::with_capacity(self.freqs_hz.len());
+        for (k, &f) in self.freqs_hz.iter().enumerate() {
+            let diff = (&self.h1[k] - rom.transfer(f)).norm_l2();
+            eps_elastic.push(diff / self.h1[k].norm_l2());
+            eps_total.push(diff / self.h[k].norm_l2());
+        }
+        Ok(ErrorCurve { freqs_hz: self.freqs_hz.clone(), eps_elastic, eps_total })
     }
-    Ok(ErrorCurve {
-        freqs_hz: freqs_hz.to_vec(),
-        eps_elastic,
-        eps_total,
-        sweep_seconds: h1.seconds,
-    })
 }
 
 /// Frequency (Hz) of an eigenvalue λ = ω²: sign(λ)·√|λ| / 2π.

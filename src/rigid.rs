@@ -11,6 +11,10 @@
 //! H0(s) = C V0 (s²M0 + sD0 + K0)⁻¹ V0ᵀ B          (eq. 16)
 //! ```
 //!
+//! K0 = V0ᵀKV0 is 0 for a free body; its computed value is rounding noise of size eps·‖K‖
+//! that would swamp ω²M0 at low frequency, so it is taken as exactly 0 (and D0 = αM0 for
+//! Rayleigh damping).
+//!
 //! For K V0 = 0 and D V0 ∈ span(M V0) (e.g. Rayleigh damping) A(s) is block diagonal in the
 //! M-orthogonal split rigid ⊕ elastic, so H = H0 + C X exactly; X is computed without forming
 //! H − H0, which loses all digits at low frequency (H and H0 grow like 1/s²).
@@ -34,7 +38,6 @@ pub struct RigidBody {
     m0: Mat<f64>,
     m0_inv: Mat<f64>,
     d0: Mat<f64>,
-    k0: Mat<f64>,
     /// ‖K V0‖_F / (‖K‖_F ‖V0‖_F): how rigid the modes are for this K.
     pub stiffness_residual: f64,
 }
@@ -103,10 +106,9 @@ impl RigidBody {
         let kv0 = mul_dense(model.stiffness.as_ref(), v0.as_ref());
         let stiffness_residual = frob(kv0.as_ref()) / (sparse_frob(&model.stiffness) * frob(v0.as_ref())).max(f64::MIN_POSITIVE);
         let m0 = sym(v0.transpose() * &mv0);
-        let k0 = sym(v0.transpose() * &kv0);
         let d0 = match &model.damping {
             Damping::None => Mat::zeros(6, 6),
-            Damping::Rayleigh { alpha, beta } => Mat::from_fn(6, 6, |i, j| alpha * m0[(i, j)] + beta * k0[(i, j)]),
+            Damping::Rayleigh { alpha, .. } => Mat::from_fn(6, 6, |i, j| alpha * m0[(i, j)]),
             Damping::Matrix(d) => sym(v0.transpose() * mul_dense(d.as_ref(), v0.as_ref())),
         };
         let llt = m0.llt(faer::Side::Lower).map_err(|_| {
@@ -119,7 +121,6 @@ impl RigidBody {
             m0,
             m0_inv,
             d0,
-            k0,
             stiffness_residual,
         })
     }
@@ -144,11 +145,11 @@ impl RigidBody {
         apply_projector(self.v0.as_ref(), &self.m0_inv, self.mv0.as_ref(), x);
     }
 
-    /// H0(iω) = C V0 (−ω²M0 + iωD0 + K0)⁻¹ V0ᵀ B for B, C selecting `inputs`, `outputs`
-    /// (eq. 16). Infinite at ω = 0.
+    /// H0(iω) = C V0 (−ω²M0 + iωD0)⁻¹ V0ᵀ B for B, C selecting `inputs`, `outputs`
+    /// (eq. 16 with K0 = 0). Infinite at ω = 0.
     pub fn h0(&self, omega: f64, inputs: &[usize], outputs: &[usize]) -> Mat<c64> {
         let a = Mat::<c64>::from_fn(6, 6, |i, j| {
-            c64::new(self.k0[(i, j)] - omega * omega * self.m0[(i, j)], omega * self.d0[(i, j)])
+            c64::new(-omega * omega * self.m0[(i, j)], omega * self.d0[(i, j)])
         });
         let b0 = Mat::<c64>::from_fn(6, inputs.len(), |i, j| c64::new(self.v0[(inputs[j], i)], 0.0));
         let x = a.partial_piv_lu().solve(&b0);
@@ -185,5 +186,23 @@ fn apply_projector(u: MatRef<'_, f64>, g: &Mat<f64>, w: MatRef<'_, f64>, mut x: 
             }
             x[(i, c)] -= acc;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rigid_modes_columns() {
+        let nodes = [[1.0, 2.0, 3.0], [3.0, 2.0, 3.0]];
+        let v = rigid_modes(&nodes, 3);
+        assert_eq!((v.nrows(), v.ncols()), (6, 6));
+        // Centroid (2,2,3): node 0 at p = (-1,0,0). Rotation about z moves it by
+        // e_z × p = (0,-1,0).
+        assert_eq!([v[(0, 5)], v[(1, 5)], v[(2, 5)]], [0.0, -1.0, 0.0]);
+        // Rotation about y: e_y × p = (0,0,1).
+        assert_eq!([v[(0, 4)], v[(1, 4)], v[(2, 4)]], [0.0, 0.0, 1.0]);
+        assert_eq!(rigid_modes(&[], 3).nrows(), 0);
     }
 }

@@ -23,17 +23,14 @@ fn bar() -> Model {
 #[test]
 fn elastic_equals_total_minus_rigid_mid_band_and_survives_low_frequency() {
     let model = bar();
-    let (lam, phi) = dense_modes(&model);
-    let rigid_below = 1e-6 * lam[lam.len() - 1];
-    assert_eq!(lam.iter().filter(|&&l| l <= rigid_below).count(), 6, "six rigid modes");
-    let beta = sparsemor::fe::PAPER_RAYLEIGH_BETA;
+    let v0 = sparsemor::rigid::rigid_modes(model.nodes.as_ref().unwrap(), 3);
     let (i, o) = (&model.scene.inputs, &model.scene.outputs);
     let freqs = [1e-3, 250.0, 640.0, 930.0];
     let h1 = h(&model, &freqs, Part::Elastic, 2);
     let ht = h(&model, &freqs, Part::Total, 2);
     let h0 = h(&model, &freqs, Part::Rigid, 2);
     for (k, &f) in freqs.iter().enumerate() {
-        let reference = modal_h1(&lam, &phi, 0.0, beta, rigid_below, f, i, o);
+        let reference = dense_h1_deflated(&model, &v0, f, i, o);
         let e_proj = rel_err(&h1[k], &reference);
         let e_sub = rel_err(&(&ht[k] - &h0[k]), &reference);
         println!("f = {f:>8} Hz: projection {e_proj:.2e}, subtraction H - H0 {e_sub:.2e}");
@@ -54,9 +51,13 @@ fn invariant_to_unit_scaling() {
     mm.mass = scaled(&si.mass, 1e-3);
     mm.stiffness = scaled(&si.stiffness, 1e-3);
     mm.nodes = si.nodes.as_ref().map(|n| n.iter().map(|p| [p[0] * 1e3, p[1] * 1e3, p[2] * 1e3]).collect());
+    // H by a direct solve (Part::Total) is ill-conditioned at low frequency on a free body
+    // (cond ≈ λ_max/ω², ~1e10 at 3 Hz: that is why the elastic part is separated), so the
+    // total is compared in the band where it is well posed; elastic and rigid from 3 Hz.
     let freqs = [3.0, 420.0, 990.0];
     for part in [Part::Elastic, Part::Total, Part::Rigid] {
-        let (a, b) = (h(&si, &freqs, part, 2), h(&mm, &freqs, part, 2));
+        let freqs: &[f64] = if part == Part::Total { &freqs[1..] } else { &freqs };
+        let (a, b) = (h(&si, freqs, part, 2), h(&mm, freqs, part, 2));
         for k in 0..freqs.len() {
             let b_si = Mat::from_fn(b[k].nrows(), b[k].ncols(), |r, c| b[k][(r, c)] * 1e-3);
             let e = rel_err(&b_si, &a[k]);
@@ -96,7 +97,9 @@ fn invariant_to_node_permutation() {
     p.scene.outputs = model.scene.outputs.iter().map(|&d| dof(d)).collect();
     let freqs = [5.0, 333.0, 777.0];
     for part in [Part::Elastic, Part::Total] {
-        let (a, b) = (h(&model, &freqs, part, 2), h(&p, &freqs, part, 2));
+        // the total by direct solve only where it is well conditioned (see the scaling test)
+        let freqs: &[f64] = if part == Part::Total { &freqs[1..] } else { &freqs };
+        let (a, b) = (h(&model, freqs, part, 2), h(&p, freqs, part, 2));
         for k in 0..freqs.len() {
             let e = rel_err(&b[k], &a[k]);
             assert!(e <= 1e-9, "{part:?} at {} Hz: {e:.2e}", freqs[k]);
@@ -118,7 +121,7 @@ fn two_threads_give_the_same_numbers_as_one() {
 fn undamped_at_an_eigenfrequency_is_reported_singular() {
     let mut model = bar();
     model.damping = Damping::None;
-    let (lam, _) = dense_modes(&model);
+    let lam = dense_eigenvalues(&model);
     let f = lam[6].sqrt() / (2.0 * std::f64::consts::PI);
     let opts = SweepOptions { threads: 1, ..Default::default() };
     let (i, o) = (&model.scene.inputs, &model.scene.outputs);

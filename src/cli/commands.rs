@@ -28,7 +28,7 @@ pub fn parse_triple<T: std::str::FromStr>(s: &str, what: &str) -> Result<[T; 3]>
 pub fn parse_band(s: &str) -> Result<[f64; 2]> {
     let bad = || Error::InvalidSetting(format!("--band '{s}': expected LO:HI in Hz, e.g. 1:1000"));
     let (a, b) = s.split_once(':').ok_or_else(bad)?;
-    let band = [a.trim().parse().map_err(|_| bad())?, b.trim().parse().map_err(|_| bad())?];
+    let band: [f64; 2] = [a.trim().parse().map_err(|_| bad())?, b.trim().parse().map_err(|_| bad())?];
     if !(band[0] >= 0.0 && band[1] > band[0] && band[1].is_finite()) {
         return Err(Error::InvalidSetting(format!("--band '{s}': need 0 <= LO < HI (empty band)")));
     }
