@@ -173,13 +173,11 @@ struct Workspace {
     f: Vec<f64>,
     /// `Vᵀ [Y; F]` for one panel (nb × chunk, ld nb).
     w: Vec<f64>,
-    /// `Tᵀ Vᵀ [Y; F]` for one panel (nb × chunk, ld nb).
-    tw: Vec<f64>,
 }
 
 impl Workspace {
     fn bytes(&self) -> usize {
-        8 * (self.f.capacity() + self.w.capacity() + self.tw.capacity())
+        8 * (self.f.capacity() + self.w.capacity())
     }
 }
 
@@ -202,7 +200,7 @@ impl WorkspacePool {
             .ok()
             .and_then(|mut p| p.pop())
             .unwrap_or_default();
-        for (buf, len) in [(&mut ws.f, f), (&mut ws.w, w), (&mut ws.tw, w)] {
+        for (buf, len) in [(&mut ws.f, f), (&mut ws.w, w)] {
             if buf.len() < len {
                 buf.resize(len, 0.0);
             }
@@ -241,6 +239,9 @@ struct Reflectors {
     /// Upper-triangular `T` factors, one per panel of `PANEL` reflectors (stored in a
     /// PANEL × n matrix: panel b occupies columns `b·PANEL ..`).
     t: Mat<f64>,
+    /// `vg · Tᵀ` per panel (q × n, panel b in columns `b·PANEL ..`), so that the update of the
+    /// bottom rows `F −= vg (Tᵀ W)` is one product `F −= (vg Tᵀ) W`.
+    vgt: Mat<f64>,
 }
 
 impl StreamedQr {
@@ -288,15 +289,22 @@ impl StreamedQr {
         MatRef::from_column_major_slice(&self.y, self.n, self.m)
     }
 
-    /// Columns of `Y`/`F` processed per parallel task.
+    /// Maximum columns of `Y`/`F` per parallel task (default 4096).
     pub fn chunk_cols(&self) -> usize {
         self.chunk_cols
     }
 
-    /// Sets the number of columns per parallel task (≥ 1; the transient memory of
-    /// [`absorb`](Self::absorb) is O((q + 64)·chunk) per thread).
+    /// Sets the maximum number of columns per parallel task (≥ 1; the buffers of
+    /// [`absorb`](Self::absorb) are (q + min(n, 32))·chunk values per thread).
     pub fn set_chunk_cols(&mut self, cols: usize) {
         self.chunk_cols = cols.max(1);
+    }
+
+    /// Columns per task actually used: `chunk_cols`, reduced for small m so that every rayon
+    /// thread gets about four tasks (load balance), but not below 256 columns.
+    fn task_cols(&self) -> usize {
+        let balanced = self.m.div_ceil(4 * rayon::current_num_threads()).max(256);
+        self.chunk_cols.min(balanced)
     }
 
     /// Bytes held by the state: `R`, `Y`, `e` (8·(n² + n·m + m) up to faer's
@@ -310,13 +318,13 @@ impl StreamedQr {
     }
 
     /// Upper bound of the transient bytes one [`absorb`](Self::absorb) of a q-row block
-    /// allocates: the reflectors (q·n + 32·n) plus, per rayon worker, the chunk buffers
-    /// ((q + 2·min(n, 32))·chunk).
+    /// allocates: the reflectors (2·q·n + 32·n) plus, per rayon worker, the chunk buffers
+    /// ((q + min(n, 32))·chunk).
     pub fn absorb_workspace_bytes(&self, q: usize) -> usize {
         let nb = self.n.min(PANEL);
-        let chunk = self.chunk_cols.min(self.m);
-        let per_worker = (q + 2 * nb) * chunk;
-        8 * (q * self.n + nb * self.n + self.n + rayon::current_num_threads() * per_worker)
+        let chunk = self.task_cols().min(self.m);
+        let per_worker = (q + nb) * chunk;
+        8 * (2 * q * self.n + nb * self.n + self.n + rayon::current_num_threads() * per_worker)
     }
 
     /// Absorbs one block of rows: `g` (q × n, rows of `T_oᵀ`) and `f` (q × m, the same rows of
@@ -353,8 +361,8 @@ impl StreamedQr {
                 f.nrows()
             )));
         }
-        check_finite("G", g, self.chunk_cols)?;
-        check_finite("F", f, self.chunk_cols)?;
+        check_finite("G", g, self.task_cols())?;
+        check_finite("F", f, self.task_cols())?;
         self.absorb_unchecked(g, f);
         self.rows += g.nrows();
         Ok(())
@@ -381,7 +389,7 @@ impl StreamedQr {
             return Ok(other);
         }
         self.absorb_unchecked(other.r.as_ref(), other.y_ref());
-        let chunk = self.chunk_cols;
+        let chunk = self.task_cols();
         self.e
             .par_chunks_mut(chunk)
             .zip(other.e.par_chunks(chunk))
@@ -402,7 +410,7 @@ impl StreamedQr {
         }
         let n = self.n;
         let m = self.m;
-        let chunk = self.chunk_cols;
+        let chunk = self.task_cols();
         let ceff = chunk.min(m);
         let nb = n.min(PANEL);
         let refl = &refl;
@@ -498,7 +506,21 @@ impl StreamedQr {
             }
             p0 += nb;
         }
-        Reflectors { vg, t }
+        let mut vgt = Mat::<f64>::zeros(q, n);
+        let mut p0 = 0;
+        while p0 < n {
+            let nb = PANEL.min(n - p0);
+            matmul(
+                vgt.as_mut().subcols_mut(p0, nb),
+                Accum::Replace,
+                vg.as_ref().subcols(p0, nb),
+                t.as_ref().submatrix(0, p0, nb, nb).transpose(),
+                1.0,
+                Par::Seq,
+            );
+            p0 += nb;
+        }
+        Reflectors { vg, t, vgt }
     }
 
     /// Solves the least-squares problem from the state (DESIGN.md §3.3 "Finish").
@@ -609,7 +631,7 @@ impl StreamedQr {
         );
 
         // Residuals: e_j (+ ‖U_dropᵀ Y e_j‖² when truncated).
-        let chunk = self.chunk_cols;
+        let chunk = self.task_cols();
         let mut residual = vec![0.0; m];
         let udrop = u.subcols(rank, n - rank);
         residual
@@ -692,7 +714,6 @@ fn apply_chunk(
         let vg = refl.vg.subcols(p0, nb);
         let t = refl.t.submatrix(0, p0, nb, nb);
         let w = &mut ws.w[..nb * c];
-        let tw = &mut ws.tw[..nb * c];
         // W = Vᵀ [Y; F] = Y[panel rows] + vgᵀ F
         if nb == n {
             w.copy_from_slice(y);
@@ -709,30 +730,21 @@ fn apply_chunk(
             1.0,
             Par::Seq,
         );
-        // TW = Tᵀ W;  Y[panel rows] −= TW;  F −= vg TW
+        let w = MatRef::from_column_major_slice(&*w, nb, c);
+        // [Y; F] −= V Tᵀ W:  Y[panel rows] −= Tᵀ W,  F −= (vg Tᵀ) W
         matmul(
-            MatMut::from_column_major_slice_mut(&mut *tw, nb, c),
-            Accum::Replace,
+            MatMut::from_column_major_slice_with_stride_mut(&mut y[p0..], nb, c, n),
+            Accum::Add,
             t.transpose(),
-            MatRef::from_column_major_slice(&*w, nb, c),
-            1.0,
+            w,
+            -1.0,
             Par::Seq,
         );
-        if nb == n {
-            y.iter_mut().zip(tw.iter()).for_each(|(a, b)| *a -= b);
-        } else {
-            for (yj, twj) in y.chunks_exact_mut(n).zip(tw.chunks_exact(nb)) {
-                yj[p0..p0 + nb]
-                    .iter_mut()
-                    .zip(twj)
-                    .for_each(|(a, b)| *a -= b);
-            }
-        }
         matmul(
             MatMut::from_column_major_slice_mut(&mut *fb, q, c),
             Accum::Add,
-            vg,
-            MatRef::from_column_major_slice(&*tw, nb, c),
+            refl.vgt.subcols(p0, nb),
+            w,
             -1.0,
             Par::Seq,
         );
