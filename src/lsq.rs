@@ -74,7 +74,8 @@ pub struct LsqOptions {
     /// and a solve through them only amplifies rounding. The default `rcond_tol = 0.0` uses
     /// exactly that floor; raise it (e.g. to the relative accuracy of the snapshots, 1e-10 for
     /// a factorization with that residual) to regularize a nearly dependent interface set.
-    /// The threshold actually applied is reported in [`LsqSolution::rcond_used`].
+    /// The threshold actually applied is reported in [`LsqSolution::rcond_used`]. Must lie
+    /// in [0, 1).
     pub rcond_tol: f64,
 }
 
@@ -538,13 +539,13 @@ impl StreamedQr {
     ///    truncated), reported relative to `‖t_j‖ = (‖Y e_j‖² + e_j)^½`.
     ///
     /// Errors (`Error::InvalidSetting`): fewer rows than unknowns (2pz < n), `n = 0`,
-    /// all-zero `T_oᵀ`, a negative/non-finite `rcond_tol`. `Error::Factor` if the SVD fails.
+    /// all-zero `T_oᵀ`, `rcond_tol` outside [0, 1). `Error::Factor` if the SVD fails.
     pub fn finish(&self, opts: &LsqOptions) -> Result<LsqSolution> {
         let n = self.n;
         let m = self.m;
-        if !(opts.rcond_tol.is_finite() && opts.rcond_tol >= 0.0) {
+        if !(0.0..1.0).contains(&opts.rcond_tol) {
             return Err(Error::InvalidSetting(format!(
-                "least-squares rcond_tol must be finite and ≥ 0, got {}",
+                "least-squares rcond_tol must be in [0, 1) (relative to σ_max), got {}",
                 opts.rcond_tol
             )));
         }

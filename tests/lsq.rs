@@ -583,7 +583,7 @@ fn bad_options_and_n_zero() {
         uniform(&mut rng, 5, 3).as_ref(),
         5,
     );
-    for tol in [-1.0, f64::NAN, f64::INFINITY] {
+    for tol in [-1.0, f64::NAN, f64::INFINITY, 1.0] {
         let msg = invalid(st.finish(&LsqOptions { rcond_tol: tol }));
         assert!(msg.contains("rcond_tol"), "{msg}");
     }
