@@ -15,27 +15,30 @@
 //!
 //! # State and invariant
 //!
-//! A [`StreamedQr`] holds `R` (n × n upper triangular), `Y` (n × m), `e` (m) and `fnorm2` (m).
+//! A [`StreamedQr`] holds `R` (n × n upper triangular), `Y` (n × m) and `e` (m).
 //! After blocks with `rows` rows in total have been absorbed there is an orthogonal `Q` (never
 //! stored) with
 //!
 //! ```text
 //!     Qᵀ [0    0  ]   [R  Y]
-//!        [T_oᵀ T_nᵀ] = [0  B],     e_j = ‖B e_j‖²,   fnorm2_j = ‖T_nᵀ e_j‖²
+//!        [T_oᵀ T_nᵀ] = [0  B],     e_j = ‖B e_j‖²
 //! ```
 //!
 //! (the leading n zero rows are the empty starting state). Because `Q` is orthogonal, for every
 //! column j and every x ∈ Rⁿ:  ‖T_oᵀ x − T_nᵀ e_j‖² = ‖R x − Y e_j‖² + e_j. So `R`, `Y`, `e`
-//! carry everything the least-squares problem needs, in O(n·m) memory.
+//! carry everything the least-squares problem needs, in O(n·m) memory. In particular
+//! `‖T_nᵀ e_j‖² = ‖Y e_j‖² + e_j` (x = 0), so the column norms of `T_nᵀ` that the relative
+//! residual needs are not accumulated separately: a sum of two nonnegative terms, as accurate
+//! as accumulating ‖F e_j‖² block by block, and 8·m bytes and one pass per block cheaper.
 //!
 //! * [`StreamedQr::absorb`] — Householder QR of `[R; G]`, the same reflectors applied
 //!   (transposed) to `[Y; F]`: the top n rows become the new `Y`, the squares of the bottom
 //!   rows add to `e`. The reflectors exploit that `R` is triangular: reflector j touches only
 //!   row j of `R`/`Y` and the q rows of `G`/`F` (LAPACK's `dtpqrt` structure), so absorbing a
-//!   block costs ≈ 4·n·q flops per column of `F` (plus n·32 for the blocked application),
-//!   independent of how many rows were absorbed before.
+//!   block costs ≈ 4·n·q + 2·n·min(n, 32) flops per column of `F` (the second term for the
+//!   compact-WY `T` factors), independent of how many rows were absorbed before.
 //! * [`StreamedQr::merge`] — the same operation on `[R1; R2]`, `[Y1; Y2]` (a TSQR reduction
-//!   step); `e` and `fnorm2` add.
+//!   step); `e` adds.
 //! * [`StreamedQr::finish`] — column equilibration, SVD of the small `R·S`, rank decision,
 //!   truncated-SVD solve, per-column fit residuals.
 
@@ -48,8 +51,9 @@ use rayon::prelude::*;
 /// Number of reflectors applied together as one compact-WY block `I − V T Vᵀ`.
 const PANEL: usize = 32;
 
-/// Target size of the per-thread working set of one column chunk (bytes).
-const CHUNK_TARGET_BYTES: usize = 1 << 20;
+/// Default columns per parallel task. For n = 14, q = 18 the absorb time is flat (within
+/// ±5 %) from 1024 to 16384 columns; 4096 keeps the per-worker buffers ≈ 1.5 MB there.
+const DEFAULT_CHUNK_COLS: usize = 4096;
 
 /// Options of [`StreamedQr::finish`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -70,7 +74,8 @@ pub struct LsqOptions {
     /// and a solve through them only amplifies rounding. The default `rcond_tol = 0.0` uses
     /// exactly that floor; raise it (e.g. to the relative accuracy of the snapshots, 1e-10 for
     /// a factorization with that residual) to regularize a nearly dependent interface set.
-    /// The threshold actually applied is reported in [`LsqSolution::rcond_used`].
+    /// The threshold actually applied is reported in [`LsqSolution::rcond_used`]. Must lie
+    /// in [0, 1).
     pub rcond_tol: f64,
 }
 
@@ -133,20 +138,22 @@ pub struct LsqSolution {
 
 /// Streamed QR / TSQR state of the line-fitting least-squares problem (DESIGN.md §3.3).
 ///
-/// See the [module documentation](self) for the invariant. Memory: `8·(n² + n·m + 2m)` bytes
-/// plus, during [`absorb`](StreamedQr::absorb), a transient of
-/// [`absorb_workspace_bytes`](StreamedQr::absorb_workspace_bytes) — O(n·chunk) per thread,
-/// independent of m.
+/// See the [module documentation](self) for the invariant. Memory: `8·(n² + n·m + m)` bytes
+/// plus the chunk buffers of [`absorb`](StreamedQr::absorb), at most
+/// [`absorb_workspace_bytes`](StreamedQr::absorb_workspace_bytes) — O((q + n)·chunk) per
+/// thread, independent of m — which are kept for reuse by the next absorb.
 #[derive(Clone)]
 pub struct StreamedQr {
     n: usize,
     m: usize,
     r: Mat<f64>,
-    y: Mat<f64>,
+    /// `Y`, column-major n × m without padding (column j at `y[j·n .. (j+1)·n]`).
+    y: Vec<f64>,
     e: Vec<f64>,
-    fnorm2: Vec<f64>,
     rows: usize,
     chunk_cols: usize,
+    /// Chunk buffers of the last absorb, reused by the next one (≤ one per rayon worker).
+    pool: WorkspacePool,
 }
 
 impl std::fmt::Debug for StreamedQr {
@@ -160,14 +167,69 @@ impl std::fmt::Debug for StreamedQr {
     }
 }
 
-/// Per-worker buffers of the chunked application (reused across chunks of one block).
+/// Per-worker buffers of the chunked application (reused across chunks and blocks).
+#[derive(Default)]
 struct Workspace {
-    /// Copy of the F chunk, transformed in place into the bottom rows (q × chunk).
-    f: Mat<f64>,
-    /// `Vᵀ [Y; F]` for one panel (PANEL × chunk).
-    w: Mat<f64>,
-    /// `Tᵀ Vᵀ [Y; F]` for one panel (PANEL × chunk).
-    tw: Mat<f64>,
+    /// Copy of the F chunk, transformed in place into the bottom rows (q × chunk, ld q).
+    f: Vec<f64>,
+    /// `Vᵀ [Y; F]` for one panel (nb × chunk, ld nb).
+    w: Vec<f64>,
+}
+
+impl Workspace {
+    fn bytes(&self) -> usize {
+        8 * (self.f.capacity() + self.w.capacity())
+    }
+}
+
+/// Idle [`Workspace`]s. Cloning a state does not clone its buffers.
+#[derive(Default)]
+struct WorkspacePool(std::sync::Mutex<Vec<Workspace>>);
+
+impl Clone for WorkspacePool {
+    fn clone(&self) -> Self {
+        WorkspacePool::default()
+    }
+}
+
+impl WorkspacePool {
+    /// An idle workspace (or a new one) with at least the given buffer lengths.
+    fn take(&self, f: usize, w: usize) -> PooledWorkspace<'_> {
+        let mut ws = self
+            .0
+            .lock()
+            .ok()
+            .and_then(|mut p| p.pop())
+            .unwrap_or_default();
+        for (buf, len) in [(&mut ws.f, f), (&mut ws.w, w)] {
+            if buf.len() < len {
+                buf.resize(len, 0.0);
+            }
+        }
+        PooledWorkspace { ws, pool: self }
+    }
+
+    fn bytes(&self) -> usize {
+        self.0
+            .lock()
+            .map(|p| p.iter().map(Workspace::bytes).sum())
+            .unwrap_or(0)
+    }
+}
+
+/// A workspace on loan; returned to the pool on drop.
+struct PooledWorkspace<'a> {
+    ws: Workspace,
+    pool: &'a WorkspacePool,
+}
+
+impl Drop for PooledWorkspace<'_> {
+    fn drop(&mut self) {
+        let ws = std::mem::take(&mut self.ws);
+        if let Ok(mut p) = self.pool.0.lock() {
+            p.push(ws);
+        }
+    }
 }
 
 /// The reflectors of one absorbed block in compact-WY form.
@@ -178,24 +240,24 @@ struct Reflectors {
     /// Upper-triangular `T` factors, one per panel of `PANEL` reflectors (stored in a
     /// PANEL × n matrix: panel b occupies columns `b·PANEL ..`).
     t: Mat<f64>,
+    /// `vg · Tᵀ` per panel (q × n, panel b in columns `b·PANEL ..`), so that the update of the
+    /// bottom rows `F −= vg (Tᵀ W)` is one product `F −= (vg Tᵀ) W`.
+    vgt: Mat<f64>,
 }
 
 impl StreamedQr {
     /// An empty state for `n` interface unknowns and `m` right-hand-side columns
-    /// (allocates `R`, `Y`, `e`, `fnorm2`: 8·(n² + n·m + 2m) bytes).
+    /// (allocates `R`, `Y`, `e`: 8·(n² + n·m + m) bytes).
     pub fn new(n: usize, m: usize) -> Self {
-        let chunk_cols = (CHUNK_TARGET_BYTES / (8 * (n.min(PANEL) * 2 + 32 + n.max(1))))
-            .next_power_of_two()
-            .clamp(4096, 32768);
         StreamedQr {
             n,
             m,
             r: Mat::zeros(n, n),
-            y: Mat::zeros(n, m),
+            y: vec![0.0; n * m],
             e: vec![0.0; m],
-            fnorm2: vec![0.0; m],
             rows: 0,
-            chunk_cols,
+            chunk_cols: DEFAULT_CHUNK_COLS,
+            pool: WorkspacePool::default(),
         }
     }
 
@@ -214,37 +276,56 @@ impl StreamedQr {
         self.rows
     }
 
-    /// The current triangle `R` (n × n, upper triangular; `RᵀR = T_oᵀᵀ T_oᵀ`).
+    /// The current triangle `R` (n × n, upper triangular; `RᵀR = T_o T_oᵀ`).
     pub fn r(&self) -> MatRef<'_, f64> {
         self.r.as_ref()
     }
 
-    /// Columns of `Y`/`F` processed per parallel task.
+    /// The current `Y` (n × m) of the invariant in the [module documentation](self).
+    pub fn y(&self) -> MatRef<'_, f64> {
+        self.y_ref()
+    }
+
+    fn y_ref(&self) -> MatRef<'_, f64> {
+        MatRef::from_column_major_slice(&self.y, self.n, self.m)
+    }
+
+    /// Maximum columns of `Y`/`F` per parallel task (default 4096).
     pub fn chunk_cols(&self) -> usize {
         self.chunk_cols
     }
 
-    /// Sets the number of columns per parallel task (≥ 1; the transient memory of
-    /// [`absorb`](Self::absorb) is O((q + 64)·chunk) per thread).
+    /// Sets the maximum number of columns per parallel task (≥ 1; the buffers of
+    /// [`absorb`](Self::absorb) are (q + min(n, 32))·chunk values per thread).
     pub fn set_chunk_cols(&mut self, cols: usize) {
         self.chunk_cols = cols.max(1);
     }
 
-    /// Bytes held by the state: `R`, `Y` (with faer's column padding), `e`, `fnorm2`.
+    /// Columns per task actually used: `chunk_cols`, reduced for small m so that every rayon
+    /// thread gets about four tasks (load balance), but not below 256 columns.
+    fn task_cols(&self) -> usize {
+        let balanced = self.m.div_ceil(4 * rayon::current_num_threads()).max(256);
+        self.chunk_cols.min(balanced)
+    }
+
+    /// Bytes held by the state: `R`, `Y`, `e` (8·(n² + n·m + m) up to faer's
+    /// column padding of `R`) and the idle chunk buffers kept for the next
+    /// [`absorb`](Self::absorb) (≤ one [`absorb_workspace_bytes`](Self::absorb_workspace_bytes)
+    /// worker share per rayon thread).
     pub fn memory_bytes(&self) -> usize {
         let f = std::mem::size_of::<f64>();
-        let mat = |a: &Mat<f64>| a.col_stride().unsigned_abs() * a.ncols() * f;
-        mat(&self.r) + mat(&self.y) + (self.e.capacity() + self.fnorm2.capacity()) * f
+        let r = self.r.col_stride().unsigned_abs() * self.r.ncols() * f;
+        r + (self.y.capacity() + self.e.capacity()) * f + self.pool.bytes()
     }
 
     /// Upper bound of the transient bytes one [`absorb`](Self::absorb) of a q-row block
-    /// allocates: the reflectors (q·n + 32·n) plus, per rayon worker, the chunk buffers
-    /// ((q + 2·min(n, 32))·chunk).
+    /// allocates: the reflectors (2·q·n + 32·n) plus, per rayon worker, the chunk buffers
+    /// ((q + min(n, 32))·chunk).
     pub fn absorb_workspace_bytes(&self, q: usize) -> usize {
         let nb = self.n.min(PANEL);
-        let chunk = self.chunk_cols.min(self.m);
-        let per_worker = (q + 2 * nb) * chunk;
-        8 * (q * self.n + nb * self.n + self.n + rayon::current_num_threads() * per_worker)
+        let chunk = self.task_cols().min(self.m);
+        let per_worker = (q + nb) * chunk;
+        8 * (2 * q * self.n + nb * self.n + self.n + rayon::current_num_threads() * per_worker)
     }
 
     /// Absorbs one block of rows: `g` (q × n, rows of `T_oᵀ`) and `f` (q × m, the same rows of
@@ -281,15 +362,15 @@ impl StreamedQr {
                 f.nrows()
             )));
         }
-        check_finite("G", g, self.chunk_cols)?;
-        check_finite("F", f, self.chunk_cols)?;
-        self.absorb_unchecked(g, f, true);
+        check_finite("G", g, self.task_cols())?;
+        check_finite("F", f, self.task_cols())?;
+        self.absorb_unchecked(g, f);
         self.rows += g.nrows();
         Ok(())
     }
 
     /// TSQR step: combines two states built from disjoint row sets into the state of all their
-    /// rows — the QR of `[R1; R2]` applied to `[Y1; Y2]`; `e`, `fnorm2` and `rows` add.
+    /// rows — the QR of `[R1; R2]` applied to `[Y1; Y2]`; `e` and `rows` add.
     ///
     /// Errors: different `n` or `m` (`Error::InvalidSetting`).
     pub fn merge(mut self, other: StreamedQr) -> Result<StreamedQr> {
@@ -308,24 +389,18 @@ impl StreamedQr {
             other.chunk_cols = chunk_cols;
             return Ok(other);
         }
-        self.absorb_unchecked(other.r.as_ref(), other.y.as_ref(), false);
-        let chunk = self.chunk_cols;
+        self.absorb_unchecked(other.r.as_ref(), other.y_ref());
+        let chunk = self.task_cols();
         self.e
             .par_chunks_mut(chunk)
             .zip(other.e.par_chunks(chunk))
-            .zip(self.fnorm2.par_chunks_mut(chunk))
-            .zip(other.fnorm2.par_chunks(chunk))
-            .for_each(|(((e1, e2), f1), f2)| {
-                e1.iter_mut().zip(e2).for_each(|(a, b)| *a += b);
-                f1.iter_mut().zip(f2).for_each(|(a, b)| *a += b);
-            });
+            .for_each(|(e1, e2)| e1.iter_mut().zip(e2).for_each(|(a, b)| *a += b));
         self.rows += other.rows;
         Ok(self)
     }
 
-    /// The core of absorb/merge: `[R; G]`, `[Y; F]` → new `R`, `Y`, `e` (+ `fnorm2` if
-    /// `count_fnorm`, i.e. when `F` holds original rows of `T_nᵀ`). Inputs already validated.
-    fn absorb_unchecked(&mut self, g: MatRef<'_, f64>, f: MatRef<'_, f64>, count_fnorm: bool) {
+    /// The core of absorb/merge: `[R; G]`, `[Y; F]` → new `R`, `Y`, `e`. Inputs validated.
+    fn absorb_unchecked(&mut self, g: MatRef<'_, f64>, f: MatRef<'_, f64>) {
         let q = g.nrows();
         if q == 0 {
             return;
@@ -335,32 +410,30 @@ impl StreamedQr {
             return;
         }
         let n = self.n;
-        let chunk = self.chunk_cols;
-        let wrows = n.min(PANEL);
+        let m = self.m;
+        let chunk = self.task_cols();
+        let ceff = chunk.min(m);
+        let nb = n.min(PANEL);
         let refl = &refl;
-        self.y
-            .as_mut()
-            .par_col_chunks_mut(chunk)
+        let pool = &self.pool;
+        // Column chunks of Y (contiguous, n·chunk values each); with n = 0 every chunk is empty.
+        let ychunks: Vec<&mut [f64]> = if n == 0 {
+            (0..m.div_ceil(chunk))
+                .map(|_| <&mut [f64]>::default())
+                .collect()
+        } else {
+            self.y.chunks_mut(n * chunk).collect()
+        };
+        ychunks
+            .into_par_iter()
             .zip(self.e.par_chunks_mut(chunk))
-            .zip(self.fnorm2.par_chunks_mut(chunk))
             .enumerate()
             .for_each_init(
-                || Workspace {
-                    f: Mat::zeros(q, chunk.min(f.ncols())),
-                    w: Mat::zeros(wrows, chunk.min(f.ncols())),
-                    tw: Mat::zeros(wrows, chunk.min(f.ncols())),
-                },
-                |ws, (idx, ((y, e), fnorm2))| {
+                || pool.take(q * ceff, nb * ceff),
+                |ws, (idx, (y, e))| {
                     let c0 = idx * chunk;
-                    let c = y.ncols();
-                    apply_chunk(
-                        refl,
-                        y,
-                        f.subcols(c0, c),
-                        e,
-                        count_fnorm.then_some(fnorm2),
-                        ws,
-                    );
+                    let f = f.subcols(c0, e.len());
+                    apply_chunk(refl, n, y, f, e, &mut ws.ws);
                 },
             );
     }
@@ -434,7 +507,21 @@ impl StreamedQr {
             }
             p0 += nb;
         }
-        Reflectors { vg, t }
+        let mut vgt = Mat::<f64>::zeros(q, n);
+        let mut p0 = 0;
+        while p0 < n {
+            let nb = PANEL.min(n - p0);
+            matmul(
+                vgt.as_mut().subcols_mut(p0, nb),
+                Accum::Replace,
+                vg.as_ref().subcols(p0, nb),
+                t.as_ref().submatrix(0, p0, nb, nb).transpose(),
+                1.0,
+                Par::Seq,
+            );
+            p0 += nb;
+        }
+        Reflectors { vg, t, vgt }
     }
 
     /// Solves the least-squares problem from the state (DESIGN.md §3.3 "Finish").
@@ -449,16 +536,16 @@ impl StreamedQr {
     /// 3. Rank: keep σ_i > τ·σ_max, τ from [`LsqOptions::rcond_tol`].
     /// 4. `Wᵀ = S V_r Σ_r⁻¹ U_rᵀ Y`, returned as `W = Yᵀ (U_r Σ_r⁻¹ V_rᵀ S)` (m × n).
     /// 5. Residual: `‖T_oᵀ w_j − t_j‖² = e_j + ‖U_dropᵀ Y e_j‖²` (the second term only when
-    ///    truncated), reported relative to `‖t_j‖ = √fnorm2_j`.
+    ///    truncated), reported relative to `‖t_j‖ = (‖Y e_j‖² + e_j)^½`.
     ///
     /// Errors (`Error::InvalidSetting`): fewer rows than unknowns (2pz < n), `n = 0`,
-    /// all-zero `T_oᵀ`, a negative/non-finite `rcond_tol`. `Error::Factor` if the SVD fails.
+    /// all-zero `T_oᵀ`, `rcond_tol` outside [0, 1). `Error::Factor` if the SVD fails.
     pub fn finish(&self, opts: &LsqOptions) -> Result<LsqSolution> {
         let n = self.n;
         let m = self.m;
-        if !(opts.rcond_tol.is_finite() && opts.rcond_tol >= 0.0) {
+        if !(0.0..1.0).contains(&opts.rcond_tol) {
             return Err(Error::InvalidSetting(format!(
-                "least-squares rcond_tol must be finite and ≥ 0, got {}",
+                "least-squares rcond_tol must be in [0, 1) (relative to σ_max), got {}",
                 opts.rcond_tol
             )));
         }
@@ -538,14 +625,14 @@ impl StreamedQr {
         matmul(
             w.as_mut(),
             Accum::Replace,
-            self.y.transpose(),
+            self.y_ref().transpose(),
             mm.as_ref(),
             1.0,
             Par::rayon(0),
         );
 
         // Residuals: e_j (+ ‖U_dropᵀ Y e_j‖² when truncated).
-        let chunk = self.chunk_cols;
+        let chunk = self.task_cols();
         let mut residual = vec![0.0; m];
         let udrop = u.subcols(rank, n - rank);
         residual
@@ -560,19 +647,21 @@ impl StreamedQr {
                         z.as_mut(),
                         Accum::Replace,
                         udrop.transpose(),
-                        self.y.subcols(c0, c),
+                        self.y_ref().subcols(c0, c),
                         1.0,
                         Par::Seq,
                     );
                     z
                 });
                 for (j, r) in res.iter_mut().enumerate() {
-                    let mut e = self.e[c0 + j];
-                    if let Some(z) = &extra {
-                        e += z.col_as_slice(j).iter().map(|x| x * x).sum::<f64>();
-                    }
-                    let f2 = self.fnorm2[c0 + j];
-                    *r = if f2 > 0.0 { (e / f2).sqrt() } else { 0.0 };
+                    let e = self.e[c0 + j];
+                    // ‖t_j‖² = ‖Y e_j‖² + e_j (module docs).
+                    let t2 = sum_sq(&self.y[(c0 + j) * n..(c0 + j + 1) * n]) + e;
+                    let res2 = match &extra {
+                        Some(z) => e + sum_sq(z.col_as_slice(j)),
+                        None => e,
+                    };
+                    *r = if t2 > 0.0 { (res2 / t2).sqrt() } else { 0.0 };
                 }
             });
         let (mut residual_max, mut residual_argmax) = (0.0, 0);
@@ -606,65 +695,103 @@ impl StreamedQr {
 }
 
 /// Applies the block's reflectors (transposed) to one column chunk: `[y; f] ← Qᵀ [y; f]`,
-/// `e += ‖new bottom rows‖²` per column, `fnorm2 += ‖f‖²` per column if given.
+/// `e += ‖new bottom rows‖²` per column. `y` is the
+/// chunk of `Y` (n × c, ld n), `f` the same columns of the block (q × c, any strides).
 fn apply_chunk(
     refl: &Reflectors,
-    mut y: MatMut<'_, f64>,
+    n: usize,
+    y: &mut [f64],
     f: MatRef<'_, f64>,
     e: &mut [f64],
-    fnorm2: Option<&mut [f64]>,
     ws: &mut Workspace,
 ) {
-    let n = y.nrows();
-    let c = y.ncols();
+    let c = e.len();
     let q = f.nrows();
-    let mut fb = ws.f.as_mut().subcols_mut(0, c);
-    fb.copy_from(f);
-    if let Some(fnorm2) = fnorm2 {
-        for (j, x) in fnorm2.iter_mut().enumerate() {
-            *x += sum_sq(fb.rb().col(j));
-        }
-    }
+    let fb = &mut ws.f[..q * c];
+    copy_to_col_major(f, fb);
     let mut p0 = 0;
     while p0 < n {
         let nb = PANEL.min(n - p0);
         let vg = refl.vg.subcols(p0, nb);
         let t = refl.t.submatrix(0, p0, nb, nb);
-        let mut w = ws.w.as_mut().submatrix_mut(0, 0, nb, c);
-        let mut tw = ws.tw.as_mut().submatrix_mut(0, 0, nb, c);
-        let mut yb = y.rb_mut().subrows_mut(p0, nb);
+        let w = &mut ws.w[..nb * c];
         // W = Vᵀ [Y; F] = Y[panel rows] + vgᵀ F
-        w.copy_from(yb.rb());
-        if q > 0 {
-            matmul(
-                w.rb_mut(),
-                Accum::Add,
-                vg.transpose(),
-                fb.rb(),
-                1.0,
-                Par::Seq,
-            );
+        if nb == n {
+            w.copy_from_slice(y);
+        } else {
+            for (wj, yj) in w.chunks_exact_mut(nb).zip(y.chunks_exact(n)) {
+                wj.copy_from_slice(&yj[p0..p0 + nb]);
+            }
         }
-        // TW = Tᵀ W;  Y[panel] −= TW;  F −= vg TW
         matmul(
-            tw.rb_mut(),
-            Accum::Replace,
-            t.transpose(),
-            w.rb(),
+            MatMut::from_column_major_slice_mut(&mut *w, nb, c),
+            Accum::Add,
+            vg.transpose(),
+            MatRef::from_column_major_slice(&*fb, q, c),
             1.0,
             Par::Seq,
         );
-        faer::zip!(yb.rb_mut(), tw.rb()).for_each(|faer::unzip!(a, b)| *a -= *b);
-        matmul(fb.rb_mut(), Accum::Add, vg, tw.rb(), -1.0, Par::Seq);
+        let w = MatRef::from_column_major_slice(&*w, nb, c);
+        // [Y; F] −= V Tᵀ W:  Y[panel rows] −= Tᵀ W,  F −= (vg Tᵀ) W
+        matmul(
+            MatMut::from_column_major_slice_with_stride_mut(&mut y[p0..], nb, c, n),
+            Accum::Add,
+            t.transpose(),
+            w,
+            -1.0,
+            Par::Seq,
+        );
+        matmul(
+            MatMut::from_column_major_slice_mut(&mut *fb, q, c),
+            Accum::Add,
+            refl.vgt.subcols(p0, nb),
+            w,
+            -1.0,
+            Par::Seq,
+        );
         p0 += nb;
     }
-    for (j, x) in e.iter_mut().enumerate() {
-        *x += sum_sq(fb.rb().col(j));
+    for (x, col) in e.iter_mut().zip(fb.chunks_exact(q)) {
+        *x += sum_sq(col);
     }
 }
 
-fn sum_sq(c: faer::ColRef<'_, f64>) -> f64 {
-    c.iter().map(|x| x * x).sum()
+/// Copies `src` (q × c, any strides) into the column-major `dst` (ld q).
+fn copy_to_col_major(src: MatRef<'_, f64>, dst: &mut [f64]) {
+    let (q, c) = src.shape();
+    if q == 0 {
+        return;
+    }
+    if src.row_stride() == 1 && src.col_stride() == q as isize {
+        // SAFETY: with unit row stride and column stride q the q·c entries of `src` occupy
+        // exactly the q·c consecutive f64 starting at `as_ptr()`, all valid for reads for the
+        // lifetime of the borrow (a MatRef guarantees every (i, j) entry is readable).
+        let s = unsafe { std::slice::from_raw_parts(src.as_ptr(), q * c) };
+        dst.copy_from_slice(s);
+    } else if src.row_stride() == 1 {
+        for (j, d) in dst.chunks_exact_mut(q).enumerate() {
+            let col = src.col(j).try_as_col_major().expect("unit row stride");
+            d.copy_from_slice(col.as_slice());
+        }
+    } else {
+        MatMut::from_column_major_slice_mut(dst, q, c).copy_from(src);
+    }
+}
+
+/// Σ x², with four independent accumulators (vectorizes).
+fn sum_sq(x: &[f64]) -> f64 {
+    let mut lanes = [0.0f64; 4];
+    let mut it = x.chunks_exact(4);
+    for ch in &mut it {
+        for (l, v) in lanes.iter_mut().zip(ch) {
+            *l += v * v;
+        }
+    }
+    let mut s = (lanes[0] + lanes[1]) + (lanes[2] + lanes[3]);
+    for v in it.remainder() {
+        s += v * v;
+    }
+    s
 }
 
 fn dot_col(a: faer::ColRef<'_, f64>, b: faer::ColRef<'_, f64>) -> f64 {
