@@ -81,6 +81,13 @@ mod ffi {
     #[cfg(unix)]
     const _: () = assert!(std::mem::size_of::<std::ffi::c_long>() == std::mem::size_of::<SsLong>());
 
+    /// Widens a returned status to `i64` (a no-op for UMFPACK 5.x).
+    #[inline]
+    #[allow(clippy::useless_conversion)]
+    pub fn widen(s: Status) -> i64 {
+        i64::from(s)
+    }
+
     pub const UMFPACK_INFO: usize = 90;
     pub const UMFPACK_CONTROL: usize = 20;
 
@@ -278,23 +285,24 @@ fn validate_pattern(
             row_idx.len()
         )));
     }
+    if let Some(j) = (0..n).find(|&j| col_ptr[j + 1] < col_ptr[j]) {
+        return Err(bad_input(format!(
+            "col_ptr is not monotone: col_ptr[{}] = {} < col_ptr[{j}] = {}",
+            j + 1,
+            col_ptr[j + 1],
+            col_ptr[j]
+        )));
+    }
     let mut ap = Vec::with_capacity(n + 1);
     let mut ai = Vec::with_capacity(row_idx.len());
     ap.push(0i64);
     for j in 0..n {
         let (start, end) = (col_ptr[j], col_ptr[j + 1]);
-        if end < start {
-            return Err(bad_input(format!(
-                "col_ptr is not monotone: col_ptr[{}] = {end} < col_ptr[{j}] = {start}",
-                j + 1
-            )));
-        }
-        // `end <= col_ptr[n] == row_idx.len()` holds once monotonicity is checked for all
-        // columns, but a later column may still decrease, so guard the slice explicitly.
+        // In range since col_ptr is monotone and col_ptr[n] == row_idx.len(); `get` keeps
+        // this panic-free regardless.
         let Some(rows) = row_idx.get(start..end) else {
             return Err(bad_input(format!(
-                "col_ptr[{}] = {end} exceeds nnz = {}",
-                j + 1,
+                "column {j} spans entries {start}..{end} beyond nnz = {}",
                 row_idx.len()
             )));
         };
@@ -392,7 +400,7 @@ impl UmfpackSymbolic {
                             // SAFETY: `control` has UMFPACK_CONTROL entries; `ap` has n + 1 and `ai` has
                             // ap[n] entries forming a valid CSC pattern (validated above); Ax/Az may be NULL
                             // (statistics only); `info` has UMFPACK_INFO entries; `sym` is a valid out pointer.
-        let status = i64::from(unsafe {
+        let status = ffi::widen(unsafe {
             if complex {
                 ffi::umfpack_zl_defaults(control.as_mut_ptr());
                 ffi::umfpack_zl_symbolic(
@@ -592,7 +600,7 @@ impl UmfpackNumeric {
         // arrays have nnz entries (checked by the callers), `sym.ptr` is a live Symbolic
         // object of the matching kind which UMFPACK only reads (shared access is fine),
         // `control`/`info` have the documented sizes and `num` is a valid out pointer.
-        let status = i64::from(unsafe {
+        let status = ffi::widen(unsafe {
             if sym.complex {
                 ffi::umfpack_zl_numeric(
                     sym.col_ptr.as_ptr(),
@@ -677,7 +685,7 @@ impl UmfpackNumeric {
         let mut info = [0.0f64; UMFPACK_INFO];
         // SAFETY: pattern and values are the ones factored; `b` and `x` have n entries and
         // do not alias (`&` vs `&mut`); Numeric is live and only read; `info` is per call.
-        let status = i64::from(unsafe {
+        let status = ffi::widen(unsafe {
             ffi::umfpack_dl_solve(
                 ffi::UMFPACK_A,
                 self.col_ptr.as_ptr(),
@@ -729,7 +737,7 @@ impl UmfpackNumeric {
         let mut info = [0.0f64; UMFPACK_INFO];
         // SAFETY: as in `solve_real_info`; all four vectors have n entries, split storage
         // (non-NULL imaginary arrays), outputs are exclusive borrows distinct from inputs.
-        let status = i64::from(unsafe {
+        let status = ffi::widen(unsafe {
             ffi::umfpack_zl_solve(
                 ffi::UMFPACK_A,
                 self.col_ptr.as_ptr(),
@@ -820,5 +828,408 @@ impl Drop for UmfpackNumeric {
                 ffi::umfpack_dl_free_numeric(&mut raw)
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use faer::linalg::solvers::Solve;
+    use faer::{c64, Mat};
+    use rand::rngs::StdRng;
+    use rand::{Rng, SeedableRng};
+
+    /// A square CSC pattern with sorted, unique row indices.
+    struct Pattern {
+        n: usize,
+        col_ptr: Vec<usize>,
+        row_idx: Vec<usize>,
+    }
+
+    impl Pattern {
+        fn nnz(&self) -> usize {
+            self.row_idx.len()
+        }
+
+        /// Column of each stored entry.
+        fn cols(&self) -> Vec<usize> {
+            (0..self.n)
+                .flat_map(|j| std::iter::repeat_n(j, self.col_ptr[j + 1] - self.col_ptr[j]))
+                .collect()
+        }
+    }
+
+    /// Random nonsymmetric pattern with the full diagonal and about `per_col` off-diagonal
+    /// entries per column.
+    fn random_pattern(n: usize, per_col: usize, rng: &mut StdRng) -> Pattern {
+        let mut col_ptr = vec![0];
+        let mut row_idx = Vec::new();
+        for j in 0..n {
+            let mut rows: Vec<usize> = (0..per_col).map(|_| rng.gen_range(0..n)).collect();
+            rows.push(j);
+            rows.sort_unstable();
+            rows.dedup();
+            row_idx.extend_from_slice(&rows);
+            col_ptr.push(row_idx.len());
+        }
+        Pattern {
+            n,
+            col_ptr,
+            row_idx,
+        }
+    }
+
+    /// Values making the matrix strictly row diagonally dominant (random diagonal sign).
+    fn dd_real(p: &Pattern, rng: &mut StdRng) -> Vec<f64> {
+        let cols = p.cols();
+        let mut v: Vec<f64> = (0..p.nnz()).map(|_| rng.gen_range(-1.0..1.0)).collect();
+        let mut row_sum = vec![0.0; p.n];
+        for (k, &i) in p.row_idx.iter().enumerate() {
+            if i != cols[k] {
+                row_sum[i] += v[k].abs();
+            }
+        }
+        for (k, &i) in p.row_idx.iter().enumerate() {
+            if i == cols[k] {
+                let sign = if rng.gen_bool(0.5) { 1.0 } else { -1.0 };
+                v[k] = sign * (row_sum[i] + rng.gen_range(0.5..2.0));
+            }
+        }
+        v
+    }
+
+    /// Complex values making the matrix strictly row diagonally dominant.
+    fn dd_complex(p: &Pattern, rng: &mut StdRng) -> (Vec<f64>, Vec<f64>) {
+        let cols = p.cols();
+        let mut re: Vec<f64> = (0..p.nnz()).map(|_| rng.gen_range(-1.0..1.0)).collect();
+        let mut im: Vec<f64> = (0..p.nnz()).map(|_| rng.gen_range(-1.0..1.0)).collect();
+        let mut row_sum = vec![0.0; p.n];
+        for (k, &i) in p.row_idx.iter().enumerate() {
+            if i != cols[k] {
+                row_sum[i] += re[k].hypot(im[k]);
+            }
+        }
+        for (k, &i) in p.row_idx.iter().enumerate() {
+            if i == cols[k] {
+                let r = row_sum[i] + rng.gen_range(0.5..2.0);
+                let phase: f64 = rng.gen_range(0.0..std::f64::consts::TAU);
+                re[k] = r * phase.cos();
+                im[k] = r * phase.sin();
+            }
+        }
+        (re, im)
+    }
+
+    fn dense_real(p: &Pattern, v: &[f64]) -> Mat<f64> {
+        let mut a = Mat::<f64>::zeros(p.n, p.n);
+        for (k, j) in p.cols().into_iter().enumerate() {
+            a[(p.row_idx[k], j)] = v[k];
+        }
+        a
+    }
+
+    fn dense_complex(p: &Pattern, re: &[f64], im: &[f64]) -> Mat<c64> {
+        let mut a = Mat::<c64>::zeros(p.n, p.n);
+        for (k, j) in p.cols().into_iter().enumerate() {
+            a[(p.row_idx[k], j)] = c64::new(re[k], im[k]);
+        }
+        a
+    }
+
+    fn rel_err(x: &[f64], y: &[f64]) -> f64 {
+        let d: f64 = x.iter().zip(y).map(|(a, b)| (a - b) * (a - b)).sum();
+        let r: f64 = y.iter().map(|b| b * b).sum();
+        (d / r).sqrt()
+    }
+
+    fn rel_err_c(xr: &[f64], xi: &[f64], y: &[c64]) -> f64 {
+        let mut d = 0.0;
+        let mut r = 0.0;
+        for k in 0..y.len() {
+            d += (xr[k] - y[k].re).powi(2) + (xi[k] - y[k].im).powi(2);
+            r += y[k].norm_sqr();
+        }
+        (d / r).sqrt()
+    }
+
+    /// Factors `vals` with UMFPACK on `sym`, solves against a random rhs and compares with a
+    /// dense faer LU solve; returns the relative error.
+    fn check_real(sym: &UmfpackSymbolic, p: &Pattern, vals: &[f64], rng: &mut StdRng) -> f64 {
+        let num = UmfpackNumeric::real(sym, vals).unwrap();
+        assert!(!num.status_singular());
+        assert!(num.rcond() > 0.0);
+        assert!(num.lu_nnz() >= p.n);
+        assert!(num.peak_memory_bytes() > 0.0);
+        let b: Vec<f64> = (0..p.n).map(|_| rng.gen_range(-1.0..1.0)).collect();
+        let mut x = vec![0.0; p.n];
+        num.solve_real(&b, &mut x).unwrap();
+        let bm = Mat::<f64>::from_fn(p.n, 1, |i, _| b[i]);
+        let xd = dense_real(p, vals).partial_piv_lu().solve(&bm);
+        rel_err(&x, xd.col_as_slice(0))
+    }
+
+    fn check_complex(
+        sym: &UmfpackSymbolic,
+        p: &Pattern,
+        re: &[f64],
+        im: &[f64],
+        rng: &mut StdRng,
+    ) -> f64 {
+        let num = UmfpackNumeric::complex(sym, re, im).unwrap();
+        assert!(num.is_complex());
+        assert!(!num.status_singular());
+        assert!(num.rcond() > 0.0);
+        let br: Vec<f64> = (0..p.n).map(|_| rng.gen_range(-1.0..1.0)).collect();
+        let bi: Vec<f64> = (0..p.n).map(|_| rng.gen_range(-1.0..1.0)).collect();
+        let (mut xr, mut xi) = (vec![0.0; p.n], vec![0.0; p.n]);
+        num.solve_complex(&br, &bi, &mut xr, &mut xi).unwrap();
+        let bm = Mat::<c64>::from_fn(p.n, 1, |i, _| c64::new(br[i], bi[i]));
+        let xd = dense_complex(p, re, im).partial_piv_lu().solve(&bm);
+        rel_err_c(&xr, &xi, xd.col_as_slice(0))
+    }
+
+    #[test]
+    fn real_matches_dense_lu() {
+        let mut rng = StdRng::seed_from_u64(1);
+        let p = random_pattern(500, 6, &mut rng);
+        let sym = UmfpackSymbolic::new(p.n, &p.col_ptr, &p.row_idx, false).unwrap();
+        assert_eq!(sym.n(), 500);
+        assert_eq!(sym.nnz(), p.nnz());
+        let vals = dd_real(&p, &mut rng);
+        let err = check_real(&sym, &p, &vals, &mut rng);
+        assert!(err <= 1e-12, "relative error {err:e}");
+    }
+
+    #[test]
+    fn complex_matches_dense_lu() {
+        let mut rng = StdRng::seed_from_u64(2);
+        let p = random_pattern(500, 6, &mut rng);
+        let sym = UmfpackSymbolic::new(p.n, &p.col_ptr, &p.row_idx, true).unwrap();
+        assert!(sym.is_complex());
+        let (re, im) = dd_complex(&p, &mut rng);
+        let err = check_complex(&sym, &p, &re, &im, &mut rng);
+        assert!(err <= 1e-12, "relative error {err:e}");
+    }
+
+    #[test]
+    fn real_factorization_solves_complex_rhs() {
+        let mut rng = StdRng::seed_from_u64(3);
+        let p = random_pattern(200, 4, &mut rng);
+        let sym = UmfpackSymbolic::new(p.n, &p.col_ptr, &p.row_idx, false).unwrap();
+        let vals = dd_real(&p, &mut rng);
+        let num = UmfpackNumeric::real(&sym, &vals).unwrap();
+        let br: Vec<f64> = (0..p.n).map(|_| rng.gen_range(-1.0..1.0)).collect();
+        let bi: Vec<f64> = (0..p.n).map(|_| rng.gen_range(-1.0..1.0)).collect();
+        let (mut xr, mut xi) = (vec![0.0; p.n], vec![0.0; p.n]);
+        let info = num.solve_complex_info(&br, &bi, &mut xr, &mut xi).unwrap();
+        assert!(info.omega1 >= 0.0 && info.omega1 < 1e-14, "{info:?}");
+        let zeros = vec![0.0; p.nnz()];
+        let im = dense_complex(&p, &vals, &zeros);
+        let bm = Mat::<c64>::from_fn(p.n, 1, |i, _| c64::new(br[i], bi[i]));
+        let xd = im.partial_piv_lu().solve(&bm);
+        let err = rel_err_c(&xr, &xi, xd.col_as_slice(0));
+        assert!(err <= 1e-12, "relative error {err:e}");
+    }
+
+    #[test]
+    fn one_symbolic_many_numerics_from_two_threads() {
+        let mut rng = StdRng::seed_from_u64(4);
+        let p = random_pattern(400, 5, &mut rng);
+        for complex in [false, true] {
+            let sym = UmfpackSymbolic::new(p.n, &p.col_ptr, &p.row_idx, complex).unwrap();
+            let (sym, p) = (&sym, &p);
+            std::thread::scope(|s| {
+                let handles: Vec<_> = (0..2u64)
+                    .map(|t| {
+                        s.spawn(move || {
+                            let mut rng = StdRng::seed_from_u64(100 + t);
+                            for _ in 0..3 {
+                                let err = if complex {
+                                    let (re, im) = dd_complex(p, &mut rng);
+                                    check_complex(sym, p, &re, &im, &mut rng)
+                                } else {
+                                    let vals = dd_real(p, &mut rng);
+                                    check_real(sym, p, &vals, &mut rng)
+                                };
+                                assert!(err <= 1e-12, "thread {t}: relative error {err:e}");
+                            }
+                        })
+                    })
+                    .collect();
+                for h in handles {
+                    h.join().unwrap();
+                }
+            });
+        }
+    }
+
+    #[test]
+    fn numeric_outlives_symbolic_and_moves_between_threads() {
+        let mut rng = StdRng::seed_from_u64(5);
+        let p = random_pattern(100, 3, &mut rng);
+        let vals = dd_real(&p, &mut rng);
+        let num = {
+            let sym = UmfpackSymbolic::new(p.n, &p.col_ptr, &p.row_idx, false).unwrap();
+            UmfpackNumeric::real(&sym, &vals).unwrap()
+        };
+        let b = vec![1.0; p.n];
+        let (x1, x2) = std::thread::spawn(move || {
+            let mut x1 = vec![0.0; num.n()];
+            let mut x2 = vec![0.0; num.n()];
+            // Two concurrent solves on one factorization (Sync).
+            std::thread::scope(|s| {
+                s.spawn(|| num.solve_real(&b, &mut x1).unwrap());
+                s.spawn(|| num.solve_real(&b, &mut x2).unwrap());
+            });
+            (x1, x2)
+        })
+        .join()
+        .unwrap();
+        assert_eq!(x1, x2);
+        let bm = Mat::<f64>::from_fn(p.n, 1, |_, _| 1.0);
+        let xd = dense_real(&p, &vals).partial_piv_lu().solve(&bm);
+        assert!(rel_err(&x1, xd.col_as_slice(0)) <= 1e-12);
+    }
+
+    #[test]
+    fn numerically_zero_column_is_flagged_singular() {
+        let mut rng = StdRng::seed_from_u64(6);
+        let p = random_pattern(50, 3, &mut rng);
+        let mut vals = dd_real(&p, &mut rng);
+        let j = 17;
+        vals[p.col_ptr[j]..p.col_ptr[j + 1]].fill(0.0);
+        let sym = UmfpackSymbolic::new(p.n, &p.col_ptr, &p.row_idx, false).unwrap();
+        let num = UmfpackNumeric::real(&sym, &vals).unwrap();
+        assert!(num.status_singular());
+        assert_eq!(num.status(), UMFPACK_WARNING_SINGULAR_MATRIX);
+        assert!(num.rcond() == 0.0 || num.rcond().is_nan());
+        let b = vec![1.0; p.n];
+        let mut x = vec![0.0; p.n];
+        let err = num.solve_real(&b, &mut x).unwrap_err();
+        assert!(
+            matches!(err, Error::Factor(ref m) if m.contains("singular")),
+            "{err}"
+        );
+
+        // Complex as well.
+        let sym = UmfpackSymbolic::new(p.n, &p.col_ptr, &p.row_idx, true).unwrap();
+        let im = vec![0.0; p.nnz()];
+        let num = UmfpackNumeric::complex(&sym, &vals, &im).unwrap();
+        assert!(num.status_singular());
+    }
+
+    #[test]
+    fn structurally_empty_column_is_flagged_singular() {
+        // 3x3 with column 1 empty: [[2, 0, 1], [0, 0, 0], [1, 0, 3]].
+        let col_ptr = [0, 2, 2, 4];
+        let row_idx = [0, 2, 0, 2];
+        for complex in [false, true] {
+            let sym = UmfpackSymbolic::new(3, &col_ptr, &row_idx, complex).unwrap();
+            let vals = [2.0, 1.0, 1.0, 3.0];
+            let num = if complex {
+                UmfpackNumeric::complex(&sym, &vals, &[0.5; 4]).unwrap()
+            } else {
+                UmfpackNumeric::real(&sym, &vals).unwrap()
+            };
+            assert!(num.status_singular());
+            let mut x = [0.0; 3];
+            let mut xi = [0.0; 3];
+            assert!(num
+                .solve_complex(&[1.0; 3], &[0.0; 3], &mut x, &mut xi)
+                .is_err());
+        }
+    }
+
+    fn factor_msg(r: Result<UmfpackSymbolic>) -> String {
+        match r {
+            Err(Error::Factor(m)) => m,
+            other => panic!("expected Error::Factor, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn bad_patterns_are_rejected() {
+        // Valid: 2x2 full.
+        let cp = [0usize, 2, 4];
+        let ri = [0usize, 1, 0, 1];
+        assert!(UmfpackSymbolic::new(2, &cp, &ri, false).is_ok());
+
+        let m = factor_msg(UmfpackSymbolic::new(0, &[0], &[], false));
+        assert!(m.contains("at least 1"), "{m}");
+        let m = factor_msg(UmfpackSymbolic::new(2, &[0, 2], &ri, false));
+        assert!(m.contains("n + 1"), "{m}");
+        let m = factor_msg(UmfpackSymbolic::new(2, &[1, 2, 4], &ri, false));
+        assert!(m.contains("col_ptr[0]"), "{m}");
+        let m = factor_msg(UmfpackSymbolic::new(2, &[0, 2, 3], &ri, false));
+        assert!(m.contains("row_idx has 4"), "{m}");
+        let m = factor_msg(UmfpackSymbolic::new(3, &[0, 3, 1, 4], &ri, false));
+        assert!(m.contains("not monotone"), "{m}");
+        let m = factor_msg(UmfpackSymbolic::new(3, &[0, 5, 5, 4], &[0, 1, 2, 0], false));
+        assert!(m.contains("col_ptr[3] = 4 < col_ptr[2] = 5"), "{m}");
+        let m = factor_msg(UmfpackSymbolic::new(2, &cp, &[0, 2, 0, 1], false));
+        assert!(m.contains("out of range"), "{m}");
+        let m = factor_msg(UmfpackSymbolic::new(2, &cp, &[1, 0, 0, 1], false));
+        assert!(m.contains("not strictly increasing"), "{m}");
+        let m = factor_msg(UmfpackSymbolic::new(2, &cp, &[0, 0, 0, 1], false));
+        assert!(m.contains("duplicate"), "{m}");
+    }
+
+    #[test]
+    fn bad_values_and_vectors_are_rejected() {
+        let cp = [0usize, 2, 4];
+        let ri = [0usize, 1, 0, 1];
+        let sym = UmfpackSymbolic::new(2, &cp, &ri, false).unwrap();
+        let csym = UmfpackSymbolic::new(2, &cp, &ri, true).unwrap();
+        let is_factor = |r: Result<UmfpackNumeric>| matches!(r, Err(Error::Factor(_)));
+        assert!(is_factor(UmfpackNumeric::real(&sym, &[1.0, 2.0, 3.0])));
+        assert!(is_factor(UmfpackNumeric::real(
+            &sym,
+            &[1.0, f64::NAN, 0.0, 1.0]
+        )));
+        assert!(is_factor(UmfpackNumeric::real(
+            &csym,
+            &[4.0, 1.0, 1.0, 3.0]
+        )));
+        assert!(is_factor(UmfpackNumeric::complex(
+            &sym,
+            &[4.0, 1.0, 1.0, 3.0],
+            &[0.0; 4]
+        )));
+        assert!(is_factor(UmfpackNumeric::complex(
+            &csym,
+            &[4.0, 1.0, 1.0, 3.0],
+            &[0.0; 3]
+        )));
+        assert!(is_factor(UmfpackNumeric::complex(
+            &csym,
+            &[4.0, 1.0, 1.0, 3.0],
+            &[0.0, f64::INFINITY, 0.0, 0.0]
+        )));
+
+        let num = UmfpackNumeric::real(&sym, &[4.0, 1.0, 1.0, 3.0]).unwrap();
+        let mut x = [0.0; 2];
+        assert!(num.solve_real(&[1.0; 3], &mut x).is_err());
+        assert!(num.solve_real(&[1.0; 2], &mut [0.0; 1]).is_err());
+        assert!(num
+            .solve_complex(&[1.0; 2], &[1.0; 1], &mut [0.0; 2], &mut [0.0; 2])
+            .is_err());
+        num.solve_real(&[5.0, 4.0], &mut x).unwrap();
+        // [[4, 1], [1, 3]] x = [5, 4]  =>  x = [1, 1]
+        assert!(
+            (x[0] - 1.0).abs() < 1e-15 && (x[1] - 1.0).abs() < 1e-15,
+            "{x:?}"
+        );
+
+        let cnum = UmfpackNumeric::complex(&csym, &[4.0, 1.0, 1.0, 3.0], &[0.0; 4]).unwrap();
+        assert!(cnum.solve_real(&[1.0; 2], &mut x).is_err());
+    }
+
+    #[test]
+    fn status_messages_are_readable() {
+        assert_eq!(status_message(-1), "out of memory");
+        assert!(status_message(-8).contains("invalid matrix"));
+        assert_eq!(status_message(-12345), "unknown UMFPACK status");
+        let e = umf_error("numeric factorization", -1).to_string();
+        assert!(e.contains("out of memory") && e.contains("-1"), "{e}");
     }
 }
