@@ -8,7 +8,7 @@
 //! `SuiteSparse_long` (= `long` = `i64` on 64-bit Unix) and `solve` takes `SuiteSparse_long
 //! sys`; UMFPACK 6 (SuiteSparse 7) returns `int` and takes `int sys`. `build.rs` reads the
 //! installed header and sets the cfg `umfpack_v6` for version >= 6, which switches the two
-//! type aliases in [`ffi`]. Only the 5.7.9 path has been built and tested.
+//! type aliases in the private `ffi` module. Only the 5.7.9 path has been built and tested.
 //!
 //! Usage: analyse the pattern once with [`UmfpackSymbolic::new`], then factor any number of
 //! value sets on that pattern with [`UmfpackNumeric::real`] / [`UmfpackNumeric::complex`]
@@ -34,11 +34,13 @@
 //! * [`UmfpackSymbolic`] is `Send + Sync`. It owns a heap object created by
 //!   `umfpack_?l_symbolic` that nothing else references. UMFPACK documents the Symbolic
 //!   argument of `umfpack_?l_numeric` as "Input argument, not modified. [...] The Symbolic
-//!   object is not modified by umfpack_*_numeric" (umfpack_numeric.h, 5.7.9), and the
-//!   source (`umfpack_numeric.c`) only reads `Symbolic->...` fields; all work space is
-//!   allocated per call. So concurrent numeric factorizations sharing one symbolic object
-//!   only read it. The only mutation (`free_symbolic`) happens in `Drop`, which requires
-//!   exclusive ownership.
+//!   object is not modified by umfpack_*_numeric" (umfpack_numeric.h, 5.7.9). Reading the
+//!   source agrees at the top level: `umfpack_numeric.c` and `umf_kernel.c` only read
+//!   `Symbolic->...` fields, and all work space (`WorkType`, fronts) is allocated per call
+//!   (the internal helpers they pass Symbolic to were not audited line by line; the
+//!   soundness claim rests on the documented contract). So concurrent numeric
+//!   factorizations sharing one symbolic object only read it. The only mutation
+//!   (`free_symbolic`) happens in `Drop`, which requires exclusive ownership.
 //! * [`UmfpackNumeric`] is `Send + Sync`. It owns an independent heap object (UMFPACK
 //!   allocates it with `malloc` and keeps no thread-local or global state tied to it).
 //!   `umfpack_?l_solve` documents Numeric as "Input argument, not modified", allocates its
@@ -103,6 +105,13 @@ mod ffi {
     pub const UMFPACK_IR_TAKEN: usize = 80;
     pub const UMFPACK_OMEGA1: usize = 82;
     pub const UMFPACK_OMEGA2: usize = 83;
+
+    // Control indices and values.
+    pub const UMFPACK_ORDERING: usize = 10;
+    pub const UMFPACK_ORDERING_CHOLMOD: f64 = 0.0;
+    pub const UMFPACK_ORDERING_AMD: f64 = 1.0;
+    pub const UMFPACK_ORDERING_METIS: f64 = 3.0;
+    pub const UMFPACK_ORDERING_BEST: f64 = 4.0;
 
     // Status codes.
     pub const UMFPACK_OK: i64 = 0;
@@ -352,6 +361,35 @@ fn check_len(what: &str, len: usize, n: usize) -> Result<()> {
     Ok(())
 }
 
+/// Fill-reducing column ordering for the symbolic analysis (`Control[UMFPACK_ORDERING]`).
+///
+/// Whether AMD/METIS is applied to `A+A'` or COLAMD/METIS to `A'A` is decided by UMFPACK's
+/// automatic strategy in every case. The METIS-based choices need UMFPACK built with CHOLMOD
+/// and METIS (true for Debian's `libumfpack5`); otherwise UMFPACK silently falls back to AMD.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum UmfpackOrdering {
+    /// UMFPACK's default: AMD on `A+A'` (symmetric strategy) or COLAMD on `A` (unsymmetric).
+    #[default]
+    Amd,
+    /// METIS nested dissection (much less fill on 3-D meshes, slower analysis).
+    Metis,
+    /// CHOLMOD's choice: AMD/COLAMD, then METIS if the fill is high.
+    Cholmod,
+    /// Try AMD/COLAMD, METIS and NESDIS and keep the best (slowest analysis).
+    Best,
+}
+
+impl UmfpackOrdering {
+    fn control_value(self) -> f64 {
+        match self {
+            Self::Amd => ffi::UMFPACK_ORDERING_AMD,
+            Self::Metis => ffi::UMFPACK_ORDERING_METIS,
+            Self::Cholmod => ffi::UMFPACK_ORDERING_CHOLMOD,
+            Self::Best => ffi::UMFPACK_ORDERING_BEST,
+        }
+    }
+}
+
 /// Symbolic analysis (fill-reducing ordering, frontal matrix tree) of a square sparse pattern.
 ///
 /// Owns UMFPACK's `void *Symbolic`, freed on drop, and a copy of the pattern as `i64`
@@ -388,21 +426,42 @@ impl UmfpackSymbolic {
     /// starting at 0, non-decreasing) and `row_idx` (length `col_ptr[n]`, row indices `< n`,
     /// strictly increasing within each column).
     ///
-    /// The ordering is UMFPACK's own (AMD on `A+A'` or COLAMD on `A`, chosen by the automatic
-    /// strategy). `complex` selects the `zl` (complex) or `dl` (real) routines; numeric
-    /// factorizations must use the matching kind.
+    /// The ordering is UMFPACK's own default (AMD on `A+A'` or COLAMD on `A`, chosen by the
+    /// automatic strategy), i.e. [`UmfpackOrdering::Amd`]. `complex` selects the `zl`
+    /// (complex) or `dl` (real) routines; numeric factorizations must use the matching kind.
     pub fn new(n: usize, col_ptr: &[usize], row_idx: &[usize], complex: bool) -> Result<Self> {
+        Self::with_ordering(n, col_ptr, row_idx, complex, UmfpackOrdering::Amd)
+    }
+
+    /// As [`new`](Self::new) with an explicit fill-reducing ordering.
+    pub fn with_ordering(
+        n: usize,
+        col_ptr: &[usize],
+        row_idx: &[usize],
+        complex: bool,
+        ordering: UmfpackOrdering,
+    ) -> Result<Self> {
         let (ap, ai) = validate_pattern(n, col_ptr, row_idx)?;
         let mut control = [0.0f64; UMFPACK_CONTROL];
         let mut info = [0.0f64; UMFPACK_INFO];
         let mut sym: *mut c_void = ptr::null_mut();
-        let n_l = n as i64; // checked in validate_pattern
-                            // SAFETY: `control` has UMFPACK_CONTROL entries; `ap` has n + 1 and `ai` has
-                            // ap[n] entries forming a valid CSC pattern (validated above); Ax/Az may be NULL
-                            // (statistics only); `info` has UMFPACK_INFO entries; `sym` is a valid out pointer.
-        let status = ffi::widen(unsafe {
+        // Cannot truncate: n <= i64::MAX is checked in validate_pattern.
+        let n_l = n as i64;
+        // SAFETY: `control` has UMFPACK_CONTROL entries.
+        unsafe {
             if complex {
                 ffi::umfpack_zl_defaults(control.as_mut_ptr());
+            } else {
+                ffi::umfpack_dl_defaults(control.as_mut_ptr());
+            }
+        }
+        control[ffi::UMFPACK_ORDERING] = ordering.control_value();
+        // SAFETY: `control` has UMFPACK_CONTROL entries; `ap` has n + 1 and `ai` has ap[n]
+        // entries forming a valid CSC pattern (validated above); Ax/Az may be NULL (they are
+        // used for statistics only); `info` has UMFPACK_INFO entries; `sym` is a valid out
+        // pointer.
+        let status = ffi::widen(unsafe {
+            if complex {
                 ffi::umfpack_zl_symbolic(
                     n_l,
                     n_l,
@@ -415,7 +474,6 @@ impl UmfpackSymbolic {
                     info.as_mut_ptr(),
                 )
             } else {
-                ffi::umfpack_dl_defaults(control.as_mut_ptr());
                 ffi::umfpack_dl_symbolic(
                     n_l,
                     n_l,
@@ -998,6 +1056,36 @@ mod tests {
         let vals = dd_real(&p, &mut rng);
         let err = check_real(&sym, &p, &vals, &mut rng);
         assert!(err <= 1e-12, "relative error {err:e}");
+    }
+
+    #[test]
+    fn every_ordering_matches_dense_lu() {
+        let mut rng = StdRng::seed_from_u64(7);
+        let p = random_pattern(300, 5, &mut rng);
+        let vals = dd_real(&p, &mut rng);
+        let (re, im) = dd_complex(&p, &mut rng);
+        for ord in [
+            UmfpackOrdering::Amd,
+            UmfpackOrdering::Metis,
+            UmfpackOrdering::Cholmod,
+            UmfpackOrdering::Best,
+        ] {
+            let sym =
+                UmfpackSymbolic::with_ordering(p.n, &p.col_ptr, &p.row_idx, false, ord).unwrap();
+            // Info[UMFPACK_ORDERING_USED] (19): 1 = AMD/COLAMD, 3 = METIS.
+            let used = sym.info()[19];
+            match ord {
+                UmfpackOrdering::Amd => assert_eq!(used, 1.0),
+                UmfpackOrdering::Metis => assert_eq!(used, 3.0),
+                _ => {}
+            }
+            let err = check_real(&sym, &p, &vals, &mut rng);
+            assert!(err <= 1e-12, "{ord:?}: relative error {err:e}");
+            let sym =
+                UmfpackSymbolic::with_ordering(p.n, &p.col_ptr, &p.row_idx, true, ord).unwrap();
+            let err = check_complex(&sym, &p, &re, &im, &mut rng);
+            assert!(err <= 1e-12, "{ord:?}: relative error {err:e}");
+        }
     }
 
     #[test]
