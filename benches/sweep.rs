@@ -13,7 +13,13 @@ use sparsemor::sweep::{no_progress, transfer_function, Part, SweepOptions};
 fn models() -> Vec<Model> {
     [[2, 3, 45], [3, 4, 200]]
         .iter()
-        .map(|&elements| bar_model(&BoxSpec { elements, ..BoxSpec::paper_bar() }).expect("bar"))
+        .map(|&elements| {
+            bar_model(&BoxSpec {
+                elements,
+                ..BoxSpec::paper_bar()
+            })
+            .expect("bar")
+        })
         .collect()
 }
 
@@ -32,7 +38,10 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("numeric_factor");
     g.sample_size(10);
     for m in models() {
-        let undamped = Model { damping: Damping::None, ..m.clone() };
+        let undamped = Model {
+            damping: Damping::None,
+            ..m.clone()
+        };
         for (label, model, backend) in [
             ("lblt-complex", &m, Backend::FaerLblt),
             ("lblt-real", &undamped, Backend::FaerLblt),
@@ -56,11 +65,24 @@ fn bench(c: &mut Criterion) {
     g.sample_size(10);
     for m in models() {
         for threads in [1, 2] {
-            let opts = SweepOptions { threads, backend: Backend::FaerLblt, ..Default::default() };
+            let opts = SweepOptions {
+                threads,
+                backend: Backend::FaerLblt,
+                ..Default::default()
+            };
             g.bench_function(BenchmarkId::new(format!("{threads}-threads"), m.n()), |b| {
                 b.iter(|| {
-                    transfer_function(&m, &m.scene.inputs, &m.scene.outputs, &[150.0, 350.0, 550.0, 750.0], Part::Elastic, false, &opts, &no_progress)
-                        .unwrap()
+                    transfer_function(
+                        &m,
+                        &m.scene.inputs,
+                        &m.scene.outputs,
+                        &[150.0, 350.0, 550.0, 750.0],
+                        Part::Elastic,
+                        false,
+                        &opts,
+                        &no_progress,
+                    )
+                    .unwrap()
                 })
             });
         }

@@ -62,7 +62,12 @@ pub struct EigenOptions {
 
 impl Default for EigenOptions {
     fn default() -> Self {
-        EigenOptions { sigma: None, tol: 1e-12, krylov_dim: None, max_restarts: 200 }
+        EigenOptions {
+            sigma: None,
+            tol: 1e-12,
+            krylov_dim: None,
+            max_restarts: 200,
+        }
     }
 }
 
@@ -105,7 +110,10 @@ pub struct Modes {
 impl Modes {
     /// Frequencies f = sign(λ)·√|λ| / 2π (Hz).
     pub fn freqs_hz(&self) -> Vec<f64> {
-        self.lambdas.iter().map(|&l| l.signum() * l.abs().sqrt() / (2.0 * std::f64::consts::PI)).collect()
+        self.lambdas
+            .iter()
+            .map(|&l| l.signum() * l.abs().sqrt() / (2.0 * std::f64::consts::PI))
+            .collect()
     }
 }
 
@@ -121,12 +129,20 @@ pub fn eigenpairs(model: &Model, req: Request, opts: &EigenOptions) -> Result<Mo
     let mut stats = EigenStats::default();
     let f_ref = match req {
         Request::UpTo(f) if f.is_finite() && f > 0.0 => f,
-        Request::UpTo(f) => return Err(Error::InvalidSetting(format!("modes up to {f} Hz: need a finite bound > 0"))),
+        Request::UpTo(f) => {
+            return Err(Error::InvalidSetting(format!(
+                "modes up to {f} Hz: need a finite bound > 0"
+            )))
+        }
         Request::Lowest(_) => model.scene.band_hz[1].max(1.0),
     };
-    let sigma = opts.sigma.unwrap_or(-0.01 * (2.0 * std::f64::consts::PI * f_ref).powi(2));
+    let sigma = opts
+        .sigma
+        .unwrap_or(-0.01 * (2.0 * std::f64::consts::PI * f_ref).powi(2));
     if !(sigma < 0.0) {
-        return Err(Error::InvalidSetting(format!("shift sigma = {sigma}: must be < 0 so that K - sigma M is positive definite")));
+        return Err(Error::InvalidSetting(format!(
+            "shift sigma = {sigma}: must be < 0 so that K - sigma M is positive definite"
+        )));
     }
     let count = match req {
         Request::Lowest(c) => c,
@@ -144,9 +160,15 @@ pub fn eigenpairs(model: &Model, req: Request, opts: &EigenOptions) -> Result<Mo
         }));
     }
     if count > n {
-        return Err(Error::InvalidSetting(format!("{count} modes asked but the model has only N = {n} DoFs")));
+        return Err(Error::InvalidSetting(format!(
+            "{count} modes asked but the model has only N = {n} DoFs"
+        )));
     }
-    let m = opts.krylov_dim.unwrap_or((2 * count + 20).max(40)).min(n).max(count.min(n));
+    let m = opts
+        .krylov_dim
+        .unwrap_or((2 * count + 20).max(40))
+        .min(n)
+        .max(count.min(n));
 
     // factor K − σM once
     let t = Instant::now();
@@ -157,8 +179,14 @@ pub fn eigenpairs(model: &Model, req: Request, opts: &EigenOptions) -> Result<Mo
     let req_mem = sym
         .factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default())
         .or(sym.solve_in_place_scratch::<f64>(1, Par::Seq));
-    let mut buf = MemBuffer::try_new(req_mem).map_err(|_| Error::Factor("cannot allocate the Cholesky workspace".into()))?;
-    let a = SparseColMatRef::new(unsafe { SymbolicSparseColMatRef::new_unchecked(n, n, pencil.col_ptr(), None, pencil.row_idx()) }, &vals);
+    let mut buf = MemBuffer::try_new(req_mem)
+        .map_err(|_| Error::Factor("cannot allocate the Cholesky workspace".into()))?;
+    let a = SparseColMatRef::new(
+        unsafe {
+            SymbolicSparseColMatRef::new_unchecked(n, n, pencil.col_ptr(), None, pencil.row_idx())
+        },
+        &vals,
+    );
     sym.factorize_numeric_llt(&mut l, a, Side::Lower, Default::default(), Par::Seq, MemStack::new(&mut buf), Default::default())
         .map_err(|e| Error::Factor(format!("K - sigma M (sigma = {sigma:.3e}) is not positive definite ({e:?}): is M positive definite and K positive semi-definite?")))?;
     stats.factor_s = t.elapsed().as_secs_f64();
@@ -170,7 +198,9 @@ pub fn eigenpairs(model: &Model, req: Request, opts: &EigenOptions) -> Result<Mo
         llt.solve_in_place_with_conj(Conj::No, y.as_mut(), Par::Seq, MemStack::new(buf));
         y
     };
-    let m_dot = |x: MatRef<'_, f64>, y: MatRef<'_, f64>| -> f64 { (x.transpose() * mul_dense(mass, y))[(0, 0)] };
+    let m_dot = |x: MatRef<'_, f64>, y: MatRef<'_, f64>| -> f64 {
+        (x.transpose() * mul_dense(mass, y))[(0, 0)]
+    };
 
     // Krylov–Schur
     let t = Instant::now();
@@ -262,7 +292,9 @@ pub fn eigenpairs(model: &Model, req: Request, opts: &EigenOptions) -> Result<Mo
     let take = count.min(m);
     let mut pairs: Vec<(f64, usize)> = (0..take).map(|c| (sigma + 1.0 / theta[c], c)).collect();
     pairs.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let vectors = Mat::from_fn(n, take, |i, c| (0..m).map(|r| q[(i, r)] * y[(r, pairs[c].1)]).sum());
+    let vectors = Mat::from_fn(n, take, |i, c| {
+        (0..m).map(|r| q[(i, r)] * y[(r, pairs[c].1)]).sum()
+    });
     let lambdas: Vec<f64> = pairs.iter().map(|p| p.0).collect();
     let kphi = mul_dense(model.stiffness.as_ref(), vectors.as_ref());
     let mphi = mul_dense(mass, vectors.as_ref());
@@ -275,11 +307,22 @@ pub fn eigenpairs(model: &Model, req: Request, opts: &EigenOptions) -> Result<Mo
     let scale = (0..n)
         .map(|i| diag(&model.stiffness, i) / diag(&model.mass, i))
         .fold(0.0, f64::max);
-    let rigid = lambdas.iter().filter(|&&l| l.abs() <= RIGID_RTOL * scale).count();
-    Ok(Modes { lambdas, vectors, residuals, rigid, stats })
+    let rigid = lambdas
+        .iter()
+        .filter(|&&l| l.abs() <= RIGID_RTOL * scale)
+        .count();
+    Ok(Modes {
+        lambdas,
+        vectors,
+        residuals,
+        rigid,
+        stats,
+    })
 }
 
 fn diag(a: &crate::sparse::Csc, i: usize) -> f64 {
     let rows = a.symbolic().row_idx_of_col_raw(i);
-    rows.binary_search(&i).map(|p| a.val_of_col(i)[p]).unwrap_or(0.0)
+    rows.binary_search(&i)
+        .map(|p| a.val_of_col(i)[p])
+        .unwrap_or(0.0)
 }

@@ -404,7 +404,6 @@ pub fn paper_io_dofs(spec: &BoxSpec) -> Vec<usize> {
         .collect()
 }
 
-
 // ---------------------------------------------------------------------------------------
 // Element matrices
 
@@ -968,9 +967,27 @@ mod tests {
 pub fn bar_model(spec: &BoxSpec) -> Result<crate::model::Model> {
     let body = assemble(spec)?;
     let io = paper_io_dofs(spec);
-    let scene = crate::scene::Scene { inputs: io.clone(), outputs: io, band_hz: PAPER_BAND_HZ };
-    let name = format!("bar {}x{}x{}", spec.elements[0], spec.elements[1], spec.elements[2]);
-    let damping = crate::model::Damping::Rayleigh { alpha: PAPER_RAYLEIGH_ALPHA, beta: PAPER_RAYLEIGH_BETA };
-    let (model, _) = crate::model::Model::new(name, body.mass, body.stiffness, damping, Some(body.nodes), 3, scene)?;
+    let scene = crate::scene::Scene {
+        inputs: io.clone(),
+        outputs: io,
+        band_hz: PAPER_BAND_HZ,
+    };
+    let name = format!(
+        "bar {}x{}x{}",
+        spec.elements[0], spec.elements[1], spec.elements[2]
+    );
+    let damping = crate::model::Damping::Rayleigh {
+        alpha: PAPER_RAYLEIGH_ALPHA,
+        beta: PAPER_RAYLEIGH_BETA,
+    };
+    let (model, _) = crate::model::Model::new(
+        name,
+        body.mass,
+        body.stiffness,
+        damping,
+        Some(body.nodes),
+        3,
+        scene,
+    )?;
     Ok(model)
 }

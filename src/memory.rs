@@ -25,6 +25,11 @@ pub fn reset_peak_rss() -> bool {
 fn proc_kib(file: &str, key: &str) -> Option<usize> {
     let text = std::fs::read_to_string(file).ok()?;
     let line = text.lines().find(|l| l.starts_with(key))?;
-    let kib: usize = line[key.len()..].trim().trim_end_matches("kB").trim().parse().ok()?;
+    let kib: usize = line[key.len()..]
+        .trim()
+        .trim_end_matches("kB")
+        .trim()
+        .parse()
+        .ok()?;
     Some(kib * 1024)
 }

@@ -9,12 +9,12 @@
 //!
 //! The full H1 on the grid comes from the same parallel sweep as everything else.
 
+use crate::eigen::Modes;
 use crate::model::Model;
 use crate::reduce::Rom;
 use crate::rigid::RigidBody;
 use crate::sweep::{transfer_function, Part, ProgressFn, SweepOptions};
 use crate::{Error, Result};
-use crate::eigen::Modes;
 use faer::{c64, Mat, MatRef};
 
 /// ε(f) on a frequency grid.
@@ -59,11 +59,27 @@ impl Reference {
     ///
     /// # Errors
     /// The sweep's errors (e.g. f = 0 on a free body).
-    pub fn compute(model: &Model, inputs: &[usize], outputs: &[usize], freqs_hz: &[f64], opts: &SweepOptions, progress: ProgressFn<'_>) -> Result<Self> {
+    pub fn compute(
+        model: &Model,
+        inputs: &[usize],
+        outputs: &[usize],
+        freqs_hz: &[f64],
+        opts: &SweepOptions,
+        progress: ProgressFn<'_>,
+    ) -> Result<Self> {
         if freqs_hz.is_empty() {
             return Err(Error::InvalidSetting("error curve: no frequencies".into()));
         }
-        let frf = transfer_function(model, inputs, outputs, freqs_hz, Part::Elastic, false, opts, progress)?;
+        let frf = transfer_function(
+            model,
+            inputs,
+            outputs,
+            freqs_hz,
+            Part::Elastic,
+            false,
+            opts,
+            progress,
+        )?;
         let rigid = RigidBody::detect(model)?;
         let h = frf
             .h
@@ -90,7 +106,9 @@ impl Reference {
     /// [`Error::InvalidSetting`] when the ROM has other inputs/outputs than the reference.
     pub fn error(&self, rom: &Rom) -> Result<ErrorCurve> {
         if rom.inputs != self.inputs || rom.outputs != self.outputs {
-            return Err(Error::InvalidSetting("the ROM's inputs/outputs differ from the reference's".into()));
+            return Err(Error::InvalidSetting(
+                "the ROM's inputs/outputs differ from the reference's".into(),
+            ));
         }
         let mut eps_elastic = Vec::with_capacity(self.freqs_hz.len());
         let mut eps_total = Vec::with_capacity(self.freqs_hz.len());
@@ -99,7 +117,11 @@ impl Reference {
             eps_elastic.push(diff / self.h1[k].norm_l2());
             eps_total.push(diff / self.h[k].norm_l2());
         }
-        Ok(ErrorCurve { freqs_hz: self.freqs_hz.clone(), eps_elastic, eps_total })
+        Ok(ErrorCurve {
+            freqs_hz: self.freqs_hz.clone(),
+            eps_elastic,
+            eps_total,
+        })
     }
 }
 
@@ -114,10 +136,9 @@ pub fn lambda_to_hz(l: f64) -> f64 {
 /// [`Error::InvalidSetting`] when Mr is not positive definite or the eigensolver fails.
 pub fn rom_modes(rom: &Rom) -> Result<(Vec<f64>, Mat<f64>)> {
     use faer::linalg::solvers::DenseSolveCore;
-    let llt = rom
-        .mr
-        .llt(faer::Side::Lower)
-        .map_err(|_| Error::InvalidSetting("the reduced mass matrix Mr is not positive definite".into()))?;
+    let llt = rom.mr.llt(faer::Side::Lower).map_err(|_| {
+        Error::InvalidSetting("the reduced mass matrix Mr is not positive definite".into())
+    })?;
     let linv = llt.L().to_owned().partial_piv_lu().inverse();
     let c = &linv * &rom.kr * linv.transpose();
     let c = Mat::from_fn(c.nrows(), c.ncols(), |i, j| 0.5 * (c[(i, j)] + c[(j, i)]));
@@ -175,10 +196,16 @@ pub struct ModalComparison {
 ///
 /// # Errors
 /// As [`rom_modes`].
-pub fn modal_comparison(rom: &Rom, full: &Modes, basis: Option<MatRef<'_, f64>>) -> Result<ModalComparison> {
+pub fn modal_comparison(
+    rom: &Rom,
+    full: &Modes,
+    basis: Option<MatRef<'_, f64>>,
+) -> Result<ModalComparison> {
     let (lam_r, phi_r) = rom_modes(rom)?;
     let lam_max = lam_r.iter().copied().fold(0.0, f64::max);
-    let rom_elastic: Vec<usize> = (0..lam_r.len()).filter(|&j| lam_r[j] > 1e-10 * lam_max).collect();
+    let rom_elastic: Vec<usize> = (0..lam_r.len())
+        .filter(|&j| lam_r[j] > 1e-10 * lam_max)
+        .collect();
     let expanded_modes = basis.map(|v| v * &phi_r);
     let mut pairs = Vec::new();
     for i in full.rigid..full.lambdas.len() {
@@ -209,5 +236,8 @@ pub fn modal_comparison(rom: &Rom, full: &Modes, basis: Option<MatRef<'_, f64>>)
             });
         }
     }
-    Ok(ModalComparison { pairs, expanded: expanded_modes.is_some() })
+    Ok(ModalComparison {
+        pairs,
+        expanded: expanded_modes.is_some(),
+    })
 }

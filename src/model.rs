@@ -31,7 +31,14 @@ pub enum Damping {
 impl Damping {
     /// True when D = 0 (no damping matrix, or Rayleigh with α = β = 0).
     pub fn is_zero(&self) -> bool {
-        matches!(self, Damping::None | Damping::Rayleigh { alpha: 0.0, beta: 0.0 })
+        matches!(
+            self,
+            Damping::None
+                | Damping::Rayleigh {
+                    alpha: 0.0,
+                    beta: 0.0
+                }
+        )
     }
 }
 
@@ -129,7 +136,9 @@ impl Model {
                 )));
             }
             if let Some(i) = nodes.iter().position(|p| p.iter().any(|c| !c.is_finite())) {
-                return Err(Error::InvalidModel(format!("nodes: node {i} has a non-finite coordinate")));
+                return Err(Error::InvalidModel(format!(
+                    "nodes: node {i} has a non-finite coordinate"
+                )));
             }
         }
         scene.validate(n, "scene")?;

@@ -36,7 +36,10 @@ impl Pencil {
     /// aligned coefficient arrays. Memory O(nnz).
     pub fn new(model: &Model) -> Self {
         let n = model.n();
-        let mut parts = vec![lower_triangle(model.mass.as_ref()), lower_triangle(model.stiffness.as_ref())];
+        let mut parts = vec![
+            lower_triangle(model.mass.as_ref()),
+            lower_triangle(model.stiffness.as_ref()),
+        ];
         if let Damping::Matrix(d) = &model.damping {
             parts.push(lower_triangle(d.as_ref()));
         }
@@ -84,10 +87,12 @@ impl Pencil {
         let k = scatter(&parts[1]);
         let d = match &model.damping {
             Damping::Matrix(_) => DampingValues::Matrix(scatter(&parts[2])),
-            Damping::Rayleigh { alpha, beta } if !model.damping.is_zero() => DampingValues::Rayleigh {
-                alpha: *alpha,
-                beta: *beta,
-            },
+            Damping::Rayleigh { alpha, beta } if !model.damping.is_zero() => {
+                DampingValues::Rayleigh {
+                    alpha: *alpha,
+                    beta: *beta,
+                }
+            }
             _ => DampingValues::Zero,
         };
         Pencil {
@@ -171,7 +176,9 @@ impl Pencil {
                     let i = self.row_idx[p];
                     let im = match &self.d {
                         DampingValues::Zero => 0.0,
-                        DampingValues::Rayleigh { alpha, beta } => omega * (alpha * self.m[p] + beta * self.k[p]),
+                        DampingValues::Rayleigh { alpha, beta } => {
+                            omega * (alpha * self.m[p] + beta * self.k[p])
+                        }
                         DampingValues::Matrix(d) => omega * d[p],
                     };
                     let a = c64::new(self.k[p] - w2 * self.m[p], im);

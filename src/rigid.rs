@@ -104,7 +104,8 @@ impl RigidBody {
         let v0 = rigid_modes(nodes, model.dofs_per_node);
         let mv0 = mul_dense(model.mass.as_ref(), v0.as_ref());
         let kv0 = mul_dense(model.stiffness.as_ref(), v0.as_ref());
-        let stiffness_residual = frob(kv0.as_ref()) / (sparse_frob(&model.stiffness) * frob(v0.as_ref())).max(f64::MIN_POSITIVE);
+        let stiffness_residual = frob(kv0.as_ref())
+            / (sparse_frob(&model.stiffness) * frob(v0.as_ref())).max(f64::MIN_POSITIVE);
         let m0 = sym(v0.transpose() * &mv0);
         let d0 = match &model.damping {
             Damping::None => Mat::zeros(6, 6),
@@ -112,7 +113,10 @@ impl RigidBody {
             Damping::Matrix(d) => sym(v0.transpose() * mul_dense(d.as_ref(), v0.as_ref())),
         };
         let llt = m0.llt(faer::Side::Lower).map_err(|_| {
-            Error::InvalidModel("rigid modes: V0ᵀ M V0 is not positive definite (are the node coordinates right?)".into())
+            Error::InvalidModel(
+                "rigid modes: V0ᵀ M V0 is not positive definite (are the node coordinates right?)"
+                    .into(),
+            )
         })?;
         let m0_inv = llt.inverse();
         Ok(RigidBody {
@@ -151,7 +155,9 @@ impl RigidBody {
         let a = Mat::<c64>::from_fn(6, 6, |i, j| {
             c64::new(-omega * omega * self.m0[(i, j)], omega * self.d0[(i, j)])
         });
-        let b0 = Mat::<c64>::from_fn(6, inputs.len(), |i, j| c64::new(self.v0[(inputs[j], i)], 0.0));
+        let b0 = Mat::<c64>::from_fn(6, inputs.len(), |i, j| {
+            c64::new(self.v0[(inputs[j], i)], 0.0)
+        });
         let x = a.partial_piv_lu().solve(&b0);
         Mat::<c64>::from_fn(outputs.len(), inputs.len(), |o, j| {
             (0..6).map(|i| x[(i, j)] * self.v0[(outputs[o], i)]).sum()

@@ -37,7 +37,9 @@ impl Scene {
 /// [`crate::Error::InvalidSetting`] naming `what`, the index and the valid range.
 pub fn check_dofs(dofs: &[usize], n: usize, what: &str) -> crate::Result<()> {
     if dofs.is_empty() {
-        return Err(crate::Error::InvalidSetting(format!("{what}: empty DoF list")));
+        return Err(crate::Error::InvalidSetting(format!(
+            "{what}: empty DoF list"
+        )));
     }
     let mut seen = vec![false; n];
     for &d in dofs {
@@ -48,7 +50,9 @@ pub fn check_dofs(dofs: &[usize], n: usize, what: &str) -> crate::Result<()> {
             )));
         }
         if std::mem::replace(&mut seen[d], true) {
-            return Err(crate::Error::InvalidSetting(format!("{what}: DoF {d} appears twice")));
+            return Err(crate::Error::InvalidSetting(format!(
+                "{what}: DoF {d} appears twice"
+            )));
         }
     }
     Ok(())

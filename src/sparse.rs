@@ -12,7 +12,10 @@ pub type Csc = SparseColMat<usize, f64>;
 
 /// Largest |a_ij − a_ji| over all entries (a missing entry counts as zero), and max |a_ij|.
 pub fn asymmetry(a: SparseColMatRef<'_, usize, f64>) -> (f64, f64) {
-    let at = a.transpose().to_col_major().expect("transpose of a valid CSC matrix");
+    let at = a
+        .transpose()
+        .to_col_major()
+        .expect("transpose of a valid CSC matrix");
     let mut max_abs = 0.0f64;
     let mut max_diff = 0.0f64;
     for j in 0..a.ncols() {
@@ -69,7 +72,14 @@ pub fn lower_triangle(a: SparseColMatRef<'_, usize, f64>) -> (Vec<usize>, Vec<us
 /// y = A x for a full-storage sparse A and a dense real block x (faer's sparse × dense).
 pub fn mul_dense(a: SparseColMatRef<'_, usize, f64>, x: MatRef<'_, f64>) -> Mat<f64> {
     let mut y = Mat::<f64>::zeros(a.nrows(), x.ncols());
-    faer::sparse::linalg::matmul::sparse_dense_matmul(y.as_mut(), faer::Accum::Replace, a, x, 1.0, faer::Par::Seq);
+    faer::sparse::linalg::matmul::sparse_dense_matmul(
+        y.as_mut(),
+        faer::Accum::Replace,
+        a,
+        x,
+        1.0,
+        faer::Par::Seq,
+    );
     y
 }
 
@@ -77,7 +87,13 @@ pub fn mul_dense(a: SparseColMatRef<'_, usize, f64>, x: MatRef<'_, f64>) -> Mat<
 ///
 /// # Errors
 /// None in practice; the parts are checked by faer (a violation is a programming error).
-pub fn from_parts(n_rows: usize, n_cols: usize, col_ptr: Vec<usize>, row_idx: Vec<usize>, val: Vec<f64>) -> Csc {
+pub fn from_parts(
+    n_rows: usize,
+    n_cols: usize,
+    col_ptr: Vec<usize>,
+    row_idx: Vec<usize>,
+    val: Vec<f64>,
+) -> Csc {
     SparseColMat::new(
         SymbolicSparseColMat::new_checked(n_rows, n_cols, col_ptr, None, row_idx),
         val,

@@ -141,13 +141,25 @@ impl<'m> Solver<'m> {
     ///
     /// # Errors
     /// Bad settings ([`Error::InvalidSetting`]) and analysis failures ([`Error::Factor`]).
-    pub fn new(model: &'m Model, inputs: &[usize], response: Response, opts: &SweepOptions) -> Result<Self> {
+    pub fn new(
+        model: &'m Model,
+        inputs: &[usize],
+        response: Response,
+        opts: &SweepOptions,
+    ) -> Result<Self> {
         let n = model.n();
         crate::scene::check_dofs(inputs, n, "inputs")?;
         if !(opts.probe_tol > 0.0) {
-            return Err(Error::InvalidSetting(format!("probe_tol = {}: must be > 0", opts.probe_tol)));
+            return Err(Error::InvalidSetting(format!(
+                "probe_tol = {}: must be > 0",
+                opts.probe_tol
+            )));
         }
-        let threads = if opts.threads == 0 { rayon::current_num_threads() } else { opts.threads };
+        let threads = if opts.threads == 0 {
+            rayon::current_num_threads()
+        } else {
+            opts.threads
+        };
         let rigid = RigidBody::detect(model)?;
         let pencil = Pencil::new(model);
         let analysis = Analysis::new(&pencil, opts.backend, inputs.len() + 1)?;
@@ -209,7 +221,9 @@ impl<'m> Solver<'m> {
         if workers > 1 && workers.saturating_mul(bytes) <= self.memory_budget {
             Schedule::FrequencyParallel { workers }
         } else {
-            Schedule::FactorParallel { threads: self.threads }
+            Schedule::FactorParallel {
+                threads: self.threads,
+            }
         }
     }
 
@@ -220,7 +234,13 @@ impl<'m> Solver<'m> {
     /// # Errors
     /// Frequencies < 0, or ≤ 0 on a free body ([`Error::InvalidSetting`]); a numerically
     /// singular A(iω) ([`Error::Singular`]); the step's own errors; [`Error::Cancelled`].
-    pub fn run<S, I, F>(&self, freqs_hz: &[f64], init: I, step: F, progress: ProgressFn<'_>) -> Result<(Vec<S>, Vec<FreqStats>)>
+    pub fn run<S, I, F>(
+        &self,
+        freqs_hz: &[f64],
+        init: I,
+        step: F,
+        progress: ProgressFn<'_>,
+    ) -> Result<(Vec<S>, Vec<FreqStats>)>
     where
         S: Send,
         I: Fn() -> S + Sync,
@@ -228,7 +248,9 @@ impl<'m> Solver<'m> {
     {
         for &f in freqs_hz {
             if !f.is_finite() || f < 0.0 {
-                return Err(Error::InvalidSetting(format!("frequency {f} Hz: must be finite and >= 0")));
+                return Err(Error::InvalidSetting(format!(
+                    "frequency {f} Hz: must be finite and >= 0"
+                )));
             }
             if f == 0.0 && self.rigid.is_some() {
                 return Err(Error::InvalidSetting(
@@ -242,10 +264,19 @@ impl<'m> Solver<'m> {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(self.threads)
             .build()
-            .map_err(|e| Error::InvalidSetting(format!("cannot start {} threads: {e}", self.threads)))?;
+            .map_err(|e| {
+                Error::InvalidSetting(format!("cannot start {} threads: {e}", self.threads))
+            })?;
         let (workers, par) = match schedule {
             Schedule::FrequencyParallel { workers } => (workers, Par::Seq),
-            Schedule::FactorParallel { threads } => (1, if threads > 1 { Par::rayon(threads) } else { Par::Seq }),
+            Schedule::FactorParallel { threads } => (
+                1,
+                if threads > 1 {
+                    Par::rayon(threads)
+                } else {
+                    Par::Seq
+                },
+            ),
         };
         let next = AtomicUsize::new(0);
         let done = AtomicUsize::new(0);
@@ -255,7 +286,10 @@ impl<'m> Solver<'m> {
         let states: Mutex<Vec<S>> = Mutex::new(Vec::new());
         let fail = |e: Error| {
             stop.store(true, Ordering::Relaxed);
-            first_error.lock().unwrap_or_else(|p| p.into_inner()).get_or_insert(e);
+            first_error
+                .lock()
+                .unwrap_or_else(|p| p.into_inner())
+                .get_or_insert(e);
         };
         let worker = || {
             let mut numeric = match self.analysis.numeric(&self.pencil) {
@@ -271,14 +305,25 @@ impl<'m> Solver<'m> {
                     .solve_one(&mut numeric, f, &mut rhs, par)
                     .and_then(|st| {
                         let p = self.inputs.len();
-                        step(&mut state, Snapshot { index: k, freq_hz: f, x: rhs.as_ref().subcols(0, p) })?;
+                        step(
+                            &mut state,
+                            Snapshot {
+                                index: k,
+                                freq_hz: f,
+                                x: rhs.as_ref().subcols(0, p),
+                            },
+                        )?;
                         Ok(st)
                     });
                 match r {
                     Ok(st) => {
                         stats.lock().unwrap_or_else(|p| p.into_inner())[k] = Some(st);
                         let d = done.fetch_add(1, Ordering::Relaxed) + 1;
-                        if !progress(Progress { done: d, total: freqs_hz.len(), freq_hz: f }) {
+                        if !progress(Progress {
+                            done: d,
+                            total: freqs_hz.len(),
+                            freq_hz: f,
+                        }) {
                             fail(Error::Cancelled);
                         }
                     }
@@ -301,11 +346,20 @@ impl<'m> Solver<'m> {
             .into_iter()
             .map(|s| s.expect("every frequency finished"))
             .collect();
-        Ok((states.into_inner().unwrap_or_else(|p| p.into_inner()), stats))
+        Ok((
+            states.into_inner().unwrap_or_else(|p| p.into_inner()),
+            stats,
+        ))
     }
 
     /// Factors at `f`, solves load + probe into `rhs`, checks the probe, projects.
-    fn solve_one(&self, numeric: &mut Numeric, f: f64, rhs: &mut Mat<c64>, par: Par) -> Result<FreqStats> {
+    fn solve_one(
+        &self,
+        numeric: &mut Numeric,
+        f: f64,
+        rhs: &mut Mat<c64>,
+        par: Par,
+    ) -> Result<FreqStats> {
         let omega = 2.0 * std::f64::consts::PI * f;
         let p = self.inputs.len();
         let t0 = Instant::now();
@@ -313,7 +367,8 @@ impl<'m> Solver<'m> {
         let factor_s = t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
         rhs.as_mut().subcols_mut(0, p).copy_from(&self.load);
-        self.pencil.apply(omega, self.probe.as_ref(), rhs.as_mut().subcols_mut(p, 1));
+        self.pencil
+            .apply(omega, self.probe.as_ref(), rhs.as_mut().subcols_mut(p, 1));
         numeric.solve(&self.analysis, rhs.as_mut(), par);
         let solve_s = t1.elapsed().as_secs_f64();
         let mut err = Mat::<c64>::from_fn(rhs.nrows(), 1, |i, _| rhs[(i, p)] - self.probe[(i, 0)]);
@@ -364,7 +419,9 @@ impl std::str::FromStr for Part {
             "total" => Ok(Part::Total),
             "elastic" => Ok(Part::Elastic),
             "rigid" => Ok(Part::Rigid),
-            _ => Err(Error::InvalidSetting(format!("part '{s}': choose total, elastic or rigid"))),
+            _ => Err(Error::InvalidSetting(format!(
+                "part '{s}': choose total, elastic or rigid"
+            ))),
         }
     }
 }
@@ -425,14 +482,20 @@ pub fn transfer_function(
             seconds: start.elapsed().as_secs_f64(),
         });
     }
-    let response = if part == Part::Elastic { Response::Elastic } else { Response::Total };
+    let response = if part == Part::Elastic {
+        Response::Elastic
+    } else {
+        Response::Total
+    };
     let solver = Solver::new(model, inputs, response, opts)?;
     type Acc = Vec<(usize, Mat<c64>, Option<Mat<c64>>)>;
     let (states, freq_stats) = solver.run(
         freqs_hz,
         Acc::new,
         |acc: &mut Acc, snap| {
-            let h = Mat::from_fn(outputs.len(), snap.x.ncols(), |o, j| snap.x[(outputs[o], j)]);
+            let h = Mat::from_fn(outputs.len(), snap.x.ncols(), |o, j| {
+                snap.x[(outputs[o], j)]
+            });
             acc.push((snap.index, h, keep_snapshots.then(|| snap.x.to_owned())));
             Ok(())
         },

@@ -9,11 +9,23 @@ use sparsemor::model::Damping;
 fn lowest_modes_of_a_random_model_match_dense() {
     let model = random_model(300, 5, 3, Damping::None);
     let lam = dense_eigenvalues(&model);
-    let modes = eigenpairs(&model, Request::Lowest(12), &EigenOptions { sigma: Some(-1.0), ..Default::default() }).unwrap();
+    let modes = eigenpairs(
+        &model,
+        Request::Lowest(12),
+        &EigenOptions {
+            sigma: Some(-1.0),
+            ..Default::default()
+        },
+    )
+    .unwrap();
     for (k, &l) in modes.lambdas.iter().enumerate() {
         let e = (l - lam[k]).abs() / lam[k].abs();
         assert!(e <= 1e-9, "mode {k}: {l} vs {} ({e:.1e})", lam[k]);
-        assert!(modes.residuals[k] <= 1e-10, "residual {k}: {:.1e}", modes.residuals[k]);
+        assert!(
+            modes.residuals[k] <= 1e-10,
+            "residual {k}: {:.1e}",
+            modes.residuals[k]
+        );
     }
 }
 

@@ -11,7 +11,9 @@ use sparsemor::fe::{bar_model, BoxSpec};
 use sparsemor::io::rom_dir;
 use sparsemor::metrics::Reference;
 use sparsemor::model::{Damping, Model};
-use sparsemor::reduce::linefit::{place_reference_frequencies, reduce, spread_dofs, Interface, LineFitOptions};
+use sparsemor::reduce::linefit::{
+    place_reference_frequencies, reduce, spread_dofs, Interface, LineFitOptions,
+};
 use sparsemor::sweep::{no_progress, SweepOptions};
 use sparsemor::Error;
 
@@ -20,7 +22,10 @@ fn opts(interface: Interface, freqs: &[f64], threads: usize) -> LineFitOptions {
         interface,
         ref_freqs_hz: freqs.to_vec(),
         keep_basis: true,
-        sweep: SweepOptions { threads, ..Default::default() },
+        sweep: SweepOptions {
+            threads,
+            ..Default::default()
+        },
         lsq: Default::default(),
     }
 }
@@ -39,7 +44,12 @@ fn dense_snapshot(model: &Model, f: f64, inputs: &[usize]) -> Mat<c64> {
 }
 
 /// Dense W of eq. 22: stacked T_oᵀ, T_nᵀ, least squares by dense QR.
-fn dense_w(model: &Model, inputs: &[usize], interface: &[usize], freqs: &[f64]) -> (Vec<usize>, Mat<f64>) {
+fn dense_w(
+    model: &Model,
+    inputs: &[usize],
+    interface: &[usize],
+    freqs: &[f64],
+) -> (Vec<usize>, Mat<f64>) {
     let rest: Vec<usize> = (0..model.n()).filter(|d| !interface.contains(d)).collect();
     let p = inputs.len();
     let rows = 2 * p * freqs.len();
@@ -65,12 +75,23 @@ fn dense_w(model: &Model, inputs: &[usize], interface: &[usize], freqs: &[f64]) 
 
 fn check_against_dense(model: &Model, interface: Vec<usize>, freqs: &[f64]) {
     let (i, o) = (model.scene.inputs.clone(), model.scene.outputs.clone());
-    let rom = reduce(model, &i, &o, &opts(Interface::Explicit(interface.clone()), freqs, 2), &no_progress).unwrap();
+    let rom = reduce(
+        model,
+        &i,
+        &o,
+        &opts(Interface::Explicit(interface.clone()), freqs, 2),
+        &no_progress,
+    )
+    .unwrap();
     let v = rom.basis.as_ref().unwrap();
     let (rest, w_ref) = dense_w(model, &i, &interface, freqs);
     let w = Mat::from_fn(rest.len(), interface.len(), |r, c| v[(rest[r], c)]);
     let e = (&w - &w_ref).norm_l2() / w_ref.norm_l2();
-    println!("N = {}: ‖W − W_dense‖/‖W_dense‖ = {e:.2e}, cond(T_o) = {:.2e}", model.n(), rom.fit.as_ref().unwrap().cond_raw);
+    println!(
+        "N = {}: ‖W − W_dense‖/‖W_dense‖ = {e:.2e}, cond(T_o) = {:.2e}",
+        model.n(),
+        rom.fit.as_ref().unwrap().cond_raw
+    );
     assert!(e <= 1e-8, "W differs from the dense reference: {e:.2e}");
     for (c, &d) in interface.iter().enumerate() {
         assert_eq!(v[(d, c)], 1.0);
@@ -79,7 +100,15 @@ fn check_against_dense(model: &Model, interface: Vec<usize>, freqs: &[f64]) {
 
 #[test]
 fn constrained_model_matches_dense_reference() {
-    let model = random_model(400, 6, 21, Damping::Rayleigh { alpha: 1.0, beta: 2e-5 });
+    let model = random_model(
+        400,
+        6,
+        21,
+        Damping::Rayleigh {
+            alpha: 1.0,
+            beta: 2e-5,
+        },
+    );
     let mut interface = model.scene.outputs.clone();
     interface.extend([50, 120, 260, 333]);
     check_against_dense(&model, interface, &[20.0, 60.0, 110.0, 170.0]);
@@ -87,7 +116,12 @@ fn constrained_model_matches_dense_reference() {
 
 #[test]
 fn free_bar_matches_dense_reference() {
-    let model = bar_model(&BoxSpec { elements: [1, 2, 24], size_m: [0.006, 0.008, 0.3], ..BoxSpec::paper_bar() }).unwrap();
+    let model = bar_model(&BoxSpec {
+        elements: [1, 2, 24],
+        size_m: [0.006, 0.008, 0.3],
+        ..BoxSpec::paper_bar()
+    })
+    .unwrap();
     assert!(model.n() <= 1000);
     let mut interface = model.scene.outputs.clone();
     interface.extend(spread_dofs(&model, 4, &interface).unwrap());
@@ -100,13 +134,32 @@ fn exact_fit_interpolates_at_reference_frequencies() {
     let model = bar_model(&BoxSpec::paper_bar()).unwrap();
     let (i, o) = (model.scene.inputs.clone(), model.scene.outputs.clone());
     for freqs in [[333.0], [777.0]] {
-        let rom = reduce(&model, &i, &o, &opts(Interface::OutputsPlus(9), &freqs, 1), &no_progress).unwrap();
+        let rom = reduce(
+            &model,
+            &i,
+            &o,
+            &opts(Interface::OutputsPlus(9), &freqs, 1),
+            &no_progress,
+        )
+        .unwrap();
         let fit = rom.fit.as_ref().unwrap();
         assert_eq!((fit.rows, rom.order(), fit.rank), (18, 18, 18));
-        let reference = Reference::compute(&model, &i, &o, &freqs, &SweepOptions::default(), &no_progress).unwrap();
+        let reference = Reference::compute(
+            &model,
+            &i,
+            &o,
+            &freqs,
+            &SweepOptions::default(),
+            &no_progress,
+        )
+        .unwrap();
         let e = reference.error(&rom).unwrap().eps_elastic[0];
         println!("exact fit at {} Hz: eps = {e:.2e}", freqs[0]);
-        assert!(e <= 1e-8, "ROM does not interpolate H1 at {} Hz: {e:.2e}", freqs[0]);
+        assert!(
+            e <= 1e-8,
+            "ROM does not interpolate H1 at {} Hz: {e:.2e}",
+            freqs[0]
+        );
     }
 }
 
@@ -117,14 +170,36 @@ fn paper_bar_with_demo_settings_is_within_three_percent() {
     let full = eigenpairs(&model, Request::UpTo(1000.0), &EigenOptions::default()).unwrap();
     let res = full.freqs_hz()[full.rigid..].to_vec();
     let freqs = place_reference_frequencies(&res, [0.0, 1000.0], 20).unwrap();
-    let rom = reduce(&model, &i, &o, &opts(Interface::OutputsPlus(5), &freqs, 2), &no_progress).unwrap();
+    let rom = reduce(
+        &model,
+        &i,
+        &o,
+        &opts(Interface::OutputsPlus(5), &freqs, 2),
+        &no_progress,
+    )
+    .unwrap();
     assert_eq!(rom.order(), 14);
     let grid: Vec<f64> = (0..2000).map(|k| 1.0 + 999.0 * k as f64 / 1999.0).collect();
-    let curve = Reference::compute(&model, &i, &o, &grid, &SweepOptions::default(), &no_progress).unwrap().error(&rom).unwrap();
+    let curve = Reference::compute(
+        &model,
+        &i,
+        &o,
+        &grid,
+        &SweepOptions::default(),
+        &no_progress,
+    )
+    .unwrap()
+    .error(&rom)
+    .unwrap();
     let max = curve.eps_elastic.iter().copied().fold(0.0, f64::max);
-    println!("max elastic eps over [1, 1000] Hz (2000 points): {:.3} %", 100.0 * max);
+    println!(
+        "max elastic eps over [1, 1000] Hz (2000 points): {:.3} %",
+        100.0 * max
+    );
     assert!(max < 0.03, "max eps {max:.4}");
-    assert!(rom.mass_definiteness.positive_definite && rom.stiffness_definiteness.positive_definite);
+    assert!(
+        rom.mass_definiteness.positive_definite && rom.stiffness_definiteness.positive_definite
+    );
 }
 
 #[test]
@@ -132,8 +207,22 @@ fn thread_count_changes_only_rounding() {
     let model = bar_model(&BoxSpec::paper_bar()).unwrap();
     let (i, o) = (model.scene.inputs.clone(), model.scene.outputs.clone());
     let freqs: Vec<f64> = (1..=8).map(|k| 120.0 * k as f64 + 3.0).collect();
-    let a = reduce(&model, &i, &o, &opts(Interface::OutputsPlus(5), &freqs, 1), &no_progress).unwrap();
-    let b = reduce(&model, &i, &o, &opts(Interface::OutputsPlus(5), &freqs, 2), &no_progress).unwrap();
+    let a = reduce(
+        &model,
+        &i,
+        &o,
+        &opts(Interface::OutputsPlus(5), &freqs, 1),
+        &no_progress,
+    )
+    .unwrap();
+    let b = reduce(
+        &model,
+        &i,
+        &o,
+        &opts(Interface::OutputsPlus(5), &freqs, 2),
+        &no_progress,
+    )
+    .unwrap();
     let (va, vb) = (a.basis.unwrap(), b.basis.unwrap());
     let e = (&va - &vb).norm_l2() / va.norm_l2();
     assert!(e <= 1e-10, "1 vs 2 threads: {e:.2e}");
@@ -144,12 +233,22 @@ fn rom_directory_round_trips_exactly() {
     let model = bar_model(&BoxSpec::paper_bar()).unwrap();
     let (i, o) = (model.scene.inputs.clone(), model.scene.outputs.clone());
     let freqs: Vec<f64> = (1..=4).map(|k| 200.0 * k as f64).collect();
-    let rom = reduce(&model, &i, &o, &opts(Interface::OutputsPlus(3), &freqs, 2), &no_progress).unwrap();
+    let rom = reduce(
+        &model,
+        &i,
+        &o,
+        &opts(Interface::OutputsPlus(3), &freqs, 2),
+        &no_progress,
+    )
+    .unwrap();
     let dir = std::env::temp_dir().join(format!("sparsemor-romdir-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     rom_dir::write(&dir, &rom).unwrap();
     let back = rom_dir::read(&dir).unwrap();
-    assert_eq!((back.mr, back.dr, back.kr, back.br, back.cr), (rom.mr, rom.dr, rom.kr, rom.br, rom.cr));
+    assert_eq!(
+        (back.mr, back.dr, back.kr, back.br, back.cr),
+        (rom.mr, rom.dr, rom.kr, rom.br, rom.cr)
+    );
     assert_eq!(back.basis, rom.basis);
     assert_eq!((back.dofs, back.ref_freqs_hz), (rom.dofs, rom.ref_freqs_hz));
     std::fs::remove_dir_all(&dir).unwrap();
@@ -158,8 +257,13 @@ fn rom_directory_round_trips_exactly() {
 fn expect_setting_error(model: &Model, o: LineFitOptions, needle: &str) {
     let (i, out) = (model.scene.inputs.clone(), model.scene.outputs.clone());
     match reduce(model, &i, &out, &o, &no_progress) {
-        Err(Error::InvalidSetting(m)) => assert!(m.contains(needle), "message '{m}' lacks '{needle}'"),
-        other => panic!("expected InvalidSetting({needle}), got {:?}", other.map(|r| r.order())),
+        Err(Error::InvalidSetting(m)) => {
+            assert!(m.contains(needle), "message '{m}' lacks '{needle}'")
+        }
+        other => panic!(
+            "expected InvalidSetting({needle}), got {:?}",
+            other.map(|r| r.order())
+        ),
     }
 }
 
@@ -168,21 +272,44 @@ fn bad_settings_are_clear_errors() {
     let model = bar_model(&BoxSpec::paper_bar()).unwrap();
     let f20: Vec<f64> = (1..=20).map(|k| 50.0 * k as f64).collect();
     // outputs not in the interface
-    expect_setting_error(&model, opts(Interface::Explicit(vec![0, 1, 2, 5, 6]), &f20, 2), "not in the interface");
+    expect_setting_error(
+        &model,
+        opts(Interface::Explicit(vec![0, 1, 2, 5, 6]), &f20, 2),
+        "not in the interface",
+    );
     // duplicate interface DoF
     let mut dup = model.scene.outputs.clone();
     dup.push(0);
-    expect_setting_error(&model, opts(Interface::Explicit(dup), &f20, 2), "appears twice");
+    expect_setting_error(
+        &model,
+        opts(Interface::Explicit(dup), &f20, 2),
+        "appears twice",
+    );
     // 2pz < n: 9 inputs, 1 frequency, n = 19
     expect_setting_error(&model, opts(Interface::OutputsPlus(10), &[300.0], 2), "2pz");
     // frequency 0 on a free body
-    expect_setting_error(&model, opts(Interface::OutputsPlus(5), &[0.0, 100.0, 200.0], 2), "free body");
+    expect_setting_error(
+        &model,
+        opts(Interface::OutputsPlus(5), &[0.0, 100.0, 200.0], 2),
+        "free body",
+    );
     // no frequency at all
-    expect_setting_error(&model, opts(Interface::OutputsPlus(5), &[], 2), "at least one reference frequency");
+    expect_setting_error(
+        &model,
+        opts(Interface::OutputsPlus(5), &[], 2),
+        "at least one reference frequency",
+    );
     // interface DoF out of range
     let mut far = model.scene.outputs.clone();
     far.push(model.n());
-    expect_setting_error(&model, opts(Interface::Explicit(far), &f20, 2), "out of range");
+    expect_setting_error(
+        &model,
+        opts(Interface::Explicit(far), &f20, 2),
+        "out of range",
+    );
     // empty band for the placement rule
-    assert!(matches!(place_reference_frequencies(&[100.0], [500.0, 500.0], 20), Err(Error::InvalidSetting(_))));
+    assert!(matches!(
+        place_reference_frequencies(&[100.0], [500.0, 500.0], 20),
+        Err(Error::InvalidSetting(_))
+    ));
 }

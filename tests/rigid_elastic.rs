@@ -11,9 +11,14 @@ use sparsemor::sweep::{no_progress, transfer_function, Part, SweepOptions};
 use sparsemor::Error;
 
 fn h(model: &Model, freqs: &[f64], part: Part, threads: usize) -> Vec<Mat<c64>> {
-    let opts = SweepOptions { threads, ..Default::default() };
+    let opts = SweepOptions {
+        threads,
+        ..Default::default()
+    };
     let (i, o) = (&model.scene.inputs, &model.scene.outputs);
-    transfer_function(model, i, o, freqs, part, false, &opts, &no_progress).unwrap().h
+    transfer_function(model, i, o, freqs, part, false, &opts, &no_progress)
+        .unwrap()
+        .h
 }
 
 fn bar() -> Model {
@@ -36,9 +41,15 @@ fn elastic_equals_total_minus_rigid_mid_band_and_survives_low_frequency() {
         println!("f = {f:>8} Hz: projection {e_proj:.2e}, subtraction H - H0 {e_sub:.2e}");
         assert!(e_proj <= 1e-8, "projection at {f} Hz: {e_proj:.2e}");
         if f >= 1.0 {
-            assert!(rel_err(&h1[k], &(&ht[k] - &h0[k])) <= 1e-8, "H1 = H - H0 at {f} Hz");
+            assert!(
+                rel_err(&h1[k], &(&ht[k] - &h0[k])) <= 1e-8,
+                "H1 = H - H0 at {f} Hz"
+            );
         } else {
-            assert!(e_sub > 1e-4, "subtraction should visibly fail at {f} Hz, got {e_sub:.2e}");
+            assert!(
+                e_sub > 1e-4,
+                "subtraction should visibly fail at {f} Hz, got {e_sub:.2e}"
+            );
         }
     }
 }
@@ -50,13 +61,21 @@ fn invariant_to_unit_scaling() {
     let mut mm = si.clone();
     mm.mass = scaled(&si.mass, 1e-3);
     mm.stiffness = scaled(&si.stiffness, 1e-3);
-    mm.nodes = si.nodes.as_ref().map(|n| n.iter().map(|p| [p[0] * 1e3, p[1] * 1e3, p[2] * 1e3]).collect());
+    mm.nodes = si.nodes.as_ref().map(|n| {
+        n.iter()
+            .map(|p| [p[0] * 1e3, p[1] * 1e3, p[2] * 1e3])
+            .collect()
+    });
     // H by a direct solve (Part::Total) is ill-conditioned at low frequency on a free body
     // (cond ≈ λ_max/ω², ~1e10 at 3 Hz: that is why the elastic part is separated), so the
     // total is compared in the band where it is well posed; elastic and rigid from 3 Hz.
     let freqs = [3.0, 420.0, 990.0];
     for part in [Part::Elastic, Part::Total, Part::Rigid] {
-        let freqs: &[f64] = if part == Part::Total { &freqs[1..] } else { &freqs };
+        let freqs: &[f64] = if part == Part::Total {
+            &freqs[1..]
+        } else {
+            &freqs
+        };
         let (a, b) = (h(&si, freqs, part, 2), h(&mm, freqs, part, 2));
         for k in 0..freqs.len() {
             let b_si = Mat::from_fn(b[k].nrows(), b[k].ncols(), |r, c| b[k][(r, c)] * 1e-3);
@@ -87,18 +106,27 @@ fn invariant_to_node_permutation() {
     let dof = |d: usize| 3 * inv[d / 3] + d % 3;
     let permute = |a: &sparsemor::sparse::Csc| {
         let d = dense(a);
-        sparse(&Mat::from_fn(d.nrows(), d.ncols(), |i, j| d[(3 * perm[i / 3] + i % 3, 3 * perm[j / 3] + j % 3)]))
+        sparse(&Mat::from_fn(d.nrows(), d.ncols(), |i, j| {
+            d[(3 * perm[i / 3] + i % 3, 3 * perm[j / 3] + j % 3)]
+        }))
     };
     let mut p = model.clone();
     p.mass = permute(&model.mass);
     p.stiffness = permute(&model.stiffness);
-    p.nodes = model.nodes.as_ref().map(|n| perm.iter().map(|&q| n[q]).collect());
+    p.nodes = model
+        .nodes
+        .as_ref()
+        .map(|n| perm.iter().map(|&q| n[q]).collect());
     p.scene.inputs = model.scene.inputs.iter().map(|&d| dof(d)).collect();
     p.scene.outputs = model.scene.outputs.iter().map(|&d| dof(d)).collect();
     let freqs = [5.0, 333.0, 777.0];
     for part in [Part::Elastic, Part::Total] {
         // the total by direct solve only where it is well conditioned (see the scaling test)
-        let freqs: &[f64] = if part == Part::Total { &freqs[1..] } else { &freqs };
+        let freqs: &[f64] = if part == Part::Total {
+            &freqs[1..]
+        } else {
+            &freqs
+        };
         let (a, b) = (h(&model, freqs, part, 2), h(&p, freqs, part, 2));
         for k in 0..freqs.len() {
             let e = rel_err(&b[k], &a[k]);
@@ -111,7 +139,10 @@ fn invariant_to_node_permutation() {
 fn two_threads_give_the_same_numbers_as_one() {
     let model = bar();
     let freqs: Vec<f64> = (1..=12).map(|k| 80.0 * k as f64 + 0.5).collect();
-    let (a, b) = (h(&model, &freqs, Part::Elastic, 1), h(&model, &freqs, Part::Elastic, 2));
+    let (a, b) = (
+        h(&model, &freqs, Part::Elastic, 1),
+        h(&model, &freqs, Part::Elastic, 2),
+    );
     for k in 0..freqs.len() {
         assert_eq!(a[k], b[k], "bit-identical at {} Hz", freqs[k]);
     }
@@ -123,9 +154,21 @@ fn undamped_at_an_eigenfrequency_is_reported_singular() {
     model.damping = Damping::None;
     let lam = dense_eigenvalues(&model);
     let f = lam[6].sqrt() / (2.0 * std::f64::consts::PI);
-    let opts = SweepOptions { threads: 1, ..Default::default() };
+    let opts = SweepOptions {
+        threads: 1,
+        ..Default::default()
+    };
     let (i, o) = (&model.scene.inputs, &model.scene.outputs);
-    let r = transfer_function(&model, i, o, &[f], Part::Elastic, false, &opts, &no_progress);
+    let r = transfer_function(
+        &model,
+        i,
+        o,
+        &[f],
+        Part::Elastic,
+        false,
+        &opts,
+        &no_progress,
+    );
     match r {
         Err(Error::Singular { freq_hz, detail }) => {
             assert_eq!(freq_hz, f);
@@ -134,7 +177,16 @@ fn undamped_at_an_eigenfrequency_is_reported_singular() {
         other => panic!("expected Error::Singular, got {:?}", other.map(|x| x.h)),
     }
     // a little off resonance it is fine
-    let r = transfer_function(&model, i, o, &[f * 1.01], Part::Elastic, false, &opts, &no_progress);
+    let r = transfer_function(
+        &model,
+        i,
+        o,
+        &[f * 1.01],
+        Part::Elastic,
+        false,
+        &opts,
+        &no_progress,
+    );
     assert!(r.is_ok());
 }
 
@@ -142,6 +194,15 @@ fn undamped_at_an_eigenfrequency_is_reported_singular() {
 fn zero_frequency_on_a_free_body_is_an_error() {
     let model = bar();
     let (i, o) = (&model.scene.inputs, &model.scene.outputs);
-    let r = transfer_function(&model, i, o, &[0.0, 10.0], Part::Elastic, false, &SweepOptions::default(), &no_progress);
+    let r = transfer_function(
+        &model,
+        i,
+        o,
+        &[0.0, 10.0],
+        Part::Elastic,
+        false,
+        &SweepOptions::default(),
+        &no_progress,
+    );
     assert!(matches!(r, Err(Error::InvalidSetting(m)) if m.contains("free body")));
 }

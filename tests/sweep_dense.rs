@@ -66,3 +66,22 @@ fn lu_damped_matches_dense() {
 fn lu_undamped_matches_dense() {
     check(Damping::None, Backend::FaerLu, 2);
 }
+
+#[cfg(feature = "umfpack")]
+#[test]
+fn umfpack_damped_matches_dense() {
+    check(
+        Damping::Rayleigh {
+            alpha: 0.5,
+            beta: 1e-5,
+        },
+        Backend::Umfpack,
+        2,
+    );
+}
+
+#[cfg(feature = "umfpack")]
+#[test]
+fn umfpack_undamped_matches_dense() {
+    check(Damping::None, Backend::Umfpack, 2);
+}

@@ -37,22 +37,53 @@ struct Case {
 }
 
 const CASES: [Case; 5] = [
-    Case { name: "bar 2x3x45", elements: [2, 3, 45], size_m: [0.006, 0.008, 0.3] },
-    Case { name: "bar 3x4x200", elements: [3, 4, 200], size_m: [0.006, 0.008, 0.3] },
-    Case { name: "bar 4x6x950", elements: [4, 6, 950], size_m: [0.006, 0.008, 0.3] },
-    Case { name: "cube 32^3", elements: [32, 32, 32], size_m: [0.1, 0.1, 0.1] },
-    Case { name: "bar 4x6x9520", elements: [4, 6, 9520], size_m: [0.006, 0.008, 3.0] },
+    Case {
+        name: "bar 2x3x45",
+        elements: [2, 3, 45],
+        size_m: [0.006, 0.008, 0.3],
+    },
+    Case {
+        name: "bar 3x4x200",
+        elements: [3, 4, 200],
+        size_m: [0.006, 0.008, 0.3],
+    },
+    Case {
+        name: "bar 4x6x950",
+        elements: [4, 6, 950],
+        size_m: [0.006, 0.008, 0.3],
+    },
+    Case {
+        name: "cube 32^3",
+        elements: [32, 32, 32],
+        size_m: [0.1, 0.1, 0.1],
+    },
+    Case {
+        name: "bar 4x6x9520",
+        elements: [4, 6, 9520],
+        size_m: [0.006, 0.008, 3.0],
+    },
 ];
 
 pub fn run(a: &BenchArgs) -> Result<()> {
     if a.what != "sweep" {
-        return Err(Error::InvalidSetting(format!("bench '{}': available: sweep", a.what)));
+        return Err(Error::InvalidSetting(format!(
+            "bench '{}': available: sweep",
+            a.what
+        )));
     }
-    let backends: Vec<Backend> = a.backends.split(',').map(|b| b.trim().parse()).collect::<Result<_>>()?;
+    let backends: Vec<Backend> = a
+        .backends
+        .split(',')
+        .map(|b| b.trim().parse())
+        .collect::<Result<_>>()?;
     println!("| model | N | backend | symbolic s | factor s (complex) | factor s (real) | solve s | nnz(factor) | peak mem | chol(K) s | complex ÷ chol | sweep 1 thr s | sweep 2 thr s | speed-up |");
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for case in &CASES {
-        let spec = BoxSpec { elements: case.elements, size_m: case.size_m, ..BoxSpec::paper_bar() };
+        let spec = BoxSpec {
+            elements: case.elements,
+            size_m: case.size_m,
+            ..BoxSpec::paper_bar()
+        };
         if spec.n_dofs() > a.max_n {
             continue;
         }
@@ -122,7 +153,10 @@ fn measure(model: &Model, backend: Backend) -> Result<Row> {
     drop(num);
     drop(an);
     // real path: the same model without damping
-    let undamped = Model { damping: Damping::None, ..model.clone() };
+    let undamped = Model {
+        damping: Damping::None,
+        ..model.clone()
+    };
     let pencil_r = Pencil::new(&undamped);
     let an_r = Analysis::new(&pencil_r, backend, p + 1)?;
     let mut num_r = an_r.numeric(&pencil_r)?;
@@ -134,9 +168,22 @@ fn measure(model: &Model, backend: Backend) -> Result<Row> {
     let (_, chol_s) = reference_cholesky(&pencil, faer::Par::Seq)?;
     let freqs = [150.0, 350.0, 550.0, 750.0];
     let sweep = |threads| -> Result<f64> {
-        let opts = SweepOptions { threads, backend, ..Default::default() };
+        let opts = SweepOptions {
+            threads,
+            backend,
+            ..Default::default()
+        };
         let t = Instant::now();
-        transfer_function(model, &model.scene.inputs, &model.scene.outputs, &freqs, Part::Elastic, false, &opts, &no_progress)?;
+        transfer_function(
+            model,
+            &model.scene.inputs,
+            &model.scene.outputs,
+            &freqs,
+            Part::Elastic,
+            false,
+            &opts,
+            &no_progress,
+        )?;
         Ok(t.elapsed().as_secs_f64())
     };
     let sweep1_s = sweep(1)?;

@@ -19,18 +19,30 @@ pub fn parse_triple<T: std::str::FromStr>(s: &str, what: &str) -> Result<[T; 3]>
     if parts.len() != 3 {
         return Err(bad());
     }
-    let v: Vec<T> = parts.iter().map(|p| p.trim().parse::<T>().map_err(|_| bad())).collect::<Result<_>>()?;
+    let v: Vec<T> = parts
+        .iter()
+        .map(|p| p.trim().parse::<T>().map_err(|_| bad()))
+        .collect::<Result<_>>()?;
     let mut it = v.into_iter();
-    Ok([it.next().ok_or_else(bad)?, it.next().ok_or_else(bad)?, it.next().ok_or_else(bad)?])
+    Ok([
+        it.next().ok_or_else(bad)?,
+        it.next().ok_or_else(bad)?,
+        it.next().ok_or_else(bad)?,
+    ])
 }
 
 /// Parses `LO:HI` (Hz).
 pub fn parse_band(s: &str) -> Result<[f64; 2]> {
     let bad = || Error::InvalidSetting(format!("--band '{s}': expected LO:HI in Hz, e.g. 1:1000"));
     let (a, b) = s.split_once(':').ok_or_else(bad)?;
-    let band: [f64; 2] = [a.trim().parse().map_err(|_| bad())?, b.trim().parse().map_err(|_| bad())?];
+    let band: [f64; 2] = [
+        a.trim().parse().map_err(|_| bad())?,
+        b.trim().parse().map_err(|_| bad())?,
+    ];
     if !(band[0] >= 0.0 && band[1] > band[0] && band[1].is_finite()) {
-        return Err(Error::InvalidSetting(format!("--band '{s}': need 0 <= LO < HI (empty band)")));
+        return Err(Error::InvalidSetting(format!(
+            "--band '{s}': need 0 <= LO < HI (empty band)"
+        )));
     }
     Ok(band)
 }
@@ -39,9 +51,9 @@ pub fn parse_band(s: &str) -> Result<[f64; 2]> {
 pub fn parse_list<T: std::str::FromStr>(s: &str, what: &str) -> Result<Vec<T>> {
     s.split(',')
         .map(|p| {
-            p.trim()
-                .parse::<T>()
-                .map_err(|_| Error::InvalidSetting(format!("{what}: '{}' is not a valid value", p.trim())))
+            p.trim().parse::<T>().map_err(|_| {
+                Error::InvalidSetting(format!("{what}: '{}' is not a valid value", p.trim()))
+            })
         })
         .collect()
 }
@@ -70,7 +82,9 @@ pub fn progress_bar(total: usize, msg: &str) -> ProgressBar {
 
 pub fn generate(kind: &str, elements: Option<&str>, size: Option<&str>, out: &Path) -> Result<()> {
     if kind != "bar" {
-        return Err(Error::InvalidSetting(format!("generate '{kind}': the built-in model is `bar`")));
+        return Err(Error::InvalidSetting(format!(
+            "generate '{kind}': the built-in model is `bar`"
+        )));
     }
     let mut spec = BoxSpec::paper_bar();
     if let Some(e) = elements {
@@ -119,14 +133,20 @@ pub fn info(dir: &Path) -> Result<()> {
     println!("dofs per node    {}", model.dofs_per_node);
     println!("damping          {}", describe_damping(&model.damping));
     match &model.nodes {
-        None => println!("nodes            none (rigid part cannot be separated; fine for constrained bodies)"),
+        None => println!(
+            "nodes            none (rigid part cannot be separated; fine for constrained bodies)"
+        ),
         Some(nodes) => {
             println!("nodes            {}", nodes.len());
             let rb = RigidBody::from_nodes(&model, nodes)?;
             let free = rb.stiffness_residual <= sparsemor::rigid::FREE_BODY_RTOL;
             println!(
                 "rigid modes      {} (|K V0| / |K||V0| = {:.1e})",
-                if free { "6: free body, elastic part separated by inertia relief" } else { "none: constrained body" },
+                if free {
+                    "6: free body, elastic part separated by inertia relief"
+                } else {
+                    "none: constrained body"
+                },
                 rb.stiffness_residual
             );
         }
@@ -148,14 +168,19 @@ pub fn info(dir: &Path) -> Result<()> {
         s.factor_nnz,
         human_bytes(s.bytes_per_factor as f64)
     );
-    println!("read in          {t_read:.2} s; symbolic analysis {:.2} s", s.seconds);
+    println!(
+        "read in          {t_read:.2} s; symbolic analysis {:.2} s",
+        s.seconds
+    );
     Ok(())
 }
 
 fn describe_damping(d: &sparsemor::model::Damping) -> String {
     match d {
         sparsemor::model::Damping::None => "none (real pencil)".into(),
-        sparsemor::model::Damping::Rayleigh { alpha, beta } => format!("Rayleigh alpha = {alpha:e}, beta = {beta:e}"),
+        sparsemor::model::Damping::Rayleigh { alpha, beta } => {
+            format!("Rayleigh alpha = {alpha:e}, beta = {beta:e}")
+        }
         sparsemor::model::Damping::Matrix(m) => format!("explicit D ({} entries)", m.compute_nnz()),
     }
 }
@@ -208,11 +233,15 @@ pub fn sweep(a: &SweepArgs, verbose: bool) -> Result<()> {
         (Some(f), _) => parse_list::<f64>(f, "--freqs")?,
         (None, Some(b)) => linspace(parse_band(b)?, a.points),
         (None, None) => {
-            return Err(Error::InvalidSetting("sweep needs --band LO:HI (with --points) or --freqs F1,F2,...".into()))
+            return Err(Error::InvalidSetting(
+                "sweep needs --band LO:HI (with --points) or --freqs F1,F2,...".into(),
+            ))
         }
     };
     if freqs.is_empty() || a.points == 0 {
-        return Err(Error::InvalidSetting("sweep: no frequencies (--points must be >= 1)".into()));
+        return Err(Error::InvalidSetting(
+            "sweep: no frequencies (--points must be >= 1)".into(),
+        ));
     }
     let part: Part = a.part.parse()?;
     let opts = SweepOptions {
@@ -226,9 +255,24 @@ pub fn sweep(a: &SweepArgs, verbose: bool) -> Result<()> {
         pb.set_position(p.done as u64);
         true
     };
-    let frf = transfer_function(&model, &model.scene.inputs, &model.scene.outputs, &freqs, part, false, &opts, &cb)?;
+    let frf = transfer_function(
+        &model,
+        &model.scene.inputs,
+        &model.scene.outputs,
+        &freqs,
+        part,
+        false,
+        &opts,
+        &cb,
+    )?;
     pb.finish_and_clear();
-    write_frf_csv(&a.out, &frf.freqs_hz, &frf.h, &model.scene.outputs, &model.scene.inputs)?;
+    write_frf_csv(
+        &a.out,
+        &frf.freqs_hz,
+        &frf.h,
+        &model.scene.outputs,
+        &model.scene.inputs,
+    )?;
     eprintln!(
         "{} frequencies in {:.2} s -> {}",
         freqs.len(),
@@ -257,7 +301,13 @@ pub fn sweep(a: &SweepArgs, verbose: bool) -> Result<()> {
 
 /// Writes `f_hz,output,input,re,im`, one row per frequency × output × input (DoF indices),
 /// full precision, atomically (temporary file + rename).
-pub fn write_frf_csv(path: &Path, freqs: &[f64], h: &[faer::Mat<faer::c64>], outputs: &[usize], inputs: &[usize]) -> Result<()> {
+pub fn write_frf_csv(
+    path: &Path,
+    freqs: &[f64],
+    h: &[faer::Mat<faer::c64>],
+    outputs: &[usize],
+    inputs: &[usize],
+) -> Result<()> {
     let tmp: PathBuf = path.with_extension("csv.tmp");
     let file = std::fs::File::create(&tmp).map_err(|e| Error::io(&tmp, e))?;
     let mut w = std::io::BufWriter::new(file);

@@ -4,7 +4,9 @@ use super::commands::{linspace, parse_band, parse_list, progress_bar};
 use sparsemor::eigen::{eigenpairs, EigenOptions, Modes, Request};
 use sparsemor::fe::{bar_model, BoxSpec};
 use sparsemor::io::{model_dir, rom_dir};
-use sparsemor::metrics::{modal_comparison, rom_eigenfrequencies, ErrorCurve, ModalComparison, Reference};
+use sparsemor::metrics::{
+    modal_comparison, rom_eigenfrequencies, ErrorCurve, ModalComparison, Reference,
+};
 use sparsemor::model::Model;
 use sparsemor::reduce::linefit::{self, place_reference_frequencies, Interface, LineFitOptions};
 use sparsemor::reduce::serep::{self, ModeChoice, SerepOptions};
@@ -56,17 +58,26 @@ pub fn reduce(a: &ReduceArgs) -> Result<()> {
             let interface = match (&a.interface, a.extra_interface) {
                 (Some(i), _) => Interface::Explicit(parse_list(i, "--interface")?),
                 (None, Some(k)) => Interface::OutputsPlus(k),
-                (None, None) => return Err(Error::InvalidSetting("linefit needs --interface D1,D2,... or --extra-interface K".into())),
+                (None, None) => {
+                    return Err(Error::InvalidSetting(
+                        "linefit needs --interface D1,D2,... or --extra-interface K".into(),
+                    ))
+                }
             };
             let ref_freqs_hz = parse_list(
-                a.ref_freqs.as_deref().ok_or_else(|| Error::InvalidSetting("linefit needs --ref-freqs F1,F2,... (Hz)".into()))?,
+                a.ref_freqs.as_deref().ok_or_else(|| {
+                    Error::InvalidSetting("linefit needs --ref-freqs F1,F2,... (Hz)".into())
+                })?,
                 "--ref-freqs",
             )?;
             let opts = LineFitOptions {
                 interface,
                 ref_freqs_hz,
                 keep_basis: a.keep_basis,
-                sweep: SweepOptions { threads: a.threads, ..Default::default() },
+                sweep: SweepOptions {
+                    threads: a.threads,
+                    ..Default::default()
+                },
                 lsq: Default::default(),
             };
             let pb = progress_bar(opts.ref_freqs_hz.len(), "reference frequencies");
@@ -79,16 +90,26 @@ pub fn reduce(a: &ReduceArgs) -> Result<()> {
             rom
         }
         "serep" => {
-            let c = a.modes.ok_or_else(|| Error::InvalidSetting("serep needs --modes C".into()))?;
+            let c = a
+                .modes
+                .ok_or_else(|| Error::InvalidSetting("serep needs --modes C".into()))?;
             let opts = SerepOptions {
                 modes: ModeChoice::LowestDeformation(c),
-                retain: a.retain.as_deref().map(|r| parse_list(r, "--retain")).transpose()?,
+                retain: a
+                    .retain
+                    .as_deref()
+                    .map(|r| parse_list(r, "--retain"))
+                    .transpose()?,
                 keep_basis: a.keep_basis,
                 eigen: EigenOptions::default(),
             };
             serep::reduce(&model, inputs, outputs, &opts)?
         }
-        m => return Err(Error::InvalidSetting(format!("--method '{m}': choose linefit or serep"))),
+        m => {
+            return Err(Error::InvalidSetting(format!(
+                "--method '{m}': choose linefit or serep"
+            )))
+        }
     };
     let secs = t.elapsed().as_secs_f64();
     rom_dir::write(&a.out, &rom)?;
@@ -116,10 +137,17 @@ fn print_rom(rom: &Rom) {
     if let Some(c) = rom.serep_cond {
         println!("cond(U_cr)       {c:.2e}");
     }
-    for (name, d) in [("Mr", &rom.mass_definiteness), ("Kr", &rom.stiffness_definiteness)] {
+    for (name, d) in [
+        ("Mr", &rom.mass_definiteness),
+        ("Kr", &rom.stiffness_definiteness),
+    ] {
         println!(
             "{name}               {} (eigenvalues {:.3e} .. {:.3e})",
-            if d.positive_definite { "positive definite" } else { "NOT positive definite" },
+            if d.positive_definite {
+                "positive definite"
+            } else {
+                "NOT positive definite"
+            },
             d.min_eig,
             d.max_eig
         );
@@ -167,21 +195,34 @@ fn evaluation_band(model: &Model, band: Option<&str>) -> Result<[f64; 2]> {
 pub fn evaluate(a: &EvaluateArgs) -> Result<()> {
     let (model, _) = model_dir::read(&a.model)?;
     let rom = rom_dir::read(&a.rom)?;
-    if rom.inputs.iter().chain(&rom.outputs).chain(&rom.dofs).any(|&d| d >= model.n()) {
-        return Err(Error::InvalidSetting(format!("{} does not belong to this model (DoF out of range)", a.rom.display())));
+    if rom
+        .inputs
+        .iter()
+        .chain(&rom.outputs)
+        .chain(&rom.dofs)
+        .any(|&d| d >= model.n())
+    {
+        return Err(Error::InvalidSetting(format!(
+            "{} does not belong to this model (DoF out of range)",
+            a.rom.display()
+        )));
     }
     let band = evaluation_band(&model, a.band.as_deref())?;
     if a.points < 2 {
         return Err(Error::InvalidSetting("--points must be >= 2".into()));
     }
     let freqs = linspace(band, a.points);
-    let opts = SweepOptions { threads: a.threads, ..Default::default() };
+    let opts = SweepOptions {
+        threads: a.threads,
+        ..Default::default()
+    };
     let pb = progress_bar(freqs.len(), "evaluate");
     let cb = |p: Progress| {
         pb.set_position(p.done as u64);
         true
     };
-    let curve = Reference::compute(&model, &rom.inputs, &rom.outputs, &freqs, &opts, &cb)?.error(&rom)?;
+    let curve =
+        Reference::compute(&model, &rom.inputs, &rom.outputs, &freqs, &opts, &cb)?.error(&rom)?;
     pb.finish_and_clear();
     let full = eigenpairs(&model, Request::UpTo(band[1]), &EigenOptions::default())?;
     let modal = modal_comparison(&rom, &full, rom.basis.as_ref().map(|v| v.as_ref()))?;
@@ -206,16 +247,37 @@ fn print_evaluation(rom: &Rom, curve: &ErrorCurve, modal: &ModalComparison) -> R
     );
     println!("eps total        max {tmax:.3e}  mean {tmean:.3e}");
     let f = rom_eigenfrequencies(rom)?;
-    println!("ROM eigenfreqs   {}", f.iter().map(|x| format!("{x:.1}")).collect::<Vec<_>>().join(" "));
-    println!("largest          {:.1} Hz", f.last().copied().unwrap_or(f64::NAN));
+    println!(
+        "ROM eigenfreqs   {}",
+        f.iter()
+            .map(|x| format!("{x:.1}"))
+            .collect::<Vec<_>>()
+            .join(" ")
+    );
+    println!(
+        "largest          {:.1} Hz",
+        f.last().copied().unwrap_or(f64::NAN)
+    );
     println!(
         "stability        Mr {}, Kr {}",
-        if rom.mass_definiteness.positive_definite { "SPD" } else { "NOT SPD" },
-        if rom.stiffness_definiteness.positive_definite { "SPD" } else { "NOT SPD" }
+        if rom.mass_definiteness.positive_definite {
+            "SPD"
+        } else {
+            "NOT SPD"
+        },
+        if rom.stiffness_definiteness.positive_definite {
+            "SPD"
+        } else {
+            "NOT SPD"
+        }
     );
     println!(
         "modes in band    (MAC {})",
-        if modal.expanded { "of expanded modes V·phi" } else { "on the ROM DoFs; --keep-basis gives expanded MAC" }
+        if modal.expanded {
+            "of expanded modes V·phi"
+        } else {
+            "on the ROM DoFs; --keep-basis gives expanded MAC"
+        }
     );
     for p in &modal.pairs {
         println!(
@@ -229,7 +291,10 @@ fn print_evaluation(rom: &Rom, curve: &ErrorCurve, modal: &ModalComparison) -> R
 fn write_eps_csv(path: &Path, c: &ErrorCurve) -> Result<()> {
     let mut s = String::from("f_hz,eps_elastic,eps_total\n");
     for k in 0..c.freqs_hz.len() {
-        s.push_str(&format!("{:?},{:?},{:?}\n", c.freqs_hz[k], c.eps_elastic[k], c.eps_total[k]));
+        s.push_str(&format!(
+            "{:?},{:?},{:?}\n",
+            c.freqs_hz[k], c.eps_elastic[k], c.eps_total[k]
+        ));
     }
     let tmp = path.with_extension("csv.tmp");
     std::fs::write(&tmp, s).map_err(|e| Error::io(&tmp, e))?;
@@ -279,7 +344,12 @@ pub fn modes(a: &ModesArgs) -> Result<()> {
     if let Some(path) = &a.csv {
         let mut s = String::from("index,f_hz,kind\n");
         for (k, f) in m.freqs_hz().iter().enumerate() {
-            s.push_str(&format!("{},{:?},{}\n", k + 1, f, if k < m.rigid { "rigid" } else { "elastic" }));
+            s.push_str(&format!(
+                "{},{:?},{}\n",
+                k + 1,
+                f,
+                if k < m.rigid { "rigid" } else { "elastic" }
+            ));
         }
         std::fs::write(path, s).map_err(|e| Error::io(path, e))?;
     }
@@ -327,11 +397,17 @@ pub fn demo(threads: usize) -> Result<()> {
         full.rigid,
         res.len(),
         band[1],
-        res.iter().map(|f| format!("{f:.1}")).collect::<Vec<_>>().join(", "),
+        res.iter()
+            .map(|f| format!("{f:.1}"))
+            .collect::<Vec<_>>()
+            .join(", "),
         eig_s
     );
     let ref_freqs = place_reference_frequencies(&res, band, 20)?;
-    let sweep = SweepOptions { threads, ..Default::default() };
+    let sweep = SweepOptions {
+        threads,
+        ..Default::default()
+    };
     let t = Instant::now();
     let lf = linefit::reduce(
         &model,
@@ -350,7 +426,11 @@ pub fn demo(threads: usize) -> Result<()> {
     println!(
         "line-fitting: interface {:?}; 20 reference frequencies {} Hz",
         lf.dofs,
-        ref_freqs.iter().map(|f| format!("{f:.0}")).collect::<Vec<_>>().join(",")
+        ref_freqs
+            .iter()
+            .map(|f| format!("{f:.0}"))
+            .collect::<Vec<_>>()
+            .join(",")
     );
     let serep = |c: usize, retain: Vec<usize>| -> Result<(Rom, f64)> {
         let t = Instant::now();
@@ -358,7 +438,12 @@ pub fn demo(threads: usize) -> Result<()> {
             &model,
             inputs,
             outputs,
-            &SerepOptions { modes: ModeChoice::LowestDeformation(c), retain: Some(retain), keep_basis: true, eigen: EigenOptions::default() },
+            &SerepOptions {
+                modes: ModeChoice::LowestDeformation(c),
+                retain: Some(retain),
+                keep_basis: true,
+                eigen: EigenOptions::default(),
+            },
         )?;
         Ok((r, t.elapsed().as_secs_f64()))
     };
@@ -370,13 +455,24 @@ pub fn demo(threads: usize) -> Result<()> {
     println!("|---|---|---|---|---|---|---|---|---|");
     let t = Instant::now();
     let reference = Reference::compute(&model, inputs, outputs, &grid, &sweep, &no_progress)?;
-    for (name, rom, secs) in [("line-fitting", &lf, lf_s), ("SEREP 9 modes / 9 DoFs", &s9, s9_s), ("SEREP 14 modes / 14 DoFs", &s14, s14_s)] {
+    for (name, rom, secs) in [
+        ("line-fitting", &lf, lf_s),
+        ("SEREP 9 modes / 9 DoFs", &s9, s9_s),
+        ("SEREP 14 modes / 14 DoFs", &s14, s14_s),
+    ] {
         let curve = reference.error(rom)?;
         let modal = modal_comparison(rom, &full, rom.basis.as_ref().map(|v| v.as_ref()))?;
         let (emax, emean) = ErrorCurve::max_mean(&curve.eps_elastic);
-        let ferr = modal.pairs.iter().map(|p| p.rel_freq_error).fold(0.0, f64::max);
+        let ferr = modal
+            .pairs
+            .iter()
+            .map(|p| p.rel_freq_error)
+            .fold(0.0, f64::max);
         let mac = modal.pairs.iter().map(|p| p.mac).fold(1.0, f64::min);
-        let fmax = rom_eigenfrequencies(rom)?.last().copied().unwrap_or(f64::NAN);
+        let fmax = rom_eigenfrequencies(rom)?
+            .last()
+            .copied()
+            .unwrap_or(f64::NAN);
         println!(
             "| {name} | {} | {secs:.3} | {:.2} % | {:.2} % | {:.2e} | {:.4} | {:.0} | {} |",
             rom.order(),
@@ -385,7 +481,13 @@ pub fn demo(threads: usize) -> Result<()> {
             ferr,
             mac,
             fmax,
-            if rom.mass_definiteness.positive_definite && rom.stiffness_definiteness.positive_definite { "yes" } else { "NO" }
+            if rom.mass_definiteness.positive_definite
+                && rom.stiffness_definiteness.positive_definite
+            {
+                "yes"
+            } else {
+                "NO"
+            }
         );
     }
     println!();

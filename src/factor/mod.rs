@@ -31,7 +31,9 @@ use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky, CholeskySymbolicParams, IntranodeLbltRef, SymbolicCholesky,
     SymbolicCholeskyRaw, SymmetricOrdering,
 };
-use faer::sparse::linalg::lu::{factorize_symbolic_lu, LuRef, LuSymbolicParams, NumericLu, SymbolicLu};
+use faer::sparse::linalg::lu::{
+    factorize_symbolic_lu, LuRef, LuSymbolicParams, NumericLu, SymbolicLu,
+};
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{c64, Conj, Mat, MatMut, Par, Side};
@@ -112,7 +114,6 @@ enum Inner {
     #[cfg(feature = "umfpack")]
     Umfpack {
         sym: umfpack::UmfpackSymbolic,
-        col_ptr: Vec<usize>,
         row_idx: Vec<usize>,
         src: Vec<usize>,
     },
@@ -128,9 +129,14 @@ pub struct Analysis {
 }
 
 /// Builds the AMD-ordered symbolic Cholesky of the pencil's N×N lower pattern.
-fn symbolic_n(pencil: &Pencil, ord: SymmetricOrdering<'_, usize>) -> Result<SymbolicCholesky<usize>> {
+fn symbolic_n(
+    pencil: &Pencil,
+    ord: SymmetricOrdering<'_, usize>,
+) -> Result<SymbolicCholesky<usize>> {
     let n = pencil.n();
-    let pat = unsafe { SymbolicSparseColMatRef::new_unchecked(n, n, pencil.col_ptr(), None, pencil.row_idx()) };
+    let pat = unsafe {
+        SymbolicSparseColMatRef::new_unchecked(n, n, pencil.col_ptr(), None, pencil.row_idx())
+    };
     factorize_symbolic_cholesky(pat, Side::Lower, ord, supernodal_params())
         .map_err(|e| Error::Factor(format!("symbolic analysis: {e:?}")))
 }
@@ -241,8 +247,18 @@ impl Analysis {
                 let sym_n = symbolic_cholesky(pencil)?;
                 if real {
                     let nnz = sym_n.len_val();
-                    let bytes = 8 * nnz + lblt_scratch(&sym_n, max_rhs).size_bytes() + 24 * n + 8 * pencil.nnz();
-                    (Inner::Lblt { sym: sym_n, pattern2: None }, nnz, bytes)
+                    let bytes = 8 * nnz
+                        + lblt_scratch(&sym_n, max_rhs).size_bytes()
+                        + 24 * n
+                        + 8 * pencil.nnz();
+                    (
+                        Inner::Lblt {
+                            sym: sym_n,
+                            pattern2: None,
+                        },
+                        nnz,
+                        bytes,
+                    )
                 } else {
                     let perm = sym_n.perm().expect("AMD ordering yields a permutation");
                     let (fwd, _) = perm.arrays();
@@ -252,42 +268,65 @@ impl Analysis {
                         inv2[f] = k;
                     }
                     let (cp2, ri2) = interleaved_pattern(pencil);
-                    let pat2 = unsafe { SymbolicSparseColMatRef::new_unchecked(2 * n, 2 * n, &cp2, None, &ri2) };
+                    let pat2 = unsafe {
+                        SymbolicSparseColMatRef::new_unchecked(2 * n, 2 * n, &cp2, None, &ri2)
+                    };
                     let perm2 = unsafe { faer::perm::PermRef::new_unchecked(&fwd2, &inv2, 2 * n) };
-                    let sym = factorize_symbolic_cholesky(pat2, Side::Lower, SymmetricOrdering::Custom(perm2), supernodal_params())
-                        .map_err(|e| Error::Factor(format!("symbolic analysis (2N form): {e:?}")))?;
+                    let sym = factorize_symbolic_cholesky(
+                        pat2,
+                        Side::Lower,
+                        SymmetricOrdering::Custom(perm2),
+                        supernodal_params(),
+                    )
+                    .map_err(|e| Error::Factor(format!("symbolic analysis (2N form): {e:?}")))?;
                     let nnz = sym.len_val();
                     let bytes = 8 * nnz
                         + lblt_scratch(&sym, 2 * max_rhs).size_bytes()
                         + 48 * n
                         + 8 * ri2.len()
                         + 16 * pencil.nnz();
-                    (Inner::Lblt { sym, pattern2: Some((cp2, ri2)) }, nnz, bytes)
+                    (
+                        Inner::Lblt {
+                            sym,
+                            pattern2: Some((cp2, ri2)),
+                        },
+                        nnz,
+                        bytes,
+                    )
                 }
             }
             Backend::FaerLu => {
                 let (col_ptr, row_idx, src) = full_pattern(pencil);
-                let pat = unsafe { SymbolicSparseColMatRef::new_unchecked(n, n, &col_ptr, None, &row_idx) };
+                let pat = unsafe {
+                    SymbolicSparseColMatRef::new_unchecked(n, n, &col_ptr, None, &row_idx)
+                };
                 let sym = factorize_symbolic_lu(pat, LuSymbolicParams::default())
                     .map_err(|e| Error::Factor(format!("symbolic LU: {e:?}")))?;
                 let bytes = scalar * row_idx.len() * 4;
-                (Inner::Lu { sym, col_ptr, row_idx, src }, 0, bytes)
+                (
+                    Inner::Lu {
+                        sym,
+                        col_ptr,
+                        row_idx,
+                        src,
+                    },
+                    0,
+                    bytes,
+                )
             }
             #[cfg(feature = "umfpack")]
             Backend::Umfpack => {
                 let (col_ptr, row_idx, src) = full_pattern(pencil);
                 let sym = umfpack::UmfpackSymbolic::new(n, &col_ptr, &row_idx, !real)?;
                 let bytes = scalar * row_idx.len() * 4;
-                (Inner::Umfpack { sym, col_ptr, row_idx, src }, 0, bytes)
+                (Inner::Umfpack { sym, row_idx, src }, 0, bytes)
             }
             #[cfg(not(feature = "umfpack"))]
-            Backend::Umfpack => {
-                return Err(Error::InvalidSetting(
-                    "backend umfpack: this build has no UMFPACK; rebuild with `--features umfpack` \
+            Backend::Umfpack => return Err(Error::InvalidSetting(
+                "backend umfpack: this build has no UMFPACK; rebuild with `--features umfpack` \
                      (needs libsuitesparse-dev)"
-                        .into(),
-                ))
-            }
+                    .into(),
+            )),
             Backend::Auto => unreachable!("resolved above"),
         };
         Ok(Analysis {
@@ -323,13 +362,20 @@ impl Analysis {
         let nnz_lower = pencil.nnz();
         let alloc = |req: StackReq| {
             MemBuffer::try_new(req).map_err(|_| {
-                Error::Factor(format!("cannot allocate {} bytes of factorization workspace", req.size_bytes()))
+                Error::Factor(format!(
+                    "cannot allocate {} bytes of factorization workspace",
+                    req.size_bytes()
+                ))
             })
         };
         let state = match &self.inner {
             Inner::Lblt { sym, pattern2 } => {
                 let n_f = sym.nrows();
-                let rhs = if pattern2.is_some() { self.max_rhs } else { 2 * self.max_rhs };
+                let rhs = if pattern2.is_some() {
+                    self.max_rhs
+                } else {
+                    2 * self.max_rhs
+                };
                 State::Lblt {
                     l: try_vec(sym.len_val())?,
                     subdiag: try_vec(n_f)?,
@@ -353,8 +399,16 @@ impl Analysis {
                 State::Lu {
                     real: NumericLu::new(),
                     complex: NumericLu::new(),
-                    vals_r: if self.real { try_vec(row_idx.len())? } else { Vec::new() },
-                    vals_c: if self.real { Vec::new() } else { vec![c64::new(0.0, 0.0); row_idx.len()] },
+                    vals_r: if self.real {
+                        try_vec(row_idx.len())?
+                    } else {
+                        Vec::new()
+                    },
+                    vals_c: if self.real {
+                        Vec::new()
+                    } else {
+                        vec![c64::new(0.0, 0.0); row_idx.len()]
+                    },
                     stack: alloc(req)?,
                 }
             }
@@ -362,13 +416,21 @@ impl Analysis {
             Inner::Umfpack { row_idx, .. } => State::Umfpack {
                 num: None,
                 re: try_vec(row_idx.len())?,
-                im: if self.real { Vec::new() } else { try_vec(row_idx.len())? },
+                im: if self.real {
+                    Vec::new()
+                } else {
+                    try_vec(row_idx.len())?
+                },
             },
         };
         Ok(Numeric {
             state,
             re: try_vec(nnz_lower)?,
-            im: if self.real { Vec::new() } else { try_vec(nnz_lower)? },
+            im: if self.real {
+                Vec::new()
+            } else {
+                try_vec(nnz_lower)?
+            },
             factored_at: None,
             pivot_ratio: f64::NAN,
         })
@@ -437,7 +499,17 @@ impl Numeric {
             pencil.fill_complex(omega, &mut self.re, &mut self.im);
         }
         match (&an.inner, &mut self.state) {
-            (Inner::Lblt { sym, pattern2 }, State::Lblt { l, subdiag, fwd, inv, vals2, stack }) => {
+            (
+                Inner::Lblt { sym, pattern2 },
+                State::Lblt {
+                    l,
+                    subdiag,
+                    fwd,
+                    inv,
+                    vals2,
+                    stack,
+                },
+            ) => {
                 let n_f = sym.nrows();
                 let (cp, ri, vals): (&[usize], &[usize], &[f64]) = match pattern2 {
                     None => (pencil.col_ptr(), pencil.row_idx(), &self.re),
@@ -446,7 +518,10 @@ impl Numeric {
                         (cp2, ri2, vals2)
                     }
                 };
-                let a = SparseColMatRef::new(unsafe { SymbolicSparseColMatRef::new_unchecked(n_f, n_f, cp, None, ri) }, vals);
+                let a = SparseColMatRef::new(
+                    unsafe { SymbolicSparseColMatRef::new_unchecked(n_f, n_f, cp, None, ri) },
+                    vals,
+                );
                 sym.factorize_numeric_intranode_lblt(
                     l,
                     subdiag,
@@ -466,21 +541,48 @@ impl Numeric {
                     });
                 }
             }
-            (Inner::Lu { sym, col_ptr, row_idx, src }, State::Lu { real, complex, vals_r, vals_c, stack }) => {
+            (
+                Inner::Lu {
+                    sym,
+                    col_ptr,
+                    row_idx,
+                    src,
+                },
+                State::Lu {
+                    real,
+                    complex,
+                    vals_r,
+                    vals_c,
+                    stack,
+                },
+            ) => {
                 let n = an.n;
-                let pat = unsafe { SymbolicSparseColMatRef::new_unchecked(n, n, col_ptr, None, row_idx) };
+                let pat =
+                    unsafe { SymbolicSparseColMatRef::new_unchecked(n, n, col_ptr, None, row_idx) };
                 let res = if an.real {
                     for (v, &s) in vals_r.iter_mut().zip(src.iter()) {
                         *v = self.re[s];
                     }
-                    sym.factorize_numeric_lu(real, SparseColMatRef::new(pat, vals_r), par, MemStack::new(stack), Default::default())
-                        .map(|_| ())
+                    sym.factorize_numeric_lu(
+                        real,
+                        SparseColMatRef::new(pat, vals_r),
+                        par,
+                        MemStack::new(stack),
+                        Default::default(),
+                    )
+                    .map(|_| ())
                 } else {
                     for (v, &s) in vals_c.iter_mut().zip(src.iter()) {
                         *v = c64::new(self.re[s], self.im[s]);
                     }
-                    sym.factorize_numeric_lu(complex, SparseColMatRef::new(pat, vals_c), par, MemStack::new(stack), Default::default())
-                        .map(|_| ())
+                    sym.factorize_numeric_lu(
+                        complex,
+                        SparseColMatRef::new(pat, vals_c),
+                        par,
+                        MemStack::new(stack),
+                        Default::default(),
+                    )
+                    .map(|_| ())
                 };
                 res.map_err(|e| Error::Singular {
                     freq_hz,
@@ -506,7 +608,10 @@ impl Numeric {
                 if f.status_singular() {
                     return Err(Error::Singular {
                         freq_hz,
-                        detail: format!("UMFPACK reports a singular matrix (rcond {:.1e})", f.rcond()),
+                        detail: format!(
+                            "UMFPACK reports a singular matrix (rcond {:.1e})",
+                            f.rcond()
+                        ),
                     });
                 }
                 *num = Some(f);
@@ -530,13 +635,29 @@ impl Numeric {
         let mut rhs = rhs;
         let (n, k) = (rhs.nrows(), rhs.ncols());
         match (&an.inner, &mut self.state) {
-            (Inner::Lblt { sym, pattern2 }, State::Lblt { l, subdiag, fwd, inv, stack, .. }) => {
-                let f = IntranodeLbltRef::new(sym, l, subdiag, unsafe { faer::perm::PermRef::new_unchecked(fwd, inv, sym.nrows()) });
+            (
+                Inner::Lblt { sym, pattern2 },
+                State::Lblt {
+                    l,
+                    subdiag,
+                    fwd,
+                    inv,
+                    stack,
+                    ..
+                },
+            ) => {
+                let f = IntranodeLbltRef::new(sym, l, subdiag, unsafe {
+                    faer::perm::PermRef::new_unchecked(fwd, inv, sym.nrows())
+                });
                 if pattern2.is_some() {
                     // [br; bi] interleaved; the solution is [xr; −xi] interleaved
                     let mut u = Mat::<f64>::from_fn(2 * n, k, |r, c| {
                         let z = rhs[(r / 2, c)];
-                        if r % 2 == 0 { z.re } else { z.im }
+                        if r % 2 == 0 {
+                            z.re
+                        } else {
+                            z.im
+                        }
                     });
                     f.solve_in_place_with_conj(Conj::No, u.as_mut(), par, MemStack::new(stack));
                     for c in 0..k {
@@ -545,7 +666,13 @@ impl Numeric {
                         }
                     }
                 } else {
-                    let mut u = Mat::<f64>::from_fn(n, 2 * k, |r, c| if c < k { rhs[(r, c)].re } else { rhs[(r, c - k)].im });
+                    let mut u = Mat::<f64>::from_fn(n, 2 * k, |r, c| {
+                        if c < k {
+                            rhs[(r, c)].re
+                        } else {
+                            rhs[(r, c - k)].im
+                        }
+                    });
                     f.solve_in_place_with_conj(Conj::No, u.as_mut(), par, MemStack::new(stack));
                     for c in 0..k {
                         for i in 0..n {
@@ -554,9 +681,23 @@ impl Numeric {
                     }
                 }
             }
-            (Inner::Lu { sym, .. }, State::Lu { real, complex, stack, .. }) => {
+            (
+                Inner::Lu { sym, .. },
+                State::Lu {
+                    real,
+                    complex,
+                    stack,
+                    ..
+                },
+            ) => {
                 if an.real {
-                    let mut u = Mat::<f64>::from_fn(n, 2 * k, |r, c| if c < k { rhs[(r, c)].re } else { rhs[(r, c - k)].im });
+                    let mut u = Mat::<f64>::from_fn(n, 2 * k, |r, c| {
+                        if c < k {
+                            rhs[(r, c)].re
+                        } else {
+                            rhs[(r, c - k)].im
+                        }
+                    });
                     let lu = LuRef::new_unchecked(sym, real);
                     lu.solve_in_place_with_conj(Conj::No, u.as_mut(), par, MemStack::new(stack));
                     for c in 0..k {
@@ -579,7 +720,8 @@ impl Numeric {
                         bi[i] = rhs[(i, c)].im;
                     }
                     let ok = if an.real {
-                        f.solve_real(&br, &mut xr).and_then(|_| f.solve_real(&bi, &mut xi))
+                        f.solve_real(&br, &mut xr)
+                            .and_then(|_| f.solve_real(&bi, &mut xi))
                     } else {
                         f.solve_complex(&br, &bi, &mut xr, &mut xi)
                     };
@@ -632,7 +774,10 @@ pub struct PivotStats {
 
 fn lblt_pivots(sym: &SymbolicCholesky<usize>, l: &[f64], subdiag: &[f64]) -> PivotStats {
     let SymbolicCholeskyRaw::Supernodal(s) = sym.raw() else {
-        return PivotStats { ratio: f64::NAN, negative: 0 };
+        return PivotStats {
+            ratio: f64::NAN,
+            negative: 0,
+        };
     };
     let (mut lo, mut hi, mut negative) = (f64::INFINITY, 0.0f64, 0usize);
     let mut count = |x: f64| {
@@ -662,7 +807,10 @@ fn lblt_pivots(sym: &SymbolicCholesky<usize>, l: &[f64], subdiag: &[f64]) -> Piv
             }
         }
     }
-    PivotStats { ratio: if hi > 0.0 { lo / hi } else { 0.0 }, negative }
+    PivotStats {
+        ratio: if hi > 0.0 { lo / hi } else { 0.0 },
+        negative,
+    }
 }
 
 /// The number of eigenvalues λ < σ of K φ = λ M φ (M positive definite), exactly, from the
@@ -679,12 +827,25 @@ pub fn count_eigenvalues_below(pencil: &Pencil, sigma: f64) -> Result<usize> {
     pencil.fill_shifted(sigma, &mut vals);
     let (mut l, mut subdiag) = (try_vec::<f64>(sym.len_val())?, try_vec::<f64>(n)?);
     let (mut fwd, mut inv) = (vec![0usize; n], vec![0usize; n]);
-    let mut buf = MemBuffer::try_new(lblt_scratch(&sym, 1)).map_err(|_| Error::Factor("cannot allocate LBLᵀ workspace".into()))?;
+    let mut buf = MemBuffer::try_new(lblt_scratch(&sym, 1))
+        .map_err(|_| Error::Factor("cannot allocate LBLᵀ workspace".into()))?;
     let a = SparseColMatRef::new(
-        unsafe { SymbolicSparseColMatRef::new_unchecked(n, n, pencil.col_ptr(), None, pencil.row_idx()) },
+        unsafe {
+            SymbolicSparseColMatRef::new_unchecked(n, n, pencil.col_ptr(), None, pencil.row_idx())
+        },
         &vals,
     );
-    sym.factorize_numeric_intranode_lblt(&mut l, &mut subdiag, &mut fwd, &mut inv, a, Side::Lower, Par::Seq, MemStack::new(&mut buf), Default::default());
+    sym.factorize_numeric_intranode_lblt(
+        &mut l,
+        &mut subdiag,
+        &mut fwd,
+        &mut inv,
+        a,
+        Side::Lower,
+        Par::Seq,
+        MemStack::new(&mut buf),
+        Default::default(),
+    );
     let st = lblt_pivots(&sym, &l, &subdiag);
     if !(st.ratio > f64::EPSILON) {
         return Err(Error::Singular {
@@ -709,13 +870,24 @@ pub fn reference_cholesky(pencil: &Pencil, par: Par) -> Result<(usize, f64)> {
     pencil.fill_shifted(-(2.0 * std::f64::consts::PI).powi(2), &mut vals);
     let mut l = try_vec::<f64>(sym.len_val())?;
     let req = sym.factorize_numeric_llt_scratch::<f64>(par, Default::default());
-    let mut buf = MemBuffer::try_new(req).map_err(|_| Error::Factor("cannot allocate Cholesky workspace".into()))?;
+    let mut buf = MemBuffer::try_new(req)
+        .map_err(|_| Error::Factor("cannot allocate Cholesky workspace".into()))?;
     let a = SparseColMatRef::new(
-        unsafe { SymbolicSparseColMatRef::new_unchecked(n, n, pencil.col_ptr(), None, pencil.row_idx()) },
+        unsafe {
+            SymbolicSparseColMatRef::new_unchecked(n, n, pencil.col_ptr(), None, pencil.row_idx())
+        },
         &vals,
     );
     let t = Instant::now();
-    sym.factorize_numeric_llt(&mut l, a, Side::Lower, Default::default(), par, MemStack::new(&mut buf), Default::default())
-        .map_err(|e| Error::Factor(format!("reference Cholesky: {e:?}")))?;
+    sym.factorize_numeric_llt(
+        &mut l,
+        a,
+        Side::Lower,
+        Default::default(),
+        par,
+        MemStack::new(&mut buf),
+        Default::default(),
+    )
+    .map_err(|e| Error::Factor(format!("reference Cholesky: {e:?}")))?;
     Ok((sym.len_val(), t.elapsed().as_secs_f64()))
 }

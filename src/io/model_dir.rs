@@ -94,7 +94,10 @@ pub fn read_manifest(dir: &Path) -> Result<Manifest> {
     let path = dir.join(MANIFEST);
     let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
     toml::from_str(&text).map_err(|e| {
-        let line = e.span().map(|s| text[..s.start].lines().count().max(1)).unwrap_or(0);
+        let line = e
+            .span()
+            .map(|s| text[..s.start].lines().count().max(1))
+            .unwrap_or(0);
         Error::parse(&path, line, e.message().to_string())
     })
 }
@@ -109,18 +112,38 @@ pub fn read(dir: &Path) -> Result<(Model, ValidationReport)> {
     let stiffness = matrix_market::read_sparse(&dir.join(&man.stiffness))?;
     let damping = match (&man.damping, &man.rayleigh) {
         (Some(d), _) => Damping::Matrix(matrix_market::read_sparse(&dir.join(d))?),
-        (None, Some(r)) => Damping::Rayleigh { alpha: r.alpha, beta: r.beta },
+        (None, Some(r)) => Damping::Rayleigh {
+            alpha: r.alpha,
+            beta: r.beta,
+        },
         (None, None) => Damping::None,
     };
-    let nodes = man.nodes.as_ref().map(|f| read_nodes(&dir.join(f))).transpose()?;
+    let nodes = man
+        .nodes
+        .as_ref()
+        .map(|f| read_nodes(&dir.join(f)))
+        .transpose()?;
     let scene = Scene {
         inputs: man.scene.inputs,
         outputs: man.scene.outputs,
         band_hz: man.scene.band_hz,
     };
-    Model::new(man.name, mass, stiffness, damping, nodes, man.dofs_per_node, scene).map_err(|e| match e {
-        Error::InvalidModel(m) => Error::InvalidModel(format!("{}: {m}", dir.join(MANIFEST).display())),
-        Error::InvalidSetting(m) => Error::InvalidSetting(format!("{}: {m}", dir.join(MANIFEST).display())),
+    Model::new(
+        man.name,
+        mass,
+        stiffness,
+        damping,
+        nodes,
+        man.dofs_per_node,
+        scene,
+    )
+    .map_err(|e| match e {
+        Error::InvalidModel(m) => {
+            Error::InvalidModel(format!("{}: {m}", dir.join(MANIFEST).display()))
+        }
+        Error::InvalidSetting(m) => {
+            Error::InvalidSetting(format!("{}: {m}", dir.join(MANIFEST).display()))
+        }
         e => e,
     })
 }
@@ -144,7 +167,11 @@ pub fn read_nodes(path: &Path) -> Result<Vec<[f64; 3]>> {
         let mut xyz = [0.0; 3];
         let fields: Vec<&str> = line.split(',').collect();
         if fields.len() != 3 {
-            return Err(Error::parse(path, i + 1, format!("expected 3 comma-separated values, found {}", fields.len())));
+            return Err(Error::parse(
+                path,
+                i + 1,
+                format!("expected 3 comma-separated values, found {}", fields.len()),
+            ));
         }
         for (c, f) in xyz.iter_mut().zip(&fields) {
             *c = f
@@ -152,7 +179,13 @@ pub fn read_nodes(path: &Path) -> Result<Vec<[f64; 3]>> {
                 .parse::<f64>()
                 .ok()
                 .filter(|v| v.is_finite())
-                .ok_or_else(|| Error::parse(path, i + 1, format!("'{}' is not a finite number", f.trim())))?;
+                .ok_or_else(|| {
+                    Error::parse(
+                        path,
+                        i + 1,
+                        format!("'{}' is not a finite number", f.trim()),
+                    )
+                })?;
         }
         nodes.push(xyz);
     }
@@ -170,7 +203,13 @@ pub fn write(dir: &Path, model: &Model) -> Result<()> {
         matrix_market::write_coordinate(&tmp.join("K.mtx"), model.stiffness.as_ref(), true)?;
         let (damping, rayleigh) = match &model.damping {
             Damping::None => (None, None),
-            Damping::Rayleigh { alpha, beta } => (None, Some(Rayleigh { alpha: *alpha, beta: *beta })),
+            Damping::Rayleigh { alpha, beta } => (
+                None,
+                Some(Rayleigh {
+                    alpha: *alpha,
+                    beta: *beta,
+                }),
+            ),
             Damping::Matrix(d) => {
                 matrix_market::write_coordinate(&tmp.join("D.mtx"), d.as_ref(), true)?;
                 (Some("D.mtx".to_string()), None)
@@ -199,7 +238,8 @@ pub fn write(dir: &Path, model: &Model) -> Result<()> {
                 band_hz: model.scene.band_hz,
             },
         };
-        let text = toml::to_string(&man).map_err(|e| Error::InvalidModel(format!("cannot serialize manifest: {e}")))?;
+        let text = toml::to_string(&man)
+            .map_err(|e| Error::InvalidModel(format!("cannot serialize manifest: {e}")))?;
         let path = tmp.join(MANIFEST);
         std::fs::write(&path, text).map_err(|e| Error::io(&path, e))
     })
@@ -219,7 +259,10 @@ pub fn write_atomically(dir: &Path, fill: impl FnOnce(&Path) -> Result<()>) -> R
             )));
         }
     }
-    let name = dir.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "out".into());
+    let name = dir
+        .file_name()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "out".into());
     let tmp: PathBuf = dir.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&tmp);
     std::fs::create_dir_all(&tmp).map_err(|e| Error::io(&tmp, e))?;

@@ -43,7 +43,13 @@ struct Manifest {
 /// [`Error::InvalidSetting`] if `dir` exists and is not empty; I/O errors.
 pub fn write(dir: &Path, rom: &Rom) -> Result<()> {
     write_atomically(dir, |tmp| {
-        for (name, m) in [("Mr", &rom.mr), ("Dr", &rom.dr), ("Kr", &rom.kr), ("Br", &rom.br), ("Cr", &rom.cr)] {
+        for (name, m) in [
+            ("Mr", &rom.mr),
+            ("Dr", &rom.dr),
+            ("Kr", &rom.kr),
+            ("Br", &rom.br),
+            ("Cr", &rom.cr),
+        ] {
             matrix_market::write_array(&tmp.join(format!("{name}.mtx")), m.as_ref())?;
         }
         if let Some(v) = &rom.basis {
@@ -61,14 +67,22 @@ pub fn write(dir: &Path, rom: &Rom) -> Result<()> {
             mass_positive_definite: rom.mass_definiteness.positive_definite,
             stiffness_positive_definite: rom.stiffness_definiteness.positive_definite,
             mass_eig_range: [rom.mass_definiteness.min_eig, rom.mass_definiteness.max_eig],
-            stiffness_eig_range: [rom.stiffness_definiteness.min_eig, rom.stiffness_definiteness.max_eig],
+            stiffness_eig_range: [
+                rom.stiffness_definiteness.min_eig,
+                rom.stiffness_definiteness.max_eig,
+            ],
             fit: rom.fit.clone(),
             warnings: rom.warnings.clone(),
-            timings_s: rom.timings.iter().map(|t| (t.phase.clone(), t.seconds)).collect(),
+            timings_s: rom
+                .timings
+                .iter()
+                .map(|t| (t.phase.clone(), t.seconds))
+                .collect(),
             has_basis: rom.basis.is_some(),
             serep_cond: rom.serep_cond,
         };
-        let text = toml::to_string(&man).map_err(|e| Error::InvalidSetting(format!("cannot serialize rom.toml: {e}")))?;
+        let text = toml::to_string(&man)
+            .map_err(|e| Error::InvalidSetting(format!("cannot serialize rom.toml: {e}")))?;
         let path = tmp.join("rom.toml");
         std::fs::write(&path, text).map_err(|e| Error::io(&path, e))
     })
@@ -82,19 +96,28 @@ pub fn read(dir: &Path) -> Result<Rom> {
     let path = dir.join("rom.toml");
     let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
     let man: Manifest = toml::from_str(&text).map_err(|e| {
-        let line = e.span().map(|s| text[..s.start].lines().count().max(1)).unwrap_or(0);
+        let line = e
+            .span()
+            .map(|s| text[..s.start].lines().count().max(1))
+            .unwrap_or(0);
         Error::parse(&path, line, e.message().to_string())
     })?;
     let rd = |name: &str| matrix_market::read_dense(&dir.join(format!("{name}.mtx")));
     let (mr, dr, kr, br, cr) = (rd("Mr")?, rd("Dr")?, rd("Kr")?, rd("Br")?, rd("Cr")?);
     let n = man.order;
-    let shapes_ok = [&mr, &dr, &kr].iter().all(|m| m.nrows() == n && m.ncols() == n)
+    let shapes_ok = [&mr, &dr, &kr]
+        .iter()
+        .all(|m| m.nrows() == n && m.ncols() == n)
         && br.nrows() == n
         && br.ncols() == man.inputs.len()
         && cr.nrows() == man.outputs.len()
         && cr.ncols() == n;
     if !shapes_ok {
-        return Err(Error::parse(&path, 0, format!("matrix shapes do not match order = {n} and the input/output lists")));
+        return Err(Error::parse(
+            &path,
+            0,
+            format!("matrix shapes do not match order = {n} and the input/output lists"),
+        ));
     }
     let method = match man.method.as_str() {
         "linefit" => Method::LineFit,
@@ -117,7 +140,11 @@ pub fn read(dir: &Path) -> Result<Rom> {
         ref_freqs_hz: man.ref_freqs_hz,
         modes: man.modes,
         fit: man.fit,
-        timings: man.timings_s.into_iter().map(|(phase, seconds)| Timing { phase, seconds }).collect(),
+        timings: man
+            .timings_s
+            .into_iter()
+            .map(|(phase, seconds)| Timing { phase, seconds })
+            .collect(),
         warnings: man.warnings,
         basis,
         serep_cond: man.serep_cond,

@@ -61,7 +61,9 @@ pub struct LineFitOptions {
 pub fn spread_dofs(model: &Model, k: usize, exclude: &[usize]) -> Result<Vec<usize>> {
     let n = model.n();
     if k + exclude.len() > n {
-        return Err(Error::InvalidSetting(format!("cannot spread {k} extra interface DoFs over a model with N = {n}")));
+        return Err(Error::InvalidSetting(format!(
+            "cannot spread {k} extra interface DoFs over a model with N = {n}"
+        )));
     }
     let mut taken: Vec<bool> = vec![false; n];
     for &d in exclude {
@@ -87,7 +89,9 @@ pub fn spread_dofs(model: &Model, k: usize, exclude: &[usize]) -> Result<Vec<usi
             c[a] += p[a] / nodes.len() as f64;
         }
     }
-    let axis = (0..3).max_by(|&a, &b| (hi[a] - lo[a]).total_cmp(&(hi[b] - lo[b]))).unwrap_or(2);
+    let axis = (0..3)
+        .max_by(|&a, &b| (hi[a] - lo[a]).total_cmp(&(hi[b] - lo[b])))
+        .unwrap_or(2);
     let perp = [(axis + 1) % 3, (axis + 2) % 3];
     let dpn = model.dofs_per_node;
     for j in 0..k {
@@ -98,7 +102,9 @@ pub fn spread_dofs(model: &Model, k: usize, exclude: &[usize]) -> Result<Vec<usi
         let best = (0..nodes.len())
             .filter(|&i| !taken[i * dpn + dir])
             .min_by(|&x, &y| dist(&nodes[x]).total_cmp(&dist(&nodes[y])).then(x.cmp(&y)))
-            .ok_or_else(|| Error::InvalidSetting("no free DoF left to spread the interface over".into()))?;
+            .ok_or_else(|| {
+                Error::InvalidSetting("no free DoF left to spread the interface over".into())
+            })?;
         taken[best * dpn + dir] = true;
         out.push(best * dpn + dir);
     }
@@ -117,7 +123,13 @@ struct Worker {
 /// # Errors
 /// Bad settings ([`Error::InvalidSetting`]: outputs not in the interface, duplicate DoFs,
 /// 2pz < n, no frequency, frequency ≤ 0 on a free body), and the sweep's errors.
-pub fn reduce(model: &Model, inputs: &[usize], outputs: &[usize], opts: &LineFitOptions, progress: ProgressFn<'_>) -> Result<Rom> {
+pub fn reduce(
+    model: &Model,
+    inputs: &[usize],
+    outputs: &[usize],
+    opts: &LineFitOptions,
+    progress: ProgressFn<'_>,
+) -> Result<Rom> {
     let n_full = model.n();
     check_dofs(inputs, n_full, "inputs")?;
     check_dofs(outputs, n_full, "outputs")?;
@@ -137,7 +149,9 @@ pub fn reduce(model: &Model, inputs: &[usize], outputs: &[usize], opts: &LineFit
     }
     let freqs = &opts.ref_freqs_hz;
     if freqs.is_empty() {
-        return Err(Error::InvalidSetting("line-fitting needs at least one reference frequency".into()));
+        return Err(Error::InvalidSetting(
+            "line-fitting needs at least one reference frequency".into(),
+        ));
     }
     let (n, p, z) = (interface.len(), inputs.len(), freqs.len());
     if 2 * p * z < n {
@@ -152,7 +166,9 @@ pub fn reduce(model: &Model, inputs: &[usize], outputs: &[usize], opts: &LineFit
     for (c, &d) in interface.iter().enumerate() {
         is_interface[d] = c;
     }
-    let rest: Vec<usize> = (0..n_full).filter(|&d| is_interface[d] == usize::MAX).collect();
+    let rest: Vec<usize> = (0..n_full)
+        .filter(|&d| is_interface[d] == usize::MAX)
+        .collect();
     let m = rest.len();
 
     let t_sweep = Instant::now();
@@ -189,7 +205,9 @@ pub fn reduce(model: &Model, inputs: &[usize], outputs: &[usize], opts: &LineFit
 
     let t_fit = Instant::now();
     let mut it = workers.into_iter().map(|w| w.qr);
-    let first = it.next().ok_or_else(|| Error::InvalidSetting("no reference frequency was solved".into()))?;
+    let first = it
+        .next()
+        .ok_or_else(|| Error::InvalidSetting("no reference frequency was solved".into()))?;
     let qr = it.try_fold(first, |a, b| a.merge(b))?;
     let sol = qr.finish(&opts.lsq)?;
     drop(qr);
@@ -220,7 +238,10 @@ pub fn reduce(model: &Model, inputs: &[usize], outputs: &[usize], opts: &LineFit
     let stiffness_definiteness = Definiteness::of(pr.kr.as_ref());
     for (name, d) in [("Mr", &mass_definiteness), ("Kr", &stiffness_definiteness)] {
         if !d.positive_definite {
-            warnings.push(format!("{name} is not positive definite (eigenvalues in [{:.3e}, {:.3e}])", d.min_eig, d.max_eig));
+            warnings.push(format!(
+                "{name} is not positive definite (eigenvalues in [{:.3e}, {:.3e}])",
+                d.min_eig, d.max_eig
+            ));
         }
     }
     Ok(Rom {
@@ -248,11 +269,26 @@ pub fn reduce(model: &Model, inputs: &[usize], outputs: &[usize], opts: &LineFit
         mass_definiteness,
         stiffness_definiteness,
         timings: vec![
-            Timing { phase: "symbolic".into(), seconds: solver.symbolic_stats().seconds },
-            Timing { phase: "sweep (factor + solve + absorb)".into(), seconds: sweep_s },
-            Timing { phase: "absorb (streamed QR, summed over workers)".into(), seconds: absorb_s },
-            Timing { phase: "fit (merge + finish)".into(), seconds: fit_s },
-            Timing { phase: "projection".into(), seconds: proj_s },
+            Timing {
+                phase: "symbolic".into(),
+                seconds: solver.symbolic_stats().seconds,
+            },
+            Timing {
+                phase: "sweep (factor + solve + absorb)".into(),
+                seconds: sweep_s,
+            },
+            Timing {
+                phase: "absorb (streamed QR, summed over workers)".into(),
+                seconds: absorb_s,
+            },
+            Timing {
+                phase: "fit (merge + finish)".into(),
+                seconds: fit_s,
+            },
+            Timing {
+                phase: "projection".into(),
+                seconds: proj_s,
+            },
         ],
         warnings,
         basis: opts.keep_basis.then_some(v),
@@ -274,16 +310,30 @@ pub const RESONANCE_OFFSET: f64 = 0.03;
 ///
 /// # Errors
 /// [`Error::InvalidSetting`] for z = 0 or an empty band.
-pub fn place_reference_frequencies(resonances_hz: &[f64], band_hz: [f64; 2], z: usize) -> Result<Vec<f64>> {
+pub fn place_reference_frequencies(
+    resonances_hz: &[f64],
+    band_hz: [f64; 2],
+    z: usize,
+) -> Result<Vec<f64>> {
     let [lo, hi] = band_hz;
     if z == 0 || !(hi > lo && lo >= 0.0) {
-        return Err(Error::InvalidSetting(format!("reference points: need z >= 1 and a band 0 <= f_lo < f_hi (got z = {z}, {band_hz:?})")));
+        return Err(Error::InvalidSetting(format!(
+            "reference points: need z >= 1 and a band 0 <= f_lo < f_hi (got z = {z}, {band_hz:?})"
+        )));
     }
-    let res: Vec<f64> = resonances_hz.iter().copied().filter(|&f| f > lo && f < hi).collect();
+    let res: Vec<f64> = resonances_hz
+        .iter()
+        .copied()
+        .filter(|&f| f > lo && f < hi)
+        .collect();
     let mut pts = vec![hi];
     let mut prev = lo;
     for &f in &res {
-        pts.extend([f * (1.0 - RESONANCE_OFFSET), f * (1.0 + RESONANCE_OFFSET), 0.5 * (prev + f)]);
+        pts.extend([
+            f * (1.0 - RESONANCE_OFFSET),
+            f * (1.0 + RESONANCE_OFFSET),
+            0.5 * (prev + f),
+        ]);
         prev = f;
     }
     if !res.is_empty() {

@@ -136,10 +136,17 @@ impl Rom {
     pub fn transfer(&self, freq_hz: f64) -> Mat<c64> {
         let w = 2.0 * std::f64::consts::PI * freq_hz;
         let n = self.order();
-        let a = Mat::<c64>::from_fn(n, n, |i, j| c64::new(self.kr[(i, j)] - w * w * self.mr[(i, j)], w * self.dr[(i, j)]));
+        let a = Mat::<c64>::from_fn(n, n, |i, j| {
+            c64::new(
+                self.kr[(i, j)] - w * w * self.mr[(i, j)],
+                w * self.dr[(i, j)],
+            )
+        });
         let b = Mat::<c64>::from_fn(n, self.br.ncols(), |i, j| c64::new(self.br[(i, j)], 0.0));
         let x = a.partial_piv_lu().solve(&b);
-        Mat::from_fn(self.cr.nrows(), b.ncols(), |o, j| (0..n).map(|i| x[(i, j)] * self.cr[(o, i)]).sum())
+        Mat::from_fn(self.cr.nrows(), b.ncols(), |o, j| {
+            (0..n).map(|i| x[(i, j)] * self.cr[(o, i)]).sum()
+        })
     }
 }
 
@@ -160,13 +167,22 @@ pub struct Projected {
 }
 
 /// Projects `model` onto V (N×n) for unit loads at `inputs` and outputs `outputs`.
-pub fn project(model: &Model, v: MatRef<'_, f64>, inputs: &[usize], outputs: &[usize], rigid: Option<&RigidBody>) -> Projected {
-    let sym = |a: Mat<f64>| Mat::from_fn(a.nrows(), a.ncols(), |i, j| 0.5 * (a[(i, j)] + a[(j, i)]));
+pub fn project(
+    model: &Model,
+    v: MatRef<'_, f64>,
+    inputs: &[usize],
+    outputs: &[usize],
+    rigid: Option<&RigidBody>,
+) -> Projected {
+    let sym =
+        |a: Mat<f64>| Mat::from_fn(a.nrows(), a.ncols(), |i, j| 0.5 * (a[(i, j)] + a[(j, i)]));
     let mr = sym(v.transpose() * mul_dense(model.mass.as_ref(), v));
     let kr = sym(v.transpose() * mul_dense(model.stiffness.as_ref(), v));
     let dr = match &model.damping {
         Damping::None => Mat::zeros(mr.nrows(), mr.ncols()),
-        Damping::Rayleigh { alpha, beta } => Mat::from_fn(mr.nrows(), mr.ncols(), |i, j| alpha * mr[(i, j)] + beta * kr[(i, j)]),
+        Damping::Rayleigh { alpha, beta } => Mat::from_fn(mr.nrows(), mr.ncols(), |i, j| {
+            alpha * mr[(i, j)] + beta * kr[(i, j)]
+        }),
         Damping::Matrix(d) => sym(v.transpose() * mul_dense(d.as_ref(), v)),
     };
     let mut pb = Mat::<c64>::zeros(v.nrows(), inputs.len());

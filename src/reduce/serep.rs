@@ -48,7 +48,12 @@ pub struct SerepOptions {
 /// # Errors
 /// [`Error::InvalidSetting`] for c = 0, more modes than DoFs, bad or duplicate DoF lists,
 /// mode numbers out of range; the eigensolver's errors.
-pub fn reduce(model: &Model, inputs: &[usize], outputs: &[usize], opts: &SerepOptions) -> Result<Rom> {
+pub fn reduce(
+    model: &Model,
+    inputs: &[usize],
+    outputs: &[usize],
+    opts: &SerepOptions,
+) -> Result<Rom> {
     let n_full = model.n();
     check_dofs(inputs, n_full, "inputs")?;
     check_dofs(outputs, n_full, "outputs")?;
@@ -58,32 +63,49 @@ pub fn reduce(model: &Model, inputs: &[usize], outputs: &[usize], opts: &SerepOp
     let rigid = RigidBody::detect(model)?;
     let n_rigid = if rigid.is_some() { 6 } else { 0 };
     let (request, pick): (usize, Box<dyn Fn(usize) -> Vec<usize>>) = match &opts.modes {
-        ModeChoice::LowestDeformation(0) => return Err(Error::InvalidSetting("SEREP with 0 modes: choose c >= 1".into())),
+        ModeChoice::LowestDeformation(0) => {
+            return Err(Error::InvalidSetting(
+                "SEREP with 0 modes: choose c >= 1".into(),
+            ))
+        }
         ModeChoice::LowestDeformation(c) => {
             let c = *c;
             (c + n_rigid, Box::new(move |rig| (rig..rig + c).collect()))
         }
         ModeChoice::Numbers(v) => {
             if v.is_empty() || v.contains(&0) {
-                return Err(Error::InvalidSetting("SEREP mode numbers are 1-based and the list must not be empty".into()));
+                return Err(Error::InvalidSetting(
+                    "SEREP mode numbers are 1-based and the list must not be empty".into(),
+                ));
             }
             let v2: Vec<usize> = v.iter().map(|k| k - 1).collect();
-            (v.iter().copied().max().unwrap_or(1), Box::new(move |_| v2.clone()))
+            (
+                v.iter().copied().max().unwrap_or(1),
+                Box::new(move |_| v2.clone()),
+            )
         }
     };
     if request > n_full {
-        return Err(Error::InvalidSetting(format!("SEREP needs {request} modes but the model has only N = {n_full} DoFs")));
+        return Err(Error::InvalidSetting(format!(
+            "SEREP needs {request} modes but the model has only N = {n_full} DoFs"
+        )));
     }
     let modes = eigenpairs(model, Request::Lowest(request), &opts.eigen)?;
     let eigen_s = t.elapsed().as_secs_f64();
     let chosen = pick(modes.rigid);
     if let Some(&k) = chosen.iter().find(|&&k| k >= modes.lambdas.len()) {
-        return Err(Error::InvalidSetting(format!("mode number {} is not available ({} modes computed)", k + 1, modes.lambdas.len())));
+        return Err(Error::InvalidSetting(format!(
+            "mode number {} is not available ({} modes computed)",
+            k + 1,
+            modes.lambdas.len()
+        )));
     }
     let t = Instant::now();
     let (c, r) = (chosen.len(), retain.len());
     let u_cr = Mat::<f64>::from_fn(r, c, |i, j| modes.vectors[(retain[i], chosen[j])]);
-    let svd = u_cr.thin_svd().map_err(|_| Error::Factor("SVD of U_cr did not converge".into()))?;
+    let svd = u_cr
+        .thin_svd()
+        .map_err(|_| Error::Factor("SVD of U_cr did not converge".into()))?;
     let s = svd.S();
     let smax = (0..s.dim()).map(|i| s[i]).fold(0.0, f64::max);
     let smin = (0..s.dim()).map(|i| s[i]).fold(f64::INFINITY, f64::min);
@@ -112,7 +134,10 @@ pub fn reduce(model: &Model, inputs: &[usize], outputs: &[usize], opts: &SerepOp
     let stiffness_definiteness = Definiteness::of(pr.kr.as_ref());
     for (name, d) in [("Mr", &mass_definiteness), ("Kr", &stiffness_definiteness)] {
         if !d.positive_definite {
-            warnings.push(format!("{name} is not positive definite (eigenvalues in [{:.3e}, {:.3e}])", d.min_eig, d.max_eig));
+            warnings.push(format!(
+                "{name} is not positive definite (eigenvalues in [{:.3e}, {:.3e}])",
+                d.min_eig, d.max_eig
+            ));
         }
     }
     Ok(Rom {
@@ -131,8 +156,14 @@ pub fn reduce(model: &Model, inputs: &[usize], outputs: &[usize], opts: &SerepOp
         mass_definiteness,
         stiffness_definiteness,
         timings: vec![
-            Timing { phase: "eigenpairs".into(), seconds: eigen_s },
-            Timing { phase: "pseudo-inverse + projection".into(), seconds: proj_s },
+            Timing {
+                phase: "eigenpairs".into(),
+                seconds: eigen_s,
+            },
+            Timing {
+                phase: "pseudo-inverse + projection".into(),
+                seconds: proj_s,
+            },
         ],
         warnings,
         basis: opts.keep_basis.then_some(v),

@@ -125,7 +125,8 @@ pub fn dense_eigenvalues(model: &Model) -> Vec<f64> {
     let linv = l.as_ref().partial_piv_lu().inverse();
     let c = &linv * &k * linv.transpose();
     let c = Mat::from_fn(c.nrows(), c.ncols(), |i, j| 0.5 * (c[(i, j)] + c[(j, i)]));
-    c.self_adjoint_eigenvalues(faer::Side::Lower).expect("eigenvalues converge")
+    c.self_adjoint_eigenvalues(faer::Side::Lower)
+        .expect("eigenvalues converge")
 }
 
 /// Dense elastic transfer function of a free body with Rayleigh damping, by the *deflated*
@@ -133,7 +134,13 @@ pub fn dense_eigenvalues(model: &Model) -> Vec<f64> {
 /// (near the first elastic one), so it is well conditioned down to ω = 0, and it acts on
 /// elastic vectors (V0ᵀMx = 0) as A does: H1 = C Ã⁻¹ P B with P = I − M V0 M0⁻¹ V0ᵀ. A
 /// formulation independent of the library's (which projects the result of a solve with A).
-pub fn dense_h1_deflated(model: &Model, v0: &Mat<f64>, f: f64, inputs: &[usize], outputs: &[usize]) -> Mat<c64> {
+pub fn dense_h1_deflated(
+    model: &Model,
+    v0: &Mat<f64>,
+    f: f64,
+    inputs: &[usize],
+    outputs: &[usize],
+) -> Mat<c64> {
     let w = 2.0 * std::f64::consts::PI * f;
     let (m, k) = (dense(&model.mass), dense(&model.stiffness));
     let (alpha, beta) = match model.damping {
@@ -146,7 +153,12 @@ pub fn dense_h1_deflated(model: &Model, v0: &Mat<f64>, f: f64, inputs: &[usize],
     let m0_inv = m0.partial_piv_lu().inverse();
     let lift = &mv0 * &m0_inv * mv0.transpose() * (2.0 * std::f64::consts::PI * 100.0).powi(2);
     let n = m.nrows();
-    let a = Mat::<c64>::from_fn(n, n, |i, j| c64::new(k[(i, j)] - w * w * m[(i, j)] + lift[(i, j)], w * (alpha * m[(i, j)] + beta * k[(i, j)])));
+    let a = Mat::<c64>::from_fn(n, n, |i, j| {
+        c64::new(
+            k[(i, j)] - w * w * m[(i, j)] + lift[(i, j)],
+            w * (alpha * m[(i, j)] + beta * k[(i, j)]),
+        )
+    });
     let mut b = Mat::<f64>::zeros(n, inputs.len());
     for (j, &i) in inputs.iter().enumerate() {
         b[(i, j)] = 1.0;
