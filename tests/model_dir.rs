@@ -427,8 +427,7 @@ fn nan_in_stiffness_matrix_is_rejected_by_validation() {
         3,
         base.scene.clone(),
     )
-    .err()
-    .expect("NaN must be rejected");
+    .expect_err("NaN must be rejected");
     assert!(matches!(e, Error::InvalidModel(_)), "{e:?}");
     says(&e, &["stiffness matrix K", "NaN", "column 4"]);
 }
@@ -587,9 +586,7 @@ fn write_into_a_non_empty_directory_fails_and_leaves_it_untouched() {
     std::fs::create_dir(&dir).expect("mkdir");
     put(&dir, "keep.txt", "precious");
     let model = random_model(9, 2, 5, Damping::None);
-    let e = model_dir::write(&dir, &model)
-        .err()
-        .expect("must refuse a non-empty directory");
+    let e = model_dir::write(&dir, &model).expect_err("must refuse a non-empty directory");
     assert!(matches!(e, Error::InvalidSetting(_)), "{e:?}");
     says(&e, &["out", "not empty"]);
     let names: Vec<_> = std::fs::read_dir(&dir)
@@ -622,9 +619,7 @@ fn failed_write_leaves_no_directory_behind() {
     k[(8, 8)] = f64::NAN;
     model.stiffness = sparse(&k);
     let dir = parent.join("out");
-    let e = model_dir::write(&dir, &model)
-        .err()
-        .expect("writing a NaN must fail");
+    let e = model_dir::write(&dir, &model).expect_err("writing a NaN must fail");
     assert!(matches!(e, Error::InvalidModel(_)), "{e:?}");
     says(&e, &["K.mtx", "NaN"]);
     assert!(!dir.exists(), "a partial {} was left behind", dir.display());
@@ -643,8 +638,7 @@ fn write_atomically_removes_the_temporary_directory_on_error() {
         std::fs::create_dir(tmp.join("sub")).expect("mkdir in tmp");
         Err(Error::InvalidSetting("injected failure".into()))
     })
-    .err()
-    .expect("the fill error must propagate");
+    .expect_err("the fill error must propagate");
     says(&e, &["injected failure"]);
     assert!(!dir.exists());
     assert!(
