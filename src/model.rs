@@ -181,7 +181,14 @@ fn check_matrix(a: &Csc, n: usize, what: &str) -> Result<f64> {
     if n == 0 {
         return Err(Error::InvalidModel(format!("{what} is empty (N = 0)")));
     }
-    if a.nrows() != n || a.ncols() != n {
+    if a.nrows() != a.ncols() {
+        return Err(Error::InvalidModel(format!(
+            "{what} is {}×{}, not square: M, K and D must be N×N",
+            a.nrows(),
+            a.ncols()
+        )));
+    }
+    if a.nrows() != n {
         return Err(Error::InvalidModel(format!(
             "{what} is {}×{} but the model has N = {n} (the mass matrix sets N): all matrices must be N×N",
             a.nrows(),

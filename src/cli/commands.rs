@@ -243,10 +243,15 @@ pub fn sweep(a: &SweepArgs, verbose: bool) -> Result<()> {
             "sweep: no frequencies (--points must be >= 1)".into(),
         ));
     }
-    let part: Part = a.part.parse()?;
+    // The library's messages name the value; say which flag it came from.
+    let flag = |flag: &str, e: Error| match e {
+        Error::InvalidSetting(m) => Error::InvalidSetting(format!("--{flag}: {m}")),
+        e => e,
+    };
+    let part: Part = a.part.parse().map_err(|e| flag("part", e))?;
     let opts = SweepOptions {
         threads: a.threads,
-        backend: a.backend.parse()?,
+        backend: a.backend.parse().map_err(|e| flag("backend", e))?,
         memory_budget: a.memory_gb.map(|g| (g * 1e9) as usize),
         ..Default::default()
     };

@@ -93,13 +93,24 @@ pub struct SceneToml {
 pub fn read_manifest(dir: &Path) -> Result<Manifest> {
     let path = dir.join(MANIFEST);
     let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
-    toml::from_str(&text).map_err(|e| {
-        let line = e
-            .span()
-            .map(|s| text[..s.start].lines().count().max(1))
-            .unwrap_or(0);
-        Error::parse(&path, line, e.message().to_string())
-    })
+    toml::from_str(&text).map_err(|e| toml_error(&path, &text, &e))
+}
+
+/// A TOML error as [`Error::Parse`] at the 1-based line where its span starts (0 without a
+/// span). The line is the number of newlines before the span plus one, so a span at the very
+/// start of a line (an unknown key) is reported on that line, not the one before.
+pub(crate) fn toml_error(path: &Path, text: &str, e: &toml::de::Error) -> Error {
+    let line = e
+        .span()
+        .map(|s| {
+            text.as_bytes()[..s.start.min(text.len())]
+                .iter()
+                .filter(|&&b| b == b'\n')
+                .count()
+                + 1
+        })
+        .unwrap_or(0);
+    Error::parse(path, line, e.message().to_string())
 }
 
 /// Reads and validates a model directory.

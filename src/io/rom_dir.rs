@@ -3,7 +3,8 @@
 //! (Matrix Market `array real general`, full double precision), optional `V.mtx`.
 //! Written atomically ([`super::model_dir::write_atomically`]).
 
-use crate::io::{matrix_market, model_dir::write_atomically};
+use crate::io::matrix_market;
+use crate::io::model_dir::{toml_error, write_atomically};
 use crate::reduce::{Definiteness, FitReport, Method, Rom, Timing};
 use crate::{Error, Result};
 use serde::{Deserialize, Serialize};
@@ -95,13 +96,7 @@ pub fn write(dir: &Path, rom: &Rom) -> Result<()> {
 pub fn read(dir: &Path) -> Result<Rom> {
     let path = dir.join("rom.toml");
     let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
-    let man: Manifest = toml::from_str(&text).map_err(|e| {
-        let line = e
-            .span()
-            .map(|s| text[..s.start].lines().count().max(1))
-            .unwrap_or(0);
-        Error::parse(&path, line, e.message().to_string())
-    })?;
+    let man: Manifest = toml::from_str(&text).map_err(|e| toml_error(&path, &text, &e))?;
     let rd = |name: &str| matrix_market::read_dense(&dir.join(format!("{name}.mtx")));
     let (mr, dr, kr, br, cr) = (rd("Mr")?, rd("Dr")?, rd("Kr")?, rd("Br")?, rd("Cr")?);
     let n = man.order;

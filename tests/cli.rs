@@ -1,0 +1,496 @@
+//! The `sparsemor` binary end to end: generate, info, sweep, reduce, evaluate, modes — the
+//! outputs they write and the errors they give for bad settings (exit code, stderr, nothing
+//! left behind).
+
+use sparsemor::io::model_dir;
+use sparsemor::sweep::{no_progress, transfer_function, Part, SweepOptions};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::OnceLock;
+
+/// The paper bar's I/O DoFs (inputs = outputs): nodes 0, 264, 540.
+const PAPER_IO: [usize; 9] = [0, 1, 2, 792, 793, 794, 1620, 1621, 1622];
+
+/// A fresh, empty directory `<CARGO_TARGET_TMPDIR>/cli/<name>`.
+fn scratch(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join("cli")
+        .join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("create scratch dir");
+    dir
+}
+
+fn run(cwd: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_sparsemor"))
+        .args(args)
+        .current_dir(cwd)
+        .output()
+        .expect("run sparsemor")
+}
+
+fn text(b: &[u8]) -> String {
+    String::from_utf8_lossy(b).into_owned()
+}
+
+/// Runs a command that must succeed; returns stdout.
+fn ok(cwd: &Path, args: &[&str]) -> String {
+    let out = run(cwd, args);
+    assert!(
+        out.status.success(),
+        "sparsemor {args:?} failed ({}):\nstdout:\n{}\nstderr:\n{}",
+        out.status,
+        text(&out.stdout),
+        text(&out.stderr)
+    );
+    text(&out.stdout)
+}
+
+/// Runs a command that must fail cleanly; asserts stderr names every needle and returns it.
+fn fails(cwd: &Path, args: &[&str], needles: &[&str]) -> String {
+    let out = run(cwd, args);
+    let err = text(&out.stderr);
+    assert!(
+        !out.status.success(),
+        "sparsemor {args:?} succeeded but should have failed; stderr:\n{err}"
+    );
+    assert!(
+        out.status.code().is_some(),
+        "sparsemor {args:?} was killed by a signal: {}",
+        out.status
+    );
+    assert!(
+        !err.contains("panicked"),
+        "sparsemor {args:?} panicked:\n{err}"
+    );
+    for n in needles {
+        assert!(
+            err.contains(n),
+            "sparsemor {args:?}: {n:?} not in stderr:\n{err}"
+        );
+    }
+    err
+}
+
+fn entries(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .expect("list dir")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+/// The paper bar written once by `sparsemor generate bar` (shared, read-only afterwards).
+fn bar() -> &'static Path {
+    static BAR: OnceLock<PathBuf> = OnceLock::new();
+    BAR.get_or_init(|| {
+        let parent = scratch("shared");
+        let out = run(&parent, &["generate", "bar", "--out", "bar"]);
+        let err = text(&out.stderr);
+        assert!(out.status.success(), "generate bar failed:\n{err}");
+        assert!(err.contains("N = 1656"), "generate: {err}");
+        let dir = parent.join("bar");
+        for f in ["model.toml", "M.mtx", "K.mtx", "nodes.csv"] {
+            assert!(dir.join(f).is_file(), "generate did not write {f}");
+        }
+        dir
+    })
+}
+
+fn bar_str() -> &'static str {
+    bar().to_str().expect("utf-8 path")
+}
+
+/// CSV rows (header excluded) split at commas, after checking the header.
+fn csv(path: &Path, header: &str) -> Vec<Vec<String>> {
+    let s = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut lines = s.lines();
+    assert_eq!(lines.next(), Some(header), "{}: header", path.display());
+    lines
+        .map(|l| l.split(',').map(str::to_string).collect())
+        .collect()
+}
+
+fn num(s: &str) -> f64 {
+    s.parse()
+        .unwrap_or_else(|_| panic!("'{s}' is not a number"))
+}
+
+// ---------------------------------------------------------------------------------------------
+// generate, info, sweep
+
+#[test]
+fn generate_info_sweep_matches_the_library_bit_exactly() {
+    let info = ok(bar(), &["info", bar_str()]);
+    let field = |name: &str| {
+        info.lines()
+            .find(|l| l.starts_with(name))
+            .unwrap_or_else(|| panic!("no `{name}` line in info:\n{info}"))
+            .trim_start_matches(name)
+            .trim()
+            .to_string()
+    };
+    assert_eq!(field("N "), "1656", "info:\n{info}");
+    assert!(field("rigid modes").starts_with("6:"), "info:\n{info}");
+
+    let work = scratch("sweep_ok");
+    let args = [
+        "sweep",
+        bar_str(),
+        "--band",
+        "1:1000",
+        "--points",
+        "7",
+        "--part",
+        "elastic",
+        "--threads",
+        "2",
+        "--out",
+        "frf.csv",
+    ];
+    ok(&work, &args);
+    assert_eq!(
+        entries(&work),
+        ["frf.csv"],
+        "only the CSV is left (no temporary file)"
+    );
+    let rows = csv(&work.join("frf.csv"), "f_hz,output,input,re,im");
+    assert_eq!(rows.len(), 7 * 9 * 9);
+    assert!(rows.iter().all(|r| r.len() == 5));
+
+    // Frequencies: 7 distinct increasing values from exactly 1 to exactly 1000.
+    let mut freqs: Vec<f64> = rows.iter().map(|r| num(&r[0])).collect();
+    freqs.dedup();
+    assert_eq!(freqs.len(), 7);
+    assert!(freqs.windows(2).all(|w| w[0] < w[1]));
+    assert_eq!((freqs[0], freqs[6]), (1.0, 1000.0));
+    // DoF columns: the 9 paper I/O DoFs, outputs × inputs in scene order per frequency.
+    for (k, chunk) in rows.chunks(81).enumerate() {
+        for (o, &od) in PAPER_IO.iter().enumerate() {
+            for (i, &id) in PAPER_IO.iter().enumerate() {
+                let r = &chunk[o * 9 + i];
+                assert_eq!(num(&r[0]), freqs[k]);
+                assert_eq!(
+                    (r[1].as_str(), r[2].as_str()),
+                    (od.to_string().as_str(), id.to_string().as_str())
+                );
+            }
+        }
+    }
+
+    // The same numbers from the library, bit for bit.
+    let (model, _) = model_dir::read(bar()).expect("read the generated bar");
+    assert_eq!(model.scene.inputs, PAPER_IO);
+    assert_eq!(model.scene.outputs, PAPER_IO);
+    let opts = SweepOptions {
+        threads: 2,
+        ..Default::default()
+    };
+    let frf = transfer_function(
+        &model,
+        &PAPER_IO,
+        &PAPER_IO,
+        &freqs,
+        Part::Elastic,
+        false,
+        &opts,
+        &no_progress,
+    )
+    .expect("library sweep");
+    for (k, h) in frf.h.iter().enumerate() {
+        for o in 0..9 {
+            for i in 0..9 {
+                let r = &rows[k * 81 + o * 9 + i];
+                let (re, im) = (num(&r[3]), num(&r[4]));
+                let z = h[(o, i)];
+                assert!(
+                    re.to_bits() == z.re.to_bits() && im.to_bits() == z.im.to_bits(),
+                    "f = {} Hz, H[{o},{i}]: CSV {re:e}{im:+e}i vs library {:e}{:+e}i",
+                    freqs[k],
+                    z.re,
+                    z.im
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn generate_with_elements_and_size() {
+    let work = scratch("generate_sized");
+    ok(
+        &work,
+        &[
+            "generate",
+            "bar",
+            "--elements",
+            "2x3x10",
+            "--size",
+            "0.006x0.008x0.1",
+            "--out",
+            "D2",
+        ],
+    );
+    let info = ok(&work, &["info", "D2"]);
+    // (2+1)(3+1)(10+1) nodes × 3 DoFs
+    assert!(
+        info.lines()
+            .any(|l| l.starts_with("N ") && l.ends_with(" 396")),
+        "info:\n{info}"
+    );
+
+    fails(
+        &work,
+        &["generate", "bar", "--elements", "2x3", "--out", "D3"],
+        &["error:", "--elements", "2x3"],
+    );
+    fails(
+        &work,
+        &["generate", "bar", "--size", "0.006x0.008", "--out", "D3"],
+        &["error:", "--size"],
+    );
+    fails(
+        &work,
+        &["generate", "beam", "--out", "D3"],
+        &["error:", "beam", "bar"],
+    );
+    assert_eq!(
+        entries(&work),
+        ["D2"],
+        "failed generates leave nothing behind"
+    );
+}
+
+#[test]
+fn generate_refuses_a_non_empty_output_directory() {
+    let work = scratch("generate_nonempty");
+    std::fs::create_dir(work.join("out")).expect("mkdir");
+    std::fs::write(work.join("out/keep.txt"), "x").expect("write");
+    fails(
+        &work,
+        &["generate", "bar", "--out", "out"],
+        &["error:", "not empty"],
+    );
+    assert_eq!(entries(&work.join("out")), ["keep.txt"]);
+    assert_eq!(entries(&work), ["out"]);
+}
+
+#[test]
+fn sweep_bad_settings_fail_cleanly_without_output() {
+    let cases: [(&str, &[&str], &[&str]); 7] = [
+        (
+            "part",
+            &["--band", "1:1000", "--points", "3", "--part", "bogus"],
+            &["--part", "bogus", "total", "elastic", "rigid"],
+        ),
+        ("no_band", &[], &["--band", "--freqs"]),
+        (
+            "reversed_band",
+            &["--band", "5:1"],
+            &["--band", "5:1", "LO < HI"],
+        ),
+        (
+            "backend",
+            &["--band", "1:1000", "--backend", "nope"],
+            &["--backend", "nope", "faer-lblt"],
+        ),
+        ("bad_band", &["--band", "1-1000"], &["--band", "LO:HI"]),
+        ("zero_hz", &["--freqs", "0,10"], &["0 Hz", "free body"]),
+        ("bad_freq", &["--freqs", "10,abc"], &["--freqs", "abc"]),
+    ];
+    for (name, extra, needles) in cases {
+        let work = scratch(&format!("sweep_bad_{name}"));
+        let mut args = vec!["sweep", bar_str()];
+        args.extend_from_slice(extra);
+        args.extend_from_slice(&["--threads", "1", "--out", "frf.csv"]);
+        let err = fails(&work, &args, needles);
+        assert!(err.starts_with("error:"), "{name}: {err}");
+        assert!(
+            entries(&work).is_empty(),
+            "{name}: left {:?} behind",
+            entries(&work)
+        );
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// reduce, evaluate, modes
+
+const REF_FREQS: &str =
+    "50,100,150,200,250,300,350,400,450,500,550,600,650,700,750,800,850,900,950,1000";
+
+#[test]
+fn reduce_linefit_then_evaluate() {
+    let work = scratch("reduce_ok");
+    let out = ok(
+        &work,
+        &[
+            "reduce",
+            bar_str(),
+            "--method",
+            "linefit",
+            "--extra-interface",
+            "5",
+            "--ref-freqs",
+            REF_FREQS,
+            "--threads",
+            "2",
+            "--out",
+            "ROM",
+        ],
+    );
+    assert!(
+        out.lines()
+            .any(|l| l.starts_with("order") && l.ends_with(" 14")),
+        "reduce:\n{out}"
+    );
+    let mut expected = vec!["Br.mtx", "Cr.mtx", "Dr.mtx", "Kr.mtx", "Mr.mtx", "rom.toml"];
+    expected.sort();
+    assert_eq!(entries(&work.join("ROM")), expected);
+    assert_eq!(
+        entries(&work),
+        ["ROM"],
+        "no temporary directory left behind"
+    );
+
+    ok(
+        &work,
+        &[
+            "evaluate",
+            bar_str(),
+            "ROM",
+            "--points",
+            "50",
+            "--threads",
+            "2",
+            "--csv",
+            "eps.csv",
+        ],
+    );
+    let rows = csv(&work.join("eps.csv"), "f_hz,eps_elastic,eps_total");
+    assert_eq!(rows.len(), 50);
+    // The band [0, 1000] starts at 0 on a free body: evaluated from 1 Hz.
+    assert_eq!(num(&rows[0][0]), 1.0);
+    assert_eq!(num(&rows[49][0]), 1000.0);
+    for r in &rows {
+        assert_eq!(r.len(), 3);
+        let (e1, e) = (num(&r[1]), num(&r[2]));
+        assert!(
+            e1.is_finite() && e1 >= 0.0 && e.is_finite() && e >= 0.0,
+            "row {r:?}"
+        );
+    }
+    let worst = rows.iter().map(|r| num(&r[1])).fold(0.0, f64::max);
+    assert!(
+        worst < 0.1,
+        "line-fitting elastic error up to {worst:.3e} on the paper bar"
+    );
+}
+
+#[test]
+fn reduce_bad_settings_fail_cleanly_without_output() {
+    let cases: [(&str, &[&str], &[&str]); 6] = [
+        (
+            "interface_without_outputs",
+            &[
+                "--method",
+                "linefit",
+                "--interface",
+                "0,1,2,792,793,794,1620,1621,5,6",
+                "--ref-freqs",
+                REF_FREQS,
+            ],
+            &["output DoF 1622", "interface"],
+        ),
+        (
+            "interface_duplicate",
+            &[
+                "--method",
+                "linefit",
+                "--interface",
+                "0,1,2,792,793,794,1620,1621,1622,5,0",
+                "--ref-freqs",
+                REF_FREQS,
+            ],
+            &["interface", "DoF 0", "twice"],
+        ),
+        // n = 9 outputs + 10 = 19 > 2pz = 2·9·1 = 18
+        (
+            "too_few_ref_freqs",
+            &[
+                "--method",
+                "linefit",
+                "--extra-interface",
+                "10",
+                "--ref-freqs",
+                "100",
+            ],
+            &["2pz", "< n = 19"],
+        ),
+        (
+            "zero_ref_freq",
+            &[
+                "--method",
+                "linefit",
+                "--extra-interface",
+                "5",
+                "--ref-freqs",
+                "0,100,200,300,400,500,600,700,800,900,1000",
+            ],
+            &["0 Hz", "free body"],
+        ),
+        (
+            "method",
+            &[
+                "--method",
+                "foo",
+                "--extra-interface",
+                "5",
+                "--ref-freqs",
+                REF_FREQS,
+            ],
+            &["--method", "foo", "linefit", "serep"],
+        ),
+        (
+            "no_ref_freqs",
+            &["--method", "linefit", "--extra-interface", "5"],
+            &["--ref-freqs"],
+        ),
+    ];
+    for (name, extra, needles) in cases {
+        let work = scratch(&format!("reduce_bad_{name}"));
+        let mut args = vec!["reduce", bar_str()];
+        args.extend_from_slice(extra);
+        args.extend_from_slice(&["--threads", "1", "--out", "ROM"]);
+        let err = fails(&work, &args, needles);
+        assert!(err.starts_with("error:"), "{name}: {err}");
+        assert!(
+            entries(&work).is_empty(),
+            "{name}: left {:?} behind",
+            entries(&work)
+        );
+    }
+}
+
+#[test]
+fn modes_in_band_are_six_rigid_then_six_elastic() {
+    let work = scratch("modes");
+    ok(
+        &work,
+        &["modes", bar_str(), "--band", "0:1000", "--csv", "m.csv"],
+    );
+    let rows = csv(&work.join("m.csv"), "index,f_hz,kind");
+    assert_eq!(rows.len(), 12, "{rows:?}");
+    for (k, r) in rows.iter().enumerate() {
+        assert_eq!(r.len(), 3);
+        assert_eq!(r[0], (k + 1).to_string());
+        assert_eq!(r[2], if k < 6 { "rigid" } else { "elastic" }, "row {r:?}");
+        let f = num(&r[1]);
+        if k >= 6 {
+            assert!(f > 1.0 && f <= 1000.0, "elastic mode {} at {f} Hz", k + 1);
+        }
+    }
+    let f: Vec<f64> = rows.iter().map(|r| num(&r[1])).collect();
+    assert!(f.windows(2).all(|w| w[0] <= w[1]), "ascending: {f:?}");
+}
