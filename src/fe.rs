@@ -674,6 +674,40 @@ fn fill_slab(
     debug_assert_eq!(pm, mrow.len());
 }
 
+/// The built-in model as a validated [`crate::model::Model`]: the box of `spec` with the
+/// paper's damping (Rayleigh α = 0, β = 10⁻⁵), inputs = outputs = [`paper_io_dofs`] and band
+/// [`PAPER_BAND_HZ`].
+///
+/// # Errors
+/// As [`assemble`].
+pub fn bar_model(spec: &BoxSpec) -> Result<crate::model::Model> {
+    let body = assemble(spec)?;
+    let io = paper_io_dofs(spec);
+    let scene = crate::scene::Scene {
+        inputs: io.clone(),
+        outputs: io,
+        band_hz: PAPER_BAND_HZ,
+    };
+    let name = format!(
+        "bar {}x{}x{}",
+        spec.elements[0], spec.elements[1], spec.elements[2]
+    );
+    let damping = crate::model::Damping::Rayleigh {
+        alpha: PAPER_RAYLEIGH_ALPHA,
+        beta: PAPER_RAYLEIGH_BETA,
+    };
+    let (model, _) = crate::model::Model::new(
+        name,
+        body.mass,
+        body.stiffness,
+        damping,
+        Some(body.nodes),
+        3,
+        scene,
+    )?;
+    Ok(model)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -956,38 +990,4 @@ mod tests {
             }
         }
     }
-}
-
-/// The built-in model as a validated [`crate::model::Model`]: the box of `spec` with the
-/// paper's damping (Rayleigh α = 0, β = 10⁻⁵), inputs = outputs = [`paper_io_dofs`] and band
-/// [`PAPER_BAND_HZ`].
-///
-/// # Errors
-/// As [`assemble`].
-pub fn bar_model(spec: &BoxSpec) -> Result<crate::model::Model> {
-    let body = assemble(spec)?;
-    let io = paper_io_dofs(spec);
-    let scene = crate::scene::Scene {
-        inputs: io.clone(),
-        outputs: io,
-        band_hz: PAPER_BAND_HZ,
-    };
-    let name = format!(
-        "bar {}x{}x{}",
-        spec.elements[0], spec.elements[1], spec.elements[2]
-    );
-    let damping = crate::model::Damping::Rayleigh {
-        alpha: PAPER_RAYLEIGH_ALPHA,
-        beta: PAPER_RAYLEIGH_BETA,
-    };
-    let (model, _) = crate::model::Model::new(
-        name,
-        body.mass,
-        body.stiffness,
-        damping,
-        Some(body.nodes),
-        3,
-        scene,
-    )?;
-    Ok(model)
 }

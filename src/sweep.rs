@@ -449,6 +449,7 @@ pub struct Frf {
 ///
 /// # Errors
 /// As [`Solver::new`] and [`Solver::run`]; `Part::Rigid` on a model without rigid part.
+#[allow(clippy::too_many_arguments)] // the scene (inputs, outputs, frequencies, part) plus how to run it
 pub fn transfer_function(
     model: &Model,
     inputs: &[usize],

@@ -97,6 +97,8 @@ pub struct SymbolicStats {
     pub bytes_per_factor: usize,
 }
 
+// One value per analysis / per worker: the size difference between variants costs nothing.
+#[allow(clippy::large_enum_variant)]
 enum Inner {
     Lblt {
         /// symbolic of the factorized matrix (N×N real, or 2N×2N interleaved)
@@ -450,6 +452,7 @@ fn try_vec<T: Clone + Default>(len: usize) -> Result<Vec<T>> {
     Ok(v)
 }
 
+#[allow(clippy::large_enum_variant)]
 enum State {
     Lblt {
         l: Vec<f64>,
