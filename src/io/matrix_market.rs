@@ -1224,7 +1224,7 @@ fn parse_array_body(body: &[u8], h: &Header, path: &Path) -> Result<Mat<f64>> {
     };
     // Each value takes at least two bytes (a digit and a newline) but the last: a file too short
     // to hold `expected` values gets its "too few entries" error without allocating the matrix.
-    let plausible = expected <= body.len() / 2 + 1;
+    let plausible = expected <= body.len() / 2 + 1 && dense_fits(nrows, ncols);
     let mut mat = if plausible {
         Some(Mat::<f64>::zeros(nrows, ncols))
     } else {
@@ -1286,8 +1286,26 @@ fn parse_array_body(body: &[u8], h: &Header, path: &Path) -> Result<Mat<f64>> {
             ),
         ));
     }
-    // `count == expected` here, so `plausible` held and the matrix exists.
-    Ok(mat.unwrap_or_else(|| Mat::zeros(nrows, ncols)))
+    // `count == expected` here, so the matrix exists unless its shape cannot be allocated
+    // (e.g. 0 x 10^18).
+    mat.ok_or_else(|| {
+        Error::parse(
+            path,
+            h.size_line,
+            format!("the matrix ({nrows}x{ncols}) is too large to hold densely"),
+        )
+    })
+}
+
+/// Whether a dense `nrows x ncols` matrix can be allocated (probed without touching memory).
+/// faer pads columns and does work per column even when `nrows == 0`, hence the margins.
+fn dense_fits(nrows: usize, ncols: usize) -> bool {
+    nrows
+        .checked_next_multiple_of(16)
+        .and_then(|r| r.max(16).checked_mul(ncols.max(1)))
+        .is_some_and(|len| {
+            len <= isize::MAX as usize / 8 && Vec::<f64>::new().try_reserve_exact(len).is_ok()
+        })
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1316,10 +1334,7 @@ fn dense_to_sparse(a: MatRef<'_, f64>) -> SparseColMat<usize, f64> {
 fn sparse_to_dense(a: SparseColMatRef<'_, usize, f64>, path: &Path) -> Result<Mat<f64>> {
     let (m, n) = (a.nrows(), a.ncols());
     // Probe the allocation first: the dimensions come from the file.
-    let fits = m
-        .checked_mul(n)
-        .is_some_and(|len| Vec::<f64>::new().try_reserve_exact(len).is_ok());
-    if !fits {
+    if !dense_fits(m, n) {
         return Err(Error::parse(
             path,
             0,
@@ -1333,4 +1348,185 @@ fn sparse_to_dense(a: SparseColMatRef<'_, usize, f64>, path: &Path) -> Result<Ma
         }
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Reference for [`leading_digits`]: one digit at a time.
+    fn digits_ref(text: &[u8], p: usize) -> Option<(usize, usize)> {
+        let mut v = 0usize;
+        let mut q = p;
+        while let Some(&b) = text.get(q) {
+            if !b.is_ascii_digit() {
+                break;
+            }
+            v = v.checked_mul(10)?.checked_add((b - b'0') as usize)?;
+            q += 1;
+        }
+        (q > p).then_some((v, q))
+    }
+
+    #[test]
+    fn leading_digits_matches_reference() {
+        let cases: &[&[u8]] = &[
+            b"1 2 3",
+            b"12345678 1",
+            b"123456789012 x",
+            b"99999999999999999999 1",
+            b"18446744073709551615",
+            b"18446744073709551616",
+            b"0",
+            b"007 1",
+            b"x1",
+            b"",
+            b"1234567",
+            b"12345678",
+            b"1/2:3",
+            b"9\xff\x80",
+            b"/0123456789:",
+        ];
+        for &c in cases {
+            for p in 0..=c.len() {
+                assert_eq!(leading_digits(c, p), digits_ref(c, p), "{c:?} at {p}");
+            }
+        }
+        // Every byte value right after a digit, at every alignment.
+        for b in 0..=255u8 {
+            for k in 0..10 {
+                let mut text = vec![b'7'; k + 1];
+                text.push(b);
+                text.extend_from_slice(b"        ");
+                assert_eq!(
+                    leading_digits(&text, 0),
+                    digits_ref(&text, 0),
+                    "byte {b} after {k}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn fast_entry_accepts_only_the_common_case() {
+        let f = |s: &[u8]| fast_entry(s, 0, 10, 10);
+        assert_eq!(f(b"1 2 3.5\n"), Some((1, 2, 3.5, 8)));
+        assert_eq!(f(b"10\t10  -1e-3 \r\nnext"), Some((10, 10, -1e-3, 15)));
+        assert_eq!(f(b"1 2 3"), Some((1, 2, 3.0, 5)));
+        for bad in [
+            &b" 1 2 3\n"[..],
+            b"1 2\n",
+            b"1 2 3 4\n",
+            b"0 1 1\n",
+            b"11 1 1\n",
+            b"1 1 nan\n",
+            b"1 1 inf\n",
+            b"1 1 1e400\n",
+            b"1 1 1.5x\n",
+            b"1,1 1\n",
+            b"1 1 1\x0c\n",
+        ] {
+            assert_eq!(f(bad), None, "{:?}", String::from_utf8_lossy(bad));
+        }
+    }
+
+    #[test]
+    fn split_at_lines_covers_everything_at_line_ends() {
+        let text = b"a\nbb\nccc\n\ndddd\neeeee";
+        for pieces in 1..12 {
+            let r = split_at_lines(text, pieces);
+            assert_eq!(r.first().map(|r| r.start), Some(0));
+            assert_eq!(r.last().map(|r| r.end), Some(text.len()));
+            for w in r.windows(2) {
+                assert_eq!(w[0].end, w[1].start);
+                assert_eq!(text[w[0].end - 1], b'\n');
+            }
+        }
+        assert_eq!(split_at_lines(b"", 4), vec![0..0]);
+    }
+
+    #[test]
+    fn parallel_and_sequential_parses_agree() {
+        // A file with duplicates, unsorted order and both index widths' paths.
+        let mut text = String::from("%%MatrixMarket matrix coordinate real symmetric\n");
+        let n = 200_000usize;
+        text.push_str(&format!("1000 1000 {n}\n"));
+        let mut x = 12345u64;
+        for _ in 0..n {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let (i, j) = ((x % 1000) as usize + 1, ((x >> 20) % 1000) as usize + 1);
+            let (i, j) = if i >= j { (i, j) } else { (j, i) };
+            text.push_str(&format!("{i} {j} {}\n", (x >> 11) as f64 / 1e10));
+        }
+        let path = Path::new("mem.mtx");
+        let one = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap();
+        let four = rayon::ThreadPoolBuilder::new()
+            .num_threads(4)
+            .build()
+            .unwrap();
+        let a = one.install(|| parse_bytes(text.as_bytes(), path)).unwrap();
+        let b = four.install(|| parse_bytes(text.as_bytes(), path)).unwrap();
+        let (MtxData::Sparse(a), MtxData::Sparse(b)) = (a.data, b.data) else {
+            panic!("sparse expected")
+        };
+        assert_eq!(a.symbolic().col_ptr(), b.symbolic().col_ptr());
+        assert_eq!(a.symbolic().row_idx(), b.symbolic().row_idx());
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(a.val()), bits(b.val()));
+        // The usize entry path gives the same matrix as the u32 one.
+        let h = parse_header(text.as_bytes(), path).unwrap();
+        let body = &text.as_bytes()[h.body_start..];
+        let wide = build_csc(
+            &h,
+            &parse_coordinate_body::<usize>(body, &h, path).unwrap(),
+            path,
+        )
+        .unwrap();
+        assert_eq!(wide.symbolic().row_idx(), a.symbolic().row_idx());
+        assert_eq!(bits(wide.val()), bits(a.val()));
+    }
+
+    #[test]
+    fn huge_declared_sizes_error_instead_of_panicking() {
+        let p = Path::new("huge.mtx");
+        let cases: &[&[u8]] = &[
+            b"%%MatrixMarket matrix coordinate real general\n1 1000000000000000000 0\n",
+            b"%%MatrixMarket matrix coordinate real general\n1 1 18446744073709551615\n1 1 1\n",
+            b"%%MatrixMarket matrix array real general\n0 1000000000000000000\n",
+            b"%%MatrixMarket matrix array real general\n1000000000000000000 1000000000000000000\n1\n",
+            b"%%MatrixMarket matrix array real symmetric\n10000000000 10000000000\n1\n",
+        ];
+        for &c in cases {
+            assert!(parse_bytes(c, p).is_err(), "{}", String::from_utf8_lossy(c));
+        }
+        // A tall coordinate matrix whose dense form cannot exist.
+        let text =
+            b"%%MatrixMarket matrix coordinate real general\n1000000000000000000 2 1\n1 1 1\n";
+        let m = parse_bytes(text, p).unwrap();
+        let MtxData::Sparse(a) = m.data else {
+            panic!("sparse expected")
+        };
+        assert!(sparse_to_dense(a.as_ref(), p).is_err());
+    }
+
+    #[test]
+    fn push_helpers() {
+        let mut v = Vec::new();
+        push_usize(&mut v, 0);
+        v.push(b' ');
+        push_usize(&mut v, usize::MAX);
+        v.push(b' ');
+        push_f64(&mut v, -0.0);
+        v.push(b' ');
+        push_f64(&mut v, 1e-300);
+        assert_eq!(
+            String::from_utf8(v).unwrap(),
+            format!("0 {} -0.0 1e-300", usize::MAX)
+        );
+    }
 }
