@@ -23,6 +23,7 @@ pub mod model;
 pub mod pencil;
 pub mod reduce;
 pub mod rigid;
+pub mod sampling;
 pub mod scene;
 pub mod sparse;
 pub mod sweep;

@@ -17,6 +17,16 @@ use crate::sweep::{transfer_function, Part, ProgressFn, SweepOptions};
 use crate::{Error, Result};
 use faer::{c64, Mat, MatRef};
 
+/// The band with f_lo = 0 moved to min(1 Hz, f_hi/2): H is infinite at 0 Hz on a free body,
+/// and the elastic part is quasi-static below the first mode anyway.
+pub fn positive_band(band: [f64; 2]) -> [f64; 2] {
+    if band[0] > 0.0 {
+        band
+    } else {
+        [1.0_f64.min(0.5 * band[1]), band[1]]
+    }
+}
+
 /// ε(f) on a frequency grid.
 #[derive(Clone, Debug)]
 pub struct ErrorCurve {

@@ -209,6 +209,11 @@ impl<'m> Solver<'m> {
         self.rigid.as_ref()
     }
 
+    /// The input DoFs.
+    pub fn inputs(&self) -> &[usize] {
+        &self.inputs
+    }
+
     /// The model.
     pub fn model(&self) -> &Model {
         self.model

@@ -5,7 +5,7 @@ use sparsemor::eigen::{eigenpairs, EigenOptions, Modes, Request};
 use sparsemor::fe::{bar_model, BoxSpec};
 use sparsemor::io::{model_dir, rom_dir};
 use sparsemor::metrics::{
-    modal_comparison, rom_eigenfrequencies, ErrorCurve, ModalComparison, Reference,
+    modal_comparison, positive_band, rom_eigenfrequencies, ErrorCurve, ModalComparison, Reference,
 };
 use sparsemor::model::Model;
 use sparsemor::reduce::linefit::{self, place_reference_frequencies, Interface, LineFitOptions};
@@ -180,16 +180,12 @@ pub struct EvaluateArgs {
     threads: usize,
 }
 
-/// The model's band with f_lo = 0 moved to 1 Hz (H is infinite at 0 Hz on a free body).
+/// The requested (or the model's) band, starting above 0 Hz ([`positive_band`]).
 fn evaluation_band(model: &Model, band: Option<&str>) -> Result<[f64; 2]> {
-    let mut b = match band {
+    Ok(positive_band(match band {
         Some(s) => parse_band(s)?,
         None => model.scene.band_hz,
-    };
-    if b[0] == 0.0 {
-        b[0] = 1.0_f64.min(0.5 * b[1]);
-    }
-    Ok(b)
+    }))
 }
 
 pub fn evaluate(a: &EvaluateArgs) -> Result<()> {

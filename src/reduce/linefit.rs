@@ -17,10 +17,11 @@
 use super::{project, Definiteness, FitReport, Method, Rom, Timing};
 use crate::lsq::{LsqOptions, StreamedQr};
 use crate::model::Model;
+use crate::rigid::RigidBody;
 use crate::scene::check_dofs;
 use crate::sweep::{ProgressFn, Response, Solver, SweepOptions};
 use crate::{Error, Result};
-use faer::Mat;
+use faer::{c64, Mat, MatRef};
 use std::time::Instant;
 
 /// How the interface (the ROM's DoFs, order n) is chosen.
@@ -111,11 +112,176 @@ pub fn spread_dofs(model: &Model, k: usize, exclude: &[usize]) -> Result<Vec<usi
     Ok(out)
 }
 
-struct Worker {
-    qr: StreamedQr,
+/// The interface/rest split of the DoFs and the per-frequency blocks of eq. 22.
+pub(crate) struct Partition {
+    /// Interface DoFs I (ROM coordinates, in this order).
+    pub interface: Vec<usize>,
+    /// The other DoFs R, ascending.
+    pub rest: Vec<usize>,
+}
+
+/// One worker's streamed QR and its reusable block buffers.
+pub(crate) struct Worker {
+    pub qr: StreamedQr,
     g: Mat<f64>,
     f: Mat<f64>,
-    absorb_s: f64,
+    pub absorb_s: f64,
+}
+
+impl Partition {
+    /// Resolves the interface setting and checks it (in range, unique, contains the outputs).
+    pub fn new(model: &Model, outputs: &[usize], interface: &Interface) -> Result<Self> {
+        let n_full = model.n();
+        let interface = match interface {
+            Interface::Explicit(i) => i.clone(),
+            Interface::OutputsPlus(k) => {
+                let mut i = outputs.to_vec();
+                i.extend(spread_dofs(model, *k, outputs)?);
+                i
+            }
+        };
+        check_dofs(&interface, n_full, "interface")?;
+        if let Some(o) = outputs.iter().find(|o| !interface.contains(o)) {
+            return Err(Error::InvalidSetting(format!(
+                "output DoF {o} is not in the interface: line-fitting keeps the outputs as ROM coordinates (V = [I; W]); add it to the interface"
+            )));
+        }
+        let mut is_interface = vec![false; n_full];
+        for &d in &interface {
+            is_interface[d] = true;
+        }
+        let rest = (0..n_full).filter(|&d| !is_interface[d]).collect();
+        Ok(Partition { interface, rest })
+    }
+
+    /// An empty worker state for p inputs.
+    pub fn worker(&self, p: usize) -> Worker {
+        Worker {
+            qr: StreamedQr::new(self.interface.len(), self.rest.len()),
+            g: Mat::zeros(2 * p, self.interface.len()),
+            f: Mat::zeros(2 * p, self.rest.len()),
+            absorb_s: 0.0,
+        }
+    }
+
+    /// Absorbs one elastic snapshot X (N×p): G = [Re X[I,:], Im X[I,:]]ᵀ,
+    /// F = [Re X[R,:], Im X[R,:]]ᵀ.
+    pub fn absorb(&self, w: &mut Worker, x: MatRef<'_, c64>) -> Result<()> {
+        let t = Instant::now();
+        let p = x.ncols();
+        for j in 0..p {
+            for (c, &d) in self.interface.iter().enumerate() {
+                w.g[(j, c)] = x[(d, j)].re;
+                w.g[(p + j, c)] = x[(d, j)].im;
+            }
+            for (r, &d) in self.rest.iter().enumerate() {
+                w.f[(j, r)] = x[(d, j)].re;
+                w.f[(p + j, r)] = x[(d, j)].im;
+            }
+        }
+        w.qr.absorb(w.g.as_ref(), w.f.as_ref())?;
+        w.absorb_s += t.elapsed().as_secs_f64();
+        Ok(())
+    }
+
+    /// Merges worker states into one (TSQR).
+    pub fn merge(&self, workers: Vec<Worker>, into: Option<StreamedQr>) -> Result<StreamedQr> {
+        let mut it = workers.into_iter().map(|w| w.qr);
+        let first = match into {
+            Some(q) => q,
+            None => it
+                .next()
+                .ok_or_else(|| Error::InvalidSetting("no reference frequency was solved".into()))?,
+        };
+        it.try_fold(first, |a, b| a.merge(b))
+    }
+
+    /// Solves the least-squares problem of `qr`, builds V = Πᵀ[I; W] and projects (§3.4).
+    /// Returns the ROM (without timings, with V kept) .
+    pub fn finish(
+        &self,
+        model: &Model,
+        inputs: &[usize],
+        outputs: &[usize],
+        qr: &StreamedQr,
+        rigid: Option<&RigidBody>,
+        lsq: &LsqOptions,
+        ref_freqs_hz: &[f64],
+    ) -> Result<Rom> {
+        let n = self.interface.len();
+        let sol = qr.finish(lsq)?;
+        let mut v = Mat::<f64>::zeros(model.n(), n);
+        for (c, &d) in self.interface.iter().enumerate() {
+            v[(d, c)] = 1.0;
+        }
+        for (r, &d) in self.rest.iter().enumerate() {
+            for c in 0..n {
+                v[(d, c)] = sol.w[(r, c)];
+            }
+        }
+        drop(sol.w);
+        let pr = project(model, v.as_ref(), inputs, outputs, rigid);
+        let mut warnings = Vec::new();
+        if sol.truncated {
+            warnings.push(format!(
+                "T_o has numerical rank {} < n = {n} (cond {:.1e} after equilibration): the fit was truncated; \
+                 add reference frequencies or remove interface DoFs",
+                sol.rank, sol.cond_equilibrated
+            ));
+        }
+        let mass_definiteness = Definiteness::of(pr.mr.as_ref());
+        let stiffness_definiteness = Definiteness::of(pr.kr.as_ref());
+        for (name, d) in [("Mr", &mass_definiteness), ("Kr", &stiffness_definiteness)] {
+            if !d.positive_definite {
+                warnings.push(format!(
+                    "{name} is not positive definite (eigenvalues in [{:.3e}, {:.3e}])",
+                    d.min_eig, d.max_eig
+                ));
+            }
+        }
+        Ok(Rom {
+            method: Method::LineFit,
+            mr: pr.mr,
+            dr: pr.dr,
+            kr: pr.kr,
+            br: pr.br,
+            cr: pr.cr,
+            dofs: self.interface.clone(),
+            inputs: inputs.to_vec(),
+            outputs: outputs.to_vec(),
+            ref_freqs_hz: ref_freqs_hz.to_vec(),
+            modes: Vec::new(),
+            fit: Some(FitReport {
+                cond_raw: sol.cond_raw,
+                cond_equilibrated: sol.cond_equilibrated,
+                rank: sol.rank,
+                truncated: sol.truncated,
+                residual_max: sol.residual_max,
+                residual_mean: sol.residual_mean,
+                residual_argmax_dof: self.rest.get(sol.residual_argmax).copied().unwrap_or(0),
+                rows: sol.rows,
+            }),
+            mass_definiteness,
+            stiffness_definiteness,
+            timings: Vec::new(),
+            warnings,
+            basis: Some(v),
+            serep_cond: None,
+        })
+    }
+}
+
+/// Checks 2pz ≥ n (eq. 22 must not be underdetermined).
+pub(crate) fn check_rows(p: usize, z: usize, n: usize) -> Result<()> {
+    if 2 * p * z < n {
+        return Err(Error::InvalidSetting(format!(
+            "2pz = 2·{p}·{z} = {} < n = {n}: the least-squares fit of eq. 22 is underdetermined; \
+             use at least {} reference frequencies or a smaller interface",
+            2 * p * z,
+            n.div_ceil(2 * p)
+        )));
+    }
+    Ok(())
 }
 
 /// Reduces `model` for unit loads at `inputs` and outputs `outputs` by line-fitting.
@@ -130,170 +296,64 @@ pub fn reduce(
     opts: &LineFitOptions,
     progress: ProgressFn<'_>,
 ) -> Result<Rom> {
-    let n_full = model.n();
-    check_dofs(inputs, n_full, "inputs")?;
-    check_dofs(outputs, n_full, "outputs")?;
-    let interface = match &opts.interface {
-        Interface::Explicit(i) => i.clone(),
-        Interface::OutputsPlus(k) => {
-            let mut i = outputs.to_vec();
-            i.extend(spread_dofs(model, *k, outputs)?);
-            i
-        }
-    };
-    check_dofs(&interface, n_full, "interface")?;
-    if let Some(o) = outputs.iter().find(|o| !interface.contains(o)) {
-        return Err(Error::InvalidSetting(format!(
-            "output DoF {o} is not in the interface: line-fitting keeps the outputs as ROM coordinates (V = [I; W]); add it to the interface"
-        )));
-    }
+    check_dofs(inputs, model.n(), "inputs")?;
+    check_dofs(outputs, model.n(), "outputs")?;
+    let part = Partition::new(model, outputs, &opts.interface)?;
     let freqs = &opts.ref_freqs_hz;
     if freqs.is_empty() {
         return Err(Error::InvalidSetting(
             "line-fitting needs at least one reference frequency".into(),
         ));
     }
-    let (n, p, z) = (interface.len(), inputs.len(), freqs.len());
-    if 2 * p * z < n {
-        return Err(Error::InvalidSetting(format!(
-            "2pz = 2·{p}·{z} = {} < n = {n}: the least-squares fit of eq. 22 is underdetermined; \
-             use at least {} reference frequencies or a smaller interface",
-            2 * p * z,
-            n.div_ceil(2 * p)
-        )));
-    }
-    let mut is_interface = vec![usize::MAX; n_full];
-    for (c, &d) in interface.iter().enumerate() {
-        is_interface[d] = c;
-    }
-    let rest: Vec<usize> = (0..n_full)
-        .filter(|&d| is_interface[d] == usize::MAX)
-        .collect();
-    let m = rest.len();
+    let p = inputs.len();
+    check_rows(p, freqs.len(), part.interface.len())?;
 
     let t_sweep = Instant::now();
     let solver = Solver::new(model, inputs, Response::Elastic, &opts.sweep)?;
     let (workers, _) = solver.run(
         freqs,
-        || Worker {
-            qr: StreamedQr::new(n, m),
-            g: Mat::zeros(2 * p, n),
-            f: Mat::zeros(2 * p, m),
-            absorb_s: 0.0,
-        },
-        |w: &mut Worker, snap| {
-            let t = Instant::now();
-            let x = snap.x;
-            for j in 0..p {
-                for (c, &d) in interface.iter().enumerate() {
-                    w.g[(j, c)] = x[(d, j)].re;
-                    w.g[(p + j, c)] = x[(d, j)].im;
-                }
-                for (r, &d) in rest.iter().enumerate() {
-                    w.f[(j, r)] = x[(d, j)].re;
-                    w.f[(p + j, r)] = x[(d, j)].im;
-                }
-            }
-            w.qr.absorb(w.g.as_ref(), w.f.as_ref())?;
-            w.absorb_s += t.elapsed().as_secs_f64();
-            Ok(())
-        },
+        || part.worker(p),
+        |w: &mut Worker, snap| part.absorb(w, snap.x),
         progress,
     )?;
     let sweep_s = t_sweep.elapsed().as_secs_f64();
     let absorb_s: f64 = workers.iter().map(|w| w.absorb_s).sum();
 
     let t_fit = Instant::now();
-    let mut it = workers.into_iter().map(|w| w.qr);
-    let first = it
-        .next()
-        .ok_or_else(|| Error::InvalidSetting("no reference frequency was solved".into()))?;
-    let qr = it.try_fold(first, |a, b| a.merge(b))?;
-    let sol = qr.finish(&opts.lsq)?;
+    let qr = part.merge(workers, None)?;
+    let mut rom = part.finish(
+        model,
+        inputs,
+        outputs,
+        &qr,
+        solver.rigid(),
+        &opts.lsq,
+        freqs,
+    )?;
     drop(qr);
     let fit_s = t_fit.elapsed().as_secs_f64();
-
-    let t_proj = Instant::now();
-    let mut v = Mat::<f64>::zeros(n_full, n);
-    for (c, &d) in interface.iter().enumerate() {
-        v[(d, c)] = 1.0;
+    if !opts.keep_basis {
+        rom.basis = None;
     }
-    for (r, &d) in rest.iter().enumerate() {
-        for c in 0..n {
-            v[(d, c)] = sol.w[(r, c)];
-        }
-    }
-    let pr = project(model, v.as_ref(), inputs, outputs, solver.rigid());
-    let proj_s = t_proj.elapsed().as_secs_f64();
-
-    let mut warnings = Vec::new();
-    if sol.truncated {
-        warnings.push(format!(
-            "T_o has numerical rank {} < n = {n} (cond {:.1e} after equilibration): the fit was truncated; \
-             add reference frequencies or remove interface DoFs",
-            sol.rank, sol.cond_equilibrated
-        ));
-    }
-    let mass_definiteness = Definiteness::of(pr.mr.as_ref());
-    let stiffness_definiteness = Definiteness::of(pr.kr.as_ref());
-    for (name, d) in [("Mr", &mass_definiteness), ("Kr", &stiffness_definiteness)] {
-        if !d.positive_definite {
-            warnings.push(format!(
-                "{name} is not positive definite (eigenvalues in [{:.3e}, {:.3e}])",
-                d.min_eig, d.max_eig
-            ));
-        }
-    }
-    Ok(Rom {
-        method: Method::LineFit,
-        mr: pr.mr,
-        dr: pr.dr,
-        kr: pr.kr,
-        br: pr.br,
-        cr: pr.cr,
-        dofs: interface,
-        inputs: inputs.to_vec(),
-        outputs: outputs.to_vec(),
-        ref_freqs_hz: freqs.clone(),
-        modes: Vec::new(),
-        fit: Some(FitReport {
-            cond_raw: sol.cond_raw,
-            cond_equilibrated: sol.cond_equilibrated,
-            rank: sol.rank,
-            truncated: sol.truncated,
-            residual_max: sol.residual_max,
-            residual_mean: sol.residual_mean,
-            residual_argmax_dof: rest.get(sol.residual_argmax).copied().unwrap_or(0),
-            rows: sol.rows,
-        }),
-        mass_definiteness,
-        stiffness_definiteness,
-        timings: vec![
-            Timing {
-                phase: "symbolic".into(),
-                seconds: solver.symbolic_stats().seconds,
-            },
-            Timing {
-                phase: "sweep (factor + solve + absorb)".into(),
-                seconds: sweep_s,
-            },
-            Timing {
-                phase: "absorb (streamed QR, summed over workers)".into(),
-                seconds: absorb_s,
-            },
-            Timing {
-                phase: "fit (merge + finish)".into(),
-                seconds: fit_s,
-            },
-            Timing {
-                phase: "projection".into(),
-                seconds: proj_s,
-            },
-        ],
-        warnings,
-        basis: opts.keep_basis.then_some(v),
-        serep_cond: None,
-    })
+    rom.timings = vec![
+        Timing {
+            phase: "symbolic".into(),
+            seconds: solver.symbolic_stats().seconds,
+        },
+        Timing {
+            phase: "sweep (factor + solve + absorb)".into(),
+            seconds: sweep_s,
+        },
+        Timing {
+            phase: "absorb (streamed QR, summed over workers)".into(),
+            seconds: absorb_s,
+        },
+        Timing {
+            phase: "fit + projection".into(),
+            seconds: fit_s,
+        },
+    ];
+    Ok(rom)
 }
 
 /// Relative offset δ of the reference points placed beside each resonance: f(1 ± δ).
