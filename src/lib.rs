@@ -22,6 +22,7 @@ pub mod metrics;
 pub mod model;
 pub mod pencil;
 pub mod reduce;
+pub mod report;
 pub mod rigid;
 pub mod sampling;
 pub mod scene;

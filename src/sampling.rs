@@ -14,7 +14,10 @@
 //!    current ROM is measured there (the snapshots give H1 at the outputs), then they are
 //!    absorbed — no earlier frequency is ever factored again.
 //! 5. Stop when the true error at every new point AND at every earlier sampled point is ≤ tol
-//!    ([`Outcome::Converged`]; the ROM verified at those points is returned). The error at
+//!    on two consecutive steps ([`Outcome::Converged`]; the ROM verified at the last step's
+//!    points is returned). One step can be fooled: measured on the bar, the ROM of the two
+//!    seeds has its indicator maximum at 175 Hz with true error 0.037 while the true maximum
+//!    is 0.58 at 396 Hz. The error at
 //!    sampled points costs nothing (their H1 at the outputs is kept) and matters: the fit is a
 //!    least-squares compromise, not an interpolation, and measured on the bar the largest
 //!    error of a ROM often sits at a sampled point (e.g. the band end). Otherwise stop when
@@ -237,6 +240,7 @@ pub fn reduce(
         &opts.lsq,
         &sampled,
     )?;
+    let mut ok_steps = 0;
     let outcome = loop {
         let indicator = Indicator::new(model, &rom, solver.rigid().is_some())?;
         let delta: Vec<f64> = candidates
@@ -271,7 +275,12 @@ pub fn reduce(
                 seconds: start.elapsed().as_secs_f64(),
                 action: "refine".into(),
             });
-            if true_error.max(sampled_error) <= opts.tol {
+            ok_steps = if true_error.max(sampled_error) <= opts.tol {
+                ok_steps + 1
+            } else {
+                0
+            };
+            if ok_steps >= 2 {
                 break Outcome::Converged;
             }
             qr = qr.merge(more)?;

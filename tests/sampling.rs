@@ -52,7 +52,7 @@ fn tolerances_are_met_on_a_fine_grid() {
         (1e-3, Growth::QDeim),
     ] {
         let mut o = SamplingOptions::new(tol, Interface::OutputsPlus(5));
-        o.max_order = 24;
+        o.max_order = 40;
         o.growth = growth;
         let r = reduce(m, &m.scene.inputs, &m.scene.outputs, &o, &no_progress).unwrap();
         let v = verified_max(reference, &r.rom);
@@ -177,6 +177,8 @@ fn spilled_snapshots_give_the_same_rom() {
     let (m, _) = bar();
     let mut o = SamplingOptions::new(1e-3, Interface::OutputsPlus(5));
     o.max_order = 18;
+    // one worker: the same absorption order in both runs, so the results are bit-identical
+    o.sweep.threads = 1;
     let a = reduce(m, &m.scene.inputs, &m.scene.outputs, &o, &no_progress).unwrap();
     o.snapshot_memory = Some(0);
     let b = reduce(m, &m.scene.inputs, &m.scene.outputs, &o, &no_progress).unwrap();

@@ -27,6 +27,8 @@ const EXAMPLES: &str = "Examples:
   sparsemor reduce bar --method linefit --extra-interface 5 --ref-freqs 50,100,200,400,800 --out rom
   sparsemor reduce bar --method serep --modes 9 --out rom9
   sparsemor evaluate bar rom --csv eps.csv
+  sparsemor reduce bar --method linefit --extra-interface 5 --tol 1e-3 --max-order 24 --out rom3
+  sparsemor tradeoff bar --tols 1e-1,1e-2,1e-3,1e-4 --csv tradeoff.csv --svg tradeoff.svg
   sparsemor modes bar --band 0:1000
   sparsemor bench sweep";
 
@@ -65,6 +67,8 @@ enum Command {
         #[arg(long, default_value_t = 0)]
         threads: usize,
     },
+    /// Speed vs accuracy: the sampling loop per tolerance and SEREP per mode count.
+    Tradeoff(reduce::TradeoffArgs),
     /// Performance tables (markdown): `bench sweep`.
     Bench(bench::BenchArgs),
 }
@@ -85,6 +89,7 @@ pub fn run() -> sparsemor::Result<()> {
         Command::Evaluate(args) => reduce::evaluate(&args),
         Command::Modes(args) => reduce::modes(&args),
         Command::Demo { threads } => reduce::demo(threads),
+        Command::Tradeoff(args) => reduce::tradeoff(&args),
         Command::Bench(args) => bench::run(&args),
     }
 }

@@ -11,6 +11,7 @@ use sparsemor::model::Model;
 use sparsemor::reduce::linefit::{self, place_reference_frequencies, Interface, LineFitOptions};
 use sparsemor::reduce::serep::{self, ModeChoice, SerepOptions};
 use sparsemor::reduce::Rom;
+use sparsemor::sampling::{self, Growth, SamplingOptions, Step};
 use sparsemor::sweep::{no_progress, Progress, SweepOptions};
 use sparsemor::{Error, Result};
 use std::path::{Path, PathBuf};
@@ -29,9 +30,21 @@ pub struct ReduceArgs {
     /// Interface = outputs + K DoFs spread along the body (line-fitting).
     #[arg(long)]
     extra_interface: Option<usize>,
-    /// Reference frequencies F1,F2,... in Hz (line-fitting).
+    /// Reference frequencies F1,F2,... in Hz (line-fitting; with --tol they are extra seeds).
     #[arg(long)]
     ref_freqs: Option<String>,
+    /// Target accuracy: choose the reference frequencies automatically (line-fitting).
+    #[arg(long)]
+    tol: Option<f64>,
+    /// Factorization budget of --tol.
+    #[arg(long, default_value_t = 60)]
+    max_points: usize,
+    /// Largest order --tol may grow the interface to (default: no growth).
+    #[arg(long)]
+    max_order: Option<usize>,
+    /// Interface growth rule of --tol: residual or qdeim.
+    #[arg(long, default_value = "residual")]
+    growth: String,
     /// Number of modes c (SEREP: the c lowest deformation modes).
     #[arg(long)]
     modes: Option<usize>,
@@ -64,30 +77,54 @@ pub fn reduce(a: &ReduceArgs) -> Result<()> {
                     ))
                 }
             };
-            let ref_freqs_hz = parse_list(
-                a.ref_freqs.as_deref().ok_or_else(|| {
-                    Error::InvalidSetting("linefit needs --ref-freqs F1,F2,... (Hz)".into())
-                })?,
-                "--ref-freqs",
-            )?;
-            let opts = LineFitOptions {
-                interface,
-                ref_freqs_hz,
-                keep_basis: a.keep_basis,
-                sweep: SweepOptions {
+            if let Some(tol) = a.tol {
+                let mut o = SamplingOptions::new(tol, interface);
+                o.seeds_hz = a
+                    .ref_freqs
+                    .as_deref()
+                    .map(|f| parse_list(f, "--ref-freqs"))
+                    .transpose()?
+                    .unwrap_or_default();
+                o.max_points = a.max_points;
+                o.max_order = a.max_order.unwrap_or(0);
+                o.growth = parse_growth(&a.growth)?;
+                o.keep_basis = a.keep_basis;
+                o.sweep = SweepOptions {
                     threads: a.threads,
                     ..Default::default()
-                },
-                lsq: Default::default(),
-            };
-            let pb = progress_bar(opts.ref_freqs_hz.len(), "reference frequencies");
-            let cb = |p: Progress| {
-                pb.set_position(p.done as u64);
-                true
-            };
-            let rom = linefit::reduce(&model, inputs, outputs, &opts, &cb)?;
-            pb.finish_and_clear();
-            rom
+                };
+                let r = sampling::reduce(&model, inputs, outputs, &o, &no_progress)?;
+                print_steps(&r.steps);
+                println!("{}", r.message);
+                r.rom
+            } else {
+                let ref_freqs_hz = parse_list(
+                    a.ref_freqs.as_deref().ok_or_else(|| {
+                        Error::InvalidSetting(
+                            "linefit needs --ref-freqs F1,F2,... (Hz) or --tol".into(),
+                        )
+                    })?,
+                    "--ref-freqs",
+                )?;
+                let opts = LineFitOptions {
+                    interface,
+                    ref_freqs_hz,
+                    keep_basis: a.keep_basis,
+                    sweep: SweepOptions {
+                        threads: a.threads,
+                        ..Default::default()
+                    },
+                    lsq: Default::default(),
+                };
+                let pb = progress_bar(opts.ref_freqs_hz.len(), "reference frequencies");
+                let cb = |p: Progress| {
+                    pb.set_position(p.done as u64);
+                    true
+                };
+                let rom = linefit::reduce(&model, inputs, outputs, &opts, &cb)?;
+                pb.finish_and_clear();
+                rom
+            }
         }
         "serep" => {
             let c = a
@@ -505,5 +542,188 @@ pub fn demo(threads: usize) -> Result<()> {
         s14_s,
         t0.elapsed().as_secs_f64()
     );
+    Ok(())
+}
+
+fn parse_growth(s: &str) -> Result<Growth> {
+    match s {
+        "residual" => Ok(Growth::Residual),
+        "qdeim" => Ok(Growth::QDeim),
+        _ => Err(Error::InvalidSetting(format!(
+            "--growth '{s}': choose residual or qdeim"
+        ))),
+    }
+}
+
+fn print_steps(steps: &[Step]) {
+    println!("| step | order | new points (Hz) | indicator max | true eps at new | true eps at sampled | factorizations | time s | action |");
+    println!("|---|---|---|---|---|---|---|---|---|");
+    for (k, s) in steps.iter().enumerate() {
+        println!(
+            "| {k} | {} | {} | {:.2e} | {:.2e} | {:.2e} | {} | {:.3} | {} |",
+            s.order,
+            s.points_hz
+                .iter()
+                .map(|f| format!("{f:.1}"))
+                .collect::<Vec<_>>()
+                .join(", "),
+            s.indicator_max,
+            s.true_error_max,
+            s.sampled_error_max,
+            s.factorizations,
+            s.seconds,
+            s.action
+        );
+    }
+}
+
+#[derive(clap::Args)]
+pub struct TradeoffArgs {
+    /// Model directory.
+    model: PathBuf,
+    /// Tolerances of the sampling loop.
+    #[arg(long, default_value = "1e-1,1e-2,1e-3,1e-4")]
+    tols: String,
+    /// Initial interface: outputs + K spread DoFs.
+    #[arg(long, default_value_t = 5)]
+    extra_interface: usize,
+    /// Largest order the sampling loop may grow to.
+    #[arg(long, default_value_t = 40)]
+    max_order: usize,
+    /// Factorization budget per tolerance.
+    #[arg(long, default_value_t = 80)]
+    max_points: usize,
+    /// SEREP mode counts to compare (retained DoFs: outputs + spread DoFs up to the count).
+    #[arg(long, default_value = "3,6,9,12,15,20")]
+    serep_modes: String,
+    /// Verification grid points over the band (full solves).
+    #[arg(long, default_value_t = 2000)]
+    points: usize,
+    /// Worker threads (0 = all cores).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// CSV output: method,setting,seconds,factorizations,order,max_eps.
+    #[arg(long)]
+    csv: Option<PathBuf>,
+    /// SVG plot output.
+    #[arg(long)]
+    svg: Option<PathBuf>,
+}
+
+/// Speed vs accuracy: the sampling loop per tolerance and SEREP per mode count, each
+/// verified on a fine grid by full solves (computed once).
+pub fn tradeoff(a: &TradeoffArgs) -> Result<()> {
+    let (model, _) = model_dir::read(&a.model)?;
+    let (inputs, outputs) = (&model.scene.inputs, &model.scene.outputs);
+    let tols: Vec<f64> = parse_list(&a.tols, "--tols")?;
+    let modes: Vec<usize> = parse_list(&a.serep_modes, "--serep-modes")?;
+    let sweep = SweepOptions {
+        threads: a.threads,
+        ..Default::default()
+    };
+    let grid = linspace(positive_band(model.scene.band_hz), a.points.max(2));
+    let pb = progress_bar(grid.len(), "verification grid");
+    let cb = |p: Progress| {
+        pb.set_position(p.done as u64);
+        true
+    };
+    let t = Instant::now();
+    let reference = Reference::compute(&model, inputs, outputs, &grid, &sweep, &cb)?;
+    pb.finish_and_clear();
+    eprintln!(
+        "verification grid: {} full solves in {:.1} s",
+        grid.len(),
+        t.elapsed().as_secs_f64()
+    );
+    let mut rows: Vec<(String, String, f64, usize, usize, f64)> = Vec::new();
+    for &tol in &tols {
+        let mut o = SamplingOptions::new(tol, Interface::OutputsPlus(a.extra_interface));
+        o.max_order = a.max_order;
+        o.max_points = a.max_points;
+        o.sweep = sweep.clone();
+        let t = Instant::now();
+        let r = sampling::reduce(&model, inputs, outputs, &o, &no_progress)?;
+        let secs = t.elapsed().as_secs_f64();
+        let e = ErrorCurve::max_mean(&reference.error(&r.rom)?.eps_elastic).0;
+        let facts = r.steps.last().map(|s| s.factorizations).unwrap_or(0);
+        rows.push((
+            "linefit".into(),
+            format!("tol {tol:.0e}"),
+            secs,
+            facts,
+            r.rom.order(),
+            e,
+        ));
+        if r.outcome != sampling::Outcome::Converged {
+            eprintln!("tol {tol:.0e}: {}", r.message);
+        }
+    }
+    for &c in &modes {
+        let mut retain = outputs.clone();
+        if c > retain.len() {
+            retain.extend(linefit::spread_dofs(&model, c - retain.len(), outputs)?);
+        }
+        let t = Instant::now();
+        let opts = SerepOptions {
+            modes: ModeChoice::LowestDeformation(c),
+            retain: Some(retain),
+            keep_basis: false,
+            eigen: EigenOptions::default(),
+        };
+        let rom = serep::reduce(&model, inputs, outputs, &opts)?;
+        let secs = t.elapsed().as_secs_f64();
+        let e = ErrorCurve::max_mean(&reference.error(&rom)?.eps_elastic).0;
+        rows.push((
+            "serep".into(),
+            format!("{c} modes"),
+            secs,
+            1,
+            rom.order(),
+            e,
+        ));
+    }
+    println!(
+        "| method | setting | wall s | factorizations | order | verified max eps ({} points) |",
+        grid.len()
+    );
+    println!("|---|---|---|---|---|---|");
+    for r in &rows {
+        println!(
+            "| {} | {} | {:.3} | {} | {} | {:.2e} |",
+            r.0, r.1, r.2, r.3, r.4, r.5
+        );
+    }
+    if let Some(path) = &a.csv {
+        let mut s = String::from("method,setting,seconds,factorizations,order,max_eps\n");
+        for r in &rows {
+            s.push_str(&format!(
+                "{},{},{:?},{},{},{:?}\n",
+                r.0, r.1, r.2, r.3, r.4, r.5
+            ));
+        }
+        std::fs::write(path, s).map_err(|e| Error::io(path, e))?;
+    }
+    if let Some(path) = &a.svg {
+        let series: Vec<(String, Vec<sparsemor::report::Point>)> = ["linefit", "serep"]
+            .iter()
+            .map(|m| {
+                let name = if *m == "linefit" {
+                    "line-fitting (sampling loop)"
+                } else {
+                    "SEREP"
+                };
+                (
+                    name.to_string(),
+                    rows.iter()
+                        .filter(|r| r.0 == *m)
+                        .map(|r| (r.2, r.5, r.1.clone()))
+                        .collect(),
+                )
+            })
+            .collect();
+        let svg =
+            sparsemor::report::tradeoff_svg(&format!("{}: time vs accuracy", model.name), &series);
+        std::fs::write(path, svg).map_err(|e| Error::io(path, e))?;
+    }
     Ok(())
 }
