@@ -441,3 +441,30 @@ fn bad_settings_are_clear_errors() {
         );
     }
 }
+
+#[test]
+fn no_convergence_within_the_restart_limit_is_a_clear_error() {
+    let model = random_model(300, 5, 3, Damping::None);
+    for backend in backends() {
+        let opts = EigenOptions {
+            sigma: Some(-1.0),
+            krylov_dim: Some(14),
+            max_restarts: 0,
+            backend,
+            ..Default::default()
+        };
+        match eigenpairs(&model, Request::Lowest(12), &opts) {
+            Err(Error::Factor(msg)) => {
+                println!("{backend}: {msg}");
+                assert!(
+                    msg.contains("increase the Krylov dimension or the restart limit"),
+                    "{msg}"
+                );
+            }
+            other => panic!(
+                "{backend}: expected Error::Factor, got {:?}",
+                other.map(|m| m.lambdas)
+            ),
+        }
+    }
+}

@@ -106,7 +106,8 @@ pub(super) fn solve(
         int(lworkl, "lworkl")?,
     );
     int(n * ncv, "N * ncv")?;
-    let max_iter = int(opts.max_restarts.max(1), "the restart limit")?;
+    // update iterations = restarts + 1
+    let max_iter = int(opts.max_restarts.saturating_add(1), "the restart limit")?;
     let (bmat, which) = (
         b"G".as_ptr().cast::<c_char>(),
         b"LM".as_ptr().cast::<c_char>(),
@@ -192,9 +193,8 @@ pub(super) fn solve(
     let nconv = iparam[4].max(0) as usize;
     if info == 1 || nconv < count {
         return Err(Error::Factor(format!(
-            "ARPACK dsaupd: only {nconv} of {count} modes converged after {} Arnoldi update iterations (ncv = {ncv}); \
-             increase the Krylov dimension or the restart limit",
-            iparam[2]
+            "ARPACK dsaupd: only {nconv} of {count} modes converged within {max_iter} Arnoldi update iterations (ncv = {ncv}); \
+             increase the Krylov dimension or the restart limit"
         )));
     }
 
