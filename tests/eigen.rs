@@ -426,6 +426,12 @@ fn bad_settings_are_clear_errors() {
         let ok = eigenpairs(&model, Request::UpTo(1.001 * f1), &opts).unwrap();
         assert_eq!((ok.lambdas.len(), ok.rigid), (1, 0));
     }
+    // the Krylov backend can return all N modes (Krylov space = R^N)
+    let all = eigenpairs(&model, Request::Lowest(n), &EigenOptions::default()).unwrap();
+    let lam = dense_eigenvalues(&model);
+    for (k, (&l, &d)) in all.lambdas.iter().zip(&lam).enumerate() {
+        assert!((l - d).abs() <= 1e-9 * d, "mode {k} of all {n}: {l} vs dense {d}");
+    }
     if cfg!(feature = "arpack") {
         // ARPACK needs nev < ncv <= N
         expect_invalid(

@@ -54,8 +54,11 @@ pub(super) fn solve(
                 w.copy_from(random_vector(n, j as u64 + 1));
                 op.mass_mul(w.as_ref(), mw.as_mut());
                 orthogonalize(op, basis, &mut w, &mut mw);
+                // s = 0 only when Q already spans R^N (m = N, last step): q_{m} stays 0
                 let s = m_norm(op, w.as_ref(), &mut mw);
-                q.as_mut().col_mut(j + 1).copy_from(w.col(0) / s);
+                if s > 0.0 {
+                    q.as_mut().col_mut(j + 1).copy_from(w.col(0) / s);
+                }
             }
         }
         let hm = Mat::from_fn(m, m, |i, j| 0.5 * (h[(i, j)] + h[(j, i)]));
