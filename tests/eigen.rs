@@ -430,7 +430,10 @@ fn bad_settings_are_clear_errors() {
     let all = eigenpairs(&model, Request::Lowest(n), &EigenOptions::default()).unwrap();
     let lam = dense_eigenvalues(&model);
     for (k, (&l, &d)) in all.lambdas.iter().zip(&lam).enumerate() {
-        assert!((l - d).abs() <= 1e-9 * d, "mode {k} of all {n}: {l} vs dense {d}");
+        assert!(
+            (l - d).abs() <= 1e-9 * d,
+            "mode {k} of all {n}: {l} vs dense {d}"
+        );
     }
     if cfg!(feature = "arpack") {
         // ARPACK needs nev < ncv <= N
