@@ -1,6 +1,7 @@
-//! Build script: links UMFPACK (SuiteSparse) only when the `umfpack` feature is on.
+//! Build script: links ARPACK only with the `arpack` feature and UMFPACK (SuiteSparse) only
+//! with the `umfpack` feature.
 //!
-//! Without the feature nothing is emitted, so a default build never links libumfpack.
+//! Without the features nothing is linked, so a default build needs no system library.
 //!
 //! With the feature:
 //! * `cargo:rustc-link-lib=umfpack` (the system library; on Debian 12 from `libsuitesparse-dev`);
@@ -17,6 +18,9 @@ use std::path::PathBuf;
 fn main() {
     println!("cargo:rerun-if-changed=build.rs");
     println!("cargo:rustc-check-cfg=cfg(umfpack_v6)");
+    if std::env::var_os("CARGO_FEATURE_ARPACK").is_some() {
+        println!("cargo:rustc-link-lib=arpack");
+    }
     if std::env::var_os("CARGO_FEATURE_UMFPACK").is_none() {
         return;
     }

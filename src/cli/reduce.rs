@@ -393,7 +393,7 @@ fn print_modes(m: &Modes, lo: f64) {
     for (k, f) in m.freqs_hz().iter().enumerate() {
         if *f >= lo || k < m.rigid {
             println!(
-                "{:>4} {:>12.4} Hz  {:<8} residual {:.1e}",
+                "{:>4} {:>12.4} Hz  {:<8} backward error {:.1e}",
                 k + 1,
                 f,
                 if k < m.rigid { "rigid" } else { "elastic" },

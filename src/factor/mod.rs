@@ -824,13 +824,25 @@ fn lblt_pivots(sym: &SymbolicCholesky<usize>, l: &[f64], subdiag: &[f64]) -> Piv
 /// [`Error::Factor`] when the analysis fails; [`Error::Singular`] when σ is an eigenvalue
 /// to working precision (a zero pivot: the count would be ambiguous).
 pub fn count_eigenvalues_below(pencil: &Pencil, sigma: f64) -> Result<usize> {
-    let sym = symbolic_cholesky(pencil)?;
+    count_eigenvalues_below_with(&symbolic_cholesky(pencil)?, pencil, sigma)
+}
+
+/// [`count_eigenvalues_below`] on an existing [`symbolic_cholesky`] of the pencil (no second
+/// pattern analysis).
+///
+/// # Errors
+/// As [`count_eigenvalues_below`].
+pub fn count_eigenvalues_below_with(
+    sym: &SymbolicCholesky<usize>,
+    pencil: &Pencil,
+    sigma: f64,
+) -> Result<usize> {
     let n = pencil.n();
     let mut vals = try_vec::<f64>(pencil.nnz())?;
     pencil.fill_shifted(sigma, &mut vals);
     let (mut l, mut subdiag) = (try_vec::<f64>(sym.len_val())?, try_vec::<f64>(n)?);
     let (mut fwd, mut inv) = (vec![0usize; n], vec![0usize; n]);
-    let mut buf = MemBuffer::try_new(lblt_scratch(&sym, 1))
+    let mut buf = MemBuffer::try_new(lblt_scratch(sym, 1))
         .map_err(|_| Error::Factor("cannot allocate LBLᵀ workspace".into()))?;
     let a = SparseColMatRef::new(
         unsafe {
@@ -849,7 +861,7 @@ pub fn count_eigenvalues_below(pencil: &Pencil, sigma: f64) -> Result<usize> {
         MemStack::new(&mut buf),
         Default::default(),
     );
-    let st = lblt_pivots(&sym, &l, &subdiag);
+    let st = lblt_pivots(sym, &l, &subdiag);
     if !(st.ratio > f64::EPSILON) {
         return Err(Error::Singular {
             freq_hz: sigma.max(0.0).sqrt() / (2.0 * std::f64::consts::PI),

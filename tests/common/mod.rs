@@ -129,6 +129,28 @@ pub fn dense_eigenvalues(model: &Model) -> Vec<f64> {
         .expect("eigenvalues converge")
 }
 
+/// Dense generalized eigenvalues of K φ = λ M φ (ascending) by dense shift-invert: the
+/// eigenvalues θ of the symmetric Lᵀ (K − σM)⁻¹ L (M = LLᵀ, σ < 0 below the spectrum),
+/// λ = σ + 1/θ.
+/// Accurate at the LOW end, where the standard form L⁻¹KL⁻ᵀ of [`dense_eigenvalues`] has an
+/// absolute error ≈ ε·λ_max: on the paper bar (λ_max = 8.4e12) that is 4.1e-9 relative at the
+/// first elastic λ, measured against a double-double Rayleigh quotient, while this form with
+/// σ = −(2π·300 Hz)² is within 3e-12 there. The top of its spectrum is inaccurate.
+pub fn dense_eigenvalues_shift_invert(model: &Model, sigma: f64) -> Vec<f64> {
+    let (m, k) = (dense(&model.mass), dense(&model.stiffness));
+    let l = m.llt(faer::Side::Lower).expect("M SPD").L().to_owned();
+    let a = Mat::from_fn(m.nrows(), m.ncols(), |i, j| k[(i, j)] - sigma * m[(i, j)]);
+    let x = a.llt(faer::Side::Lower).expect("K - sigma M SPD").solve(&l);
+    let c = l.transpose() * x;
+    let c = Mat::from_fn(c.nrows(), c.ncols(), |i, j| 0.5 * (c[(i, j)] + c[(j, i)]));
+    let theta = c
+        .self_adjoint_eigenvalues(faer::Side::Lower)
+        .expect("eigenvalues converge");
+    let mut lam: Vec<f64> = theta.iter().map(|t| sigma + 1.0 / t).collect();
+    lam.sort_by(|a, b| a.total_cmp(b));
+    lam
+}
+
 /// Dense elastic transfer function of a free body with Rayleigh damping, by the *deflated*
 /// pencil Ã = A(iω) + c M V0 M0⁻¹ V0ᵀ M: its rigid eigenvalue is lifted to c = (2π·100 Hz)²
 /// (near the first elastic one), so it is well conditioned down to ω = 0, and it acts on
