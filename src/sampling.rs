@@ -173,7 +173,7 @@ pub fn reduce(
     check_dofs(outputs, model.n(), "outputs")?;
     model.scene.validate(model.n(), "scene")?;
     let band = positive_band(model.scene.band_hz);
-    let mut part = Partition::new(model, outputs, &opts.interface)?;
+    let mut part = Partition::new(model, inputs, outputs, &opts.interface)?;
     let p = inputs.len();
     let max_order = opts.max_order.max(part.interface.len());
     let solver = Solver::new(model, inputs, Response::Elastic, &opts.sweep)?;
@@ -213,7 +213,7 @@ pub fn reduce(
         .collect();
 
     // seed step
-    let (mut qr, new) = solve_and_absorb(&solver, &part, &sampled, None, progress)?;
+    let (mut qr, new) = solve_and_absorb(&solver, &part, &sampled, progress)?;
     let h1_at = |x: &Mat<c64>| Mat::from_fn(outputs.len(), p, |o, j| x[(outputs[o], j)]);
     let mut sampled_h1: Vec<(f64, Mat<c64>)> = new.iter().map(|(f, x)| (*f, h1_at(x))).collect();
     let rel_err =
@@ -231,15 +231,7 @@ pub fn reduce(
         seconds: start.elapsed().as_secs_f64(),
         action: "seed".into(),
     }];
-    let mut rom = part.finish(
-        model,
-        inputs,
-        outputs,
-        &qr,
-        solver.rigid(),
-        &opts.lsq,
-        &sampled,
-    )?;
+    let mut rom = part.finish(model, &qr, solver.rigid(), &opts.lsq, &sampled)?;
     let mut ok_steps = 0;
     let outcome = loop {
         let indicator = Indicator::new(model, &rom, solver.rigid().is_some())?;
@@ -256,7 +248,7 @@ pub fn reduce(
             if used + picks.len() > opts.max_points {
                 break Outcome::Budget;
             }
-            let (more, new) = solve_and_absorb(&solver, &part, &picks, Some(outputs), progress)?;
+            let (more, new) = solve_and_absorb(&solver, &part, &picks, progress)?;
             let true_error = new
                 .iter()
                 .map(|(f, x)| rel_err(&rom, *f, &h1_at(x)))
@@ -305,15 +297,7 @@ pub fn reduce(
         }
         if stagnated {
             if part.interface.len() >= max_order {
-                rom = part.finish(
-                    model,
-                    inputs,
-                    outputs,
-                    &qr,
-                    solver.rigid(),
-                    &opts.lsq,
-                    &sampled,
-                )?;
+                rom = part.finish(model, &qr, solver.rigid(), &opts.lsq, &sampled)?;
                 break Outcome::Stagnated;
             }
             let store = store
@@ -325,7 +309,7 @@ pub fn reduce(
             };
             let mut interface = part.interface.clone();
             interface.push(d);
-            part = Partition::new(model, outputs, &Interface::Explicit(interface))?;
+            part = Partition::new(model, inputs, outputs, &Interface::Explicit(interface))?;
             let mut w = part.worker(p);
             store.for_each(|x| part.absorb(&mut w, x))?;
             qr = w.qr;
@@ -343,15 +327,7 @@ pub fn reduce(
                 ),
             });
         }
-        rom = part.finish(
-            model,
-            inputs,
-            outputs,
-            &qr,
-            solver.rigid(),
-            &opts.lsq,
-            &sampled,
-        )?;
+        rom = part.finish(model, &qr, solver.rigid(), &opts.lsq, &sampled)?;
     };
     let last = steps.last().cloned();
     let reached = last
@@ -405,14 +381,16 @@ pub fn reduce(
     })
 }
 
+/// A merged QR state and the snapshots (frequency, X) it absorbed.
+type Solved = (StreamedQr, Vec<(f64, Mat<c64>)>);
+
 /// Solves at `freqs`, absorbs into fresh worker states (merged), and returns the snapshots.
 fn solve_and_absorb(
     solver: &Solver<'_>,
     part: &Partition,
     freqs: &[f64],
-    _outputs: Option<&[usize]>,
     progress: ProgressFn<'_>,
-) -> Result<(StreamedQr, Vec<(f64, Mat<c64>)>)> {
+) -> Result<Solved> {
     let p = solver.inputs().len();
     type State = (Worker, Vec<(usize, f64, Mat<c64>)>);
     let (states, _) = solver.run(

@@ -118,6 +118,10 @@ pub(crate) struct Partition {
     pub interface: Vec<usize>,
     /// The other DoFs R, ascending.
     pub rest: Vec<usize>,
+    /// Input DoFs (columns of B).
+    pub inputs: Vec<usize>,
+    /// Output DoFs (rows of C), all in the interface.
+    pub outputs: Vec<usize>,
 }
 
 /// One worker's streamed QR and its reusable block buffers.
@@ -130,7 +134,12 @@ pub(crate) struct Worker {
 
 impl Partition {
     /// Resolves the interface setting and checks it (in range, unique, contains the outputs).
-    pub fn new(model: &Model, outputs: &[usize], interface: &Interface) -> Result<Self> {
+    pub fn new(
+        model: &Model,
+        inputs: &[usize],
+        outputs: &[usize],
+        interface: &Interface,
+    ) -> Result<Self> {
         let n_full = model.n();
         let interface = match interface {
             Interface::Explicit(i) => i.clone(),
@@ -151,7 +160,12 @@ impl Partition {
             is_interface[d] = true;
         }
         let rest = (0..n_full).filter(|&d| !is_interface[d]).collect();
-        Ok(Partition { interface, rest })
+        Ok(Partition {
+            interface,
+            rest,
+            inputs: inputs.to_vec(),
+            outputs: outputs.to_vec(),
+        })
     }
 
     /// An empty worker state for p inputs.
@@ -201,8 +215,6 @@ impl Partition {
     pub fn finish(
         &self,
         model: &Model,
-        inputs: &[usize],
-        outputs: &[usize],
         qr: &StreamedQr,
         rigid: Option<&RigidBody>,
         lsq: &LsqOptions,
@@ -220,6 +232,7 @@ impl Partition {
             }
         }
         drop(sol.w);
+        let (inputs, outputs) = (&self.inputs, &self.outputs);
         let pr = project(model, v.as_ref(), inputs, outputs, rigid);
         let mut warnings = Vec::new();
         if sol.truncated {
@@ -298,7 +311,7 @@ pub fn reduce(
 ) -> Result<Rom> {
     check_dofs(inputs, model.n(), "inputs")?;
     check_dofs(outputs, model.n(), "outputs")?;
-    let part = Partition::new(model, outputs, &opts.interface)?;
+    let part = Partition::new(model, inputs, outputs, &opts.interface)?;
     let freqs = &opts.ref_freqs_hz;
     if freqs.is_empty() {
         return Err(Error::InvalidSetting(
@@ -321,15 +334,7 @@ pub fn reduce(
 
     let t_fit = Instant::now();
     let qr = part.merge(workers, None)?;
-    let mut rom = part.finish(
-        model,
-        inputs,
-        outputs,
-        &qr,
-        solver.rigid(),
-        &opts.lsq,
-        freqs,
-    )?;
+    let mut rom = part.finish(model, &qr, solver.rigid(), &opts.lsq, freqs)?;
     drop(qr);
     let fit_s = t_fit.elapsed().as_secs_f64();
     if !opts.keep_basis {
