@@ -17,7 +17,7 @@ use std::time::Instant;
 
 #[derive(clap::Args)]
 pub struct BenchArgs {
-    /// What to measure: `sweep`.
+    /// What to measure: `sweep` (factorization phases) or `reduce` (line-fitting phases).
     what: String,
     /// Largest N to include (the 10⁶ bar takes minutes and ~10 GB).
     #[arg(long, default_value_t = 1_100_000)]
@@ -65,11 +65,14 @@ const CASES: [Case; 5] = [
 ];
 
 pub fn run(a: &BenchArgs) -> Result<()> {
-    if a.what != "sweep" {
-        return Err(Error::InvalidSetting(format!(
-            "bench '{}': available: sweep",
-            a.what
-        )));
+    match a.what.as_str() {
+        "sweep" => {}
+        "reduce" => return reduce_table(a),
+        w => {
+            return Err(Error::InvalidSetting(format!(
+                "bench '{w}': available: sweep, reduce"
+            )))
+        }
     }
     let backends: Vec<Backend> = a
         .backends
@@ -92,7 +95,13 @@ pub fn run(a: &BenchArgs) -> Result<()> {
             if backend == Backend::FaerLu && model.n() > a.lu_max_n {
                 continue;
             }
-            if backend == Backend::Umfpack && !cfg!(feature = "umfpack") {
+            // UMFPACK with Debian's reference BLAS needs minutes per factorization on the cube
+            // (measured 143 s with METIS, 861 s with AMD at 10⁵ DoF) and tens of GB at 10⁶
+            if backend == Backend::Umfpack
+                && (!cfg!(feature = "umfpack")
+                    || model.n() > 200_000
+                    || case.name.starts_with("cube"))
+            {
                 continue;
             }
             let row = measure(&model, backend)?;
@@ -166,7 +175,12 @@ fn measure(model: &Model, backend: Backend) -> Result<Row> {
     drop(num_r);
     drop(an_r);
     let (_, chol_s) = reference_cholesky(&pencil, faer::Par::Seq)?;
-    let freqs = [150.0, 350.0, 550.0, 750.0];
+    // 4 frequencies (2 above 5·10⁴ DoF, where one factorization takes tens of seconds)
+    let freqs: &[f64] = if model.n() > 50_000 {
+        &[350.0, 750.0]
+    } else {
+        &[150.0, 350.0, 550.0, 750.0]
+    };
     let sweep = |threads| -> Result<f64> {
         let opts = SweepOptions {
             threads,
@@ -178,7 +192,7 @@ fn measure(model: &Model, backend: Backend) -> Result<Row> {
             model,
             &model.scene.inputs,
             &model.scene.outputs,
-            &freqs,
+            freqs,
             Part::Elastic,
             false,
             &opts,
@@ -199,4 +213,69 @@ fn measure(model: &Model, backend: Backend) -> Result<Row> {
         sweep1_s,
         sweep2_s,
     })
+}
+
+/// `bench reduce`: line-fitting (order 14, 20 reference frequencies in the band) per phase
+/// vs N, with the peak RSS of the whole reduction and one factorization's estimated bytes.
+fn reduce_table(a: &BenchArgs) -> Result<()> {
+    use sparsemor::reduce::linefit::{reduce, Interface, LineFitOptions};
+    println!("| model | N | symbolic s | sweep (factor+solve+absorb) s | absorb s | fit + projection s | total s | peak RSS | one factorization (est.) | streamed QR state |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    for case in CASES.iter().filter(|c| c.name.starts_with("bar")) {
+        let spec = BoxSpec {
+            elements: case.elements,
+            size_m: case.size_m,
+            ..BoxSpec::paper_bar()
+        };
+        if spec.n_dofs() > a.max_n {
+            continue;
+        }
+        let model = sparsemor::fe::bar_model(&spec)?;
+        // 20 reference frequencies; 4 for the 10⁶ bar (2pz = 72 ≥ n = 14) to keep the run short
+        let z = if model.n() > 500_000 { 4 } else { 20 };
+        let freqs: Vec<f64> = (1..=z)
+            .map(|k| 1000.0 / z as f64 * k as f64 - 3.0)
+            .collect();
+        let opts = LineFitOptions {
+            interface: Interface::OutputsPlus(5),
+            ref_freqs_hz: freqs,
+            keep_basis: false,
+            sweep: SweepOptions::default(),
+            lsq: Default::default(),
+        };
+        memory::reset_peak_rss();
+        let t = Instant::now();
+        let rom = reduce(
+            &model,
+            &model.scene.inputs,
+            &model.scene.outputs,
+            &opts,
+            &no_progress,
+        )?;
+        let total = t.elapsed().as_secs_f64();
+        let peak = memory::peak_rss_bytes().unwrap_or(0);
+        let pencil = Pencil::new(&model);
+        let an = Analysis::new(&pencil, Backend::Auto, model.scene.inputs.len() + 1)?;
+        let phase = |name: &str| {
+            rom.timings
+                .iter()
+                .find(|t| t.phase.starts_with(name))
+                .map(|t| t.seconds)
+                .unwrap_or(f64::NAN)
+        };
+        println!(
+            "| {} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.2} | {} | {} | {} |",
+            case.name,
+            model.n(),
+            phase("symbolic"),
+            phase("sweep"),
+            phase("absorb"),
+            phase("fit"),
+            total,
+            human_bytes(peak as f64),
+            human_bytes(an.stats().bytes_per_factor as f64),
+            human_bytes((8 * 14 * (model.n() + 14)) as f64)
+        );
+    }
+    Ok(())
 }
