@@ -26,7 +26,7 @@
 //! Singularity is *reported*, not turned into an error: [`UmfpackNumeric::status_singular`]
 //! is true when `umfpack_?l_numeric` returned `UMFPACK_WARNING_singular_matrix`, together
 //! with [`UmfpackNumeric::rcond`], so the caller can map it to
-//! [`Error::Singular`](crate::Error::Singular) with its frequency. All library failures
+//! [`Error::Singular`] with its frequency. All library failures
 //! (negative UMFPACK status codes) and invalid inputs become [`Error::Factor`].
 //!
 //! # Thread safety
