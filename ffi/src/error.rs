@@ -178,3 +178,34 @@ pub unsafe extern "C" fn sparsemor_last_error_message(
     });
     r.unwrap_or(SparsemorStatus::Panic)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_panic_becomes_status_panic_with_its_message() {
+        let st = guard(|| panic!("boom {}", 42));
+        assert_eq!(st, SparsemorStatus::Panic);
+        let len = sparsemor_last_error_length();
+        let mut buf = vec![0u8; len];
+        let st = unsafe { sparsemor_last_error_message(buf.as_mut_ptr().cast(), len) };
+        assert_eq!(st, SparsemorStatus::Ok);
+        let msg = std::str::from_utf8(&buf[..len - 1]).unwrap();
+        assert!(msg.contains("panic caught at the C ABI boundary"), "{msg}");
+        assert!(msg.contains("boom 42"), "{msg}");
+        // a static-str payload too, and the next successful call clears the message
+        assert_eq!(guard(|| panic!("static")), SparsemorStatus::Panic);
+        assert_eq!(guard(|| Ok(())), SparsemorStatus::Ok);
+        assert_eq!(sparsemor_last_error_length(), 0);
+    }
+
+    #[test]
+    fn a_panic_inside_a_call_local_pool_is_caught_too() {
+        let st = guard(|| {
+            crate::rom::in_pool(2, || -> usize { panic!("in a worker") })?;
+            Ok(())
+        });
+        assert_eq!(st, SparsemorStatus::Panic);
+    }
+}

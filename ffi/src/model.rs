@@ -72,9 +72,11 @@ unsafe fn csc_from_c(c: &SparsemorCsc, what: &str) -> Result<Csc, Failure> {
     let lower = match c.storage {
         SPARSEMOR_STORAGE_FULL => false,
         SPARSEMOR_STORAGE_LOWER => true,
-        s => return Err(Failure::arg(format!(
+        s => {
+            return Err(Failure::arg(format!(
             "{what}: storage = {s}; use SPARSEMOR_STORAGE_FULL (0) or SPARSEMOR_STORAGE_LOWER (1)"
-        ))),
+        )))
+        }
     };
     let np1 = n
         .checked_add(1)
