@@ -268,6 +268,7 @@ class Model:
             None if d is None else ctypes.byref(d.struct),
             float(alpha), float(beta), xyz_p, n_nodes, dofs_per_node, ctypes.byref(h)))
         self._h = h
+        self._free = lib.sparsemor_model_free  # still there at interpreter shutdown
 
     def set_scene(self, inputs, outputs, band_hz):
         """Input DoFs (unit forces), output DoFs, band (f_lo, f_hi) in Hz."""
@@ -290,8 +291,8 @@ class Model:
         return bool(v.value)
 
     def close(self):
-        if self._h:
-            lib.sparsemor_model_free(self._h)
+        if getattr(self, "_h", None):
+            self._free(self._h)
             self._h = None
 
     __del__ = close
@@ -302,6 +303,7 @@ class Rom:
 
     def __init__(self, handle):
         self._h = handle
+        self._free = lib.sparsemor_rom_free  # still there at interpreter shutdown
 
     def _size(self, fn):
         v = c_size_t()
@@ -422,8 +424,8 @@ class Rom:
         return e1, e2
 
     def close(self):
-        if self._h:
-            lib.sparsemor_rom_free(self._h)
+        if getattr(self, "_h", None):
+            self._free(self._h)
             self._h = None
 
     __del__ = close
