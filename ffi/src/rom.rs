@@ -221,7 +221,8 @@ pub unsafe extern "C" fn sparsemor_reduce_linefit(
 ///
 /// Uses the model's scene (the band sets the eigensolver's shift) and from `options`: the
 /// modes (default: as many lowest deformation modes as retained DoFs), the retained DoFs
-/// (default: the outputs), keep-basis. The eigensolver runs on one thread.
+/// (default: the outputs), keep-basis, threads (the size of the call's thread pool, used by
+/// the dense kernels; the sparse eigensolver itself is sequential).
 ///
 /// The library's SEREP has no progress hook inside the eigensolver: `progress` (may be NULL)
 /// is called twice, with (0, 1, 0.0) before the work starts and (1, 1, 0.0) when the ROM is

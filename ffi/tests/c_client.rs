@@ -343,3 +343,46 @@ fn c_program_is_valgrind_clean() {
         true,
     );
 }
+
+/// The header is valid C++ too (cbindgen's `cpp_compat`: `extern "C"` guards).
+#[test]
+fn header_compiles_as_cpp() {
+    if !have("c++") {
+        println!("NOTE: no C++ compiler; skipping");
+        return;
+    }
+    let dir = scratch("cpp_header");
+    let src = dir.join("t.cpp");
+    std::fs::write(
+        &src,
+        "#include \"sparsemor.h\"\nint main() { uint32_t abi = 0; \
+         return sparsemor_version(nullptr, nullptr, nullptr, &abi) == SPARSEMOR_STATUS_OK \
+         && abi == SPARSEMOR_ABI_VERSION ? 0 : 1; }\n",
+    )
+    .unwrap();
+    let exe = dir.join("t");
+    let out = Command::new("c++")
+        .args(["-std=c++11", "-Wall", "-Wextra", "-Werror", "-I"])
+        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("include"))
+        .arg(&src)
+        .arg(static_lib())
+        .args([
+            "-lgcc_s",
+            "-lutil",
+            "-lrt",
+            "-lpthread",
+            "-lm",
+            "-ldl",
+            "-lc",
+            "-o",
+        ])
+        .arg(&exe)
+        .output()
+        .expect("run c++");
+    assert!(
+        out.status.success(),
+        "c++: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(Command::new(&exe).status().unwrap().success());
+}
