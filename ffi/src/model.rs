@@ -1,0 +1,390 @@
+//! Model handle: M, K (CSC), damping, node coordinates, scene.
+
+use crate::error::{ffi_body, Failure, SparsemorStatus};
+use crate::util::{obj, obj_mut, slice_in, write_out};
+use sparsemor::model::{Damping, Model};
+use sparsemor::scene::Scene;
+use sparsemor::sparse::{from_parts, Csc};
+
+/// `SparsemorCsc::storage`: both triangles are stored (full symmetric storage).
+pub const SPARSEMOR_STORAGE_FULL: u32 = 0;
+/// `SparsemorCsc::storage`: only the lower triangle (row >= column) is stored; the library
+/// mirrors it to full storage.
+pub const SPARSEMOR_STORAGE_LOWER: u32 = 1;
+
+/// A square sparse matrix in compressed sparse column (CSC) form, 0-based, borrowed from the
+/// caller for the duration of one call (the library copies what it keeps).
+///
+/// Requirements (each violation is `SPARSEMOR_STATUS_INVALID_ARGUMENT`, checked before
+/// anything is built): `n >= 1`; `col_ptr` has `n + 1` entries, `col_ptr[0] == 0`,
+/// non-decreasing, `col_ptr[n] == nnz`; `row_idx` and `values` have `nnz` entries; the row
+/// indices of each column are `< n` and strictly increasing (sorted, no duplicates); every
+/// value is finite. With `storage == SPARSEMOR_STORAGE_LOWER` every entry must have
+/// row >= column. With `SPARSEMOR_STORAGE_FULL` the matrix must be symmetric (relative
+/// asymmetry <= 1e-10, else `SPARSEMOR_STATUS_INVALID_MODEL`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct SparsemorCsc {
+    /// Number of rows = number of columns (N).
+    pub n: usize,
+    /// Number of stored entries.
+    pub nnz: usize,
+    /// Column pointers, `n + 1` entries.
+    pub col_ptr: *const usize,
+    /// Row index of each stored entry, `nnz` entries.
+    pub row_idx: *const usize,
+    /// Value of each stored entry, `nnz` entries.
+    pub values: *const f64,
+    /// `SPARSEMOR_STORAGE_FULL` or `SPARSEMOR_STORAGE_LOWER`.
+    pub storage: u32,
+}
+
+/// Opaque model handle: the validated full-order model M q'' + D q' + K q = B u, y = C q and
+/// its scene (inputs, outputs, band). Created by `sparsemor_model_new`, released by
+/// `sparsemor_model_free`. Read-only functions may share one handle across threads;
+/// `sparsemor_model_set_scene` must not run concurrently with anything else on the handle.
+pub struct SparsemorModel {
+    pub(crate) model: Model,
+    pub(crate) scene_set: bool,
+}
+
+impl SparsemorModel {
+    /// The model after checking that a scene was set.
+    pub(crate) fn with_scene(&self) -> Result<&Model, Failure> {
+        if !self.scene_set {
+            return Err(Failure::arg(
+                "the model has no scene: call sparsemor_model_set_scene (inputs, outputs, band) first",
+            ));
+        }
+        Ok(&self.model)
+    }
+}
+
+/// Checks the caller's CSC arrays and copies them into a full-storage matrix.
+///
+/// # Safety
+/// The pointers in `c` must be valid for the lengths they claim (`n + 1`, `nnz`).
+unsafe fn csc_from_c(c: &SparsemorCsc, what: &str) -> Result<Csc, Failure> {
+    let n = c.n;
+    if n == 0 {
+        return Err(Failure::arg(format!("{what}: n = 0; need n >= 1")));
+    }
+    let lower = match c.storage {
+        SPARSEMOR_STORAGE_FULL => false,
+        SPARSEMOR_STORAGE_LOWER => true,
+        s => {
+            return Err(Failure::arg(format!(
+            "{what}: storage = {s}; use SPARSEMOR_STORAGE_FULL (0) or SPARSEMOR_STORAGE_LOWER (1)"
+        )))
+        }
+    };
+    let np1 = n
+        .checked_add(1)
+        .ok_or_else(|| Failure::arg(format!("{what}: n = {n} is too large")))?;
+    // SAFETY: the caller's contract on the CSC struct.
+    let col_ptr = unsafe { slice_in(c.col_ptr, np1, &format!("{what}: col_ptr"))? };
+    let row_idx = unsafe { slice_in(c.row_idx, c.nnz, &format!("{what}: row_idx"))? };
+    let values = unsafe { slice_in(c.values, c.nnz, &format!("{what}: values"))? };
+    if col_ptr[0] != 0 {
+        return Err(Failure::arg(format!(
+            "{what}: col_ptr[0] = {}; CSC column pointers start at 0",
+            col_ptr[0]
+        )));
+    }
+    for j in 0..n {
+        if col_ptr[j + 1] < col_ptr[j] {
+            return Err(Failure::arg(format!(
+                "{what}: col_ptr is not non-decreasing: col_ptr[{}] = {} < col_ptr[{j}] = {}",
+                j + 1,
+                col_ptr[j + 1],
+                col_ptr[j]
+            )));
+        }
+    }
+    if col_ptr[n] != c.nnz {
+        return Err(Failure::arg(format!(
+            "{what}: col_ptr[n] = {} but nnz = {}; they must agree",
+            col_ptr[n], c.nnz
+        )));
+    }
+    for j in 0..n {
+        let (a, b) = (col_ptr[j], col_ptr[j + 1]);
+        for p in a..b {
+            let i = row_idx[p];
+            if i >= n {
+                return Err(Failure::arg(format!(
+                    "{what}: row index {i} in column {j} (entry {p}) is out of range 0..{}",
+                    n - 1
+                )));
+            }
+            if p > a && i <= row_idx[p - 1] {
+                return Err(Failure::arg(format!(
+                    "{what}: column {j}: row indices must be strictly increasing (sorted, no duplicates), \
+                     found {} then {i} at entries {}..{p}",
+                    row_idx[p - 1],
+                    p - 1
+                )));
+            }
+            if lower && i < j {
+                return Err(Failure::arg(format!(
+                    "{what}: entry ({i}, {j}) is above the diagonal but storage is SPARSEMOR_STORAGE_LOWER"
+                )));
+            }
+            if !values[p].is_finite() {
+                return Err(Failure::arg(format!(
+                    "{what}: entry ({i}, {j}) is not finite ({})",
+                    values[p]
+                )));
+            }
+        }
+    }
+    if !lower {
+        return Ok(from_parts(
+            n,
+            n,
+            col_ptr.to_vec(),
+            row_idx.to_vec(),
+            values.to_vec(),
+        ));
+    }
+    // Mirror the lower triangle. Processing columns in order places the mirrored entries
+    // (rows j < i of column i) before column i's own entries (rows >= i), so every column
+    // stays sorted.
+    let mut count = vec![0usize; n];
+    for j in 0..n {
+        for &i in &row_idx[col_ptr[j]..col_ptr[j + 1]] {
+            count[j] += 1;
+            if i != j {
+                count[i] += 1;
+            }
+        }
+    }
+    let mut cp = vec![0usize; n + 1];
+    for j in 0..n {
+        cp[j + 1] = cp[j] + count[j];
+    }
+    let total = cp[n];
+    let mut next = cp[..n].to_vec();
+    let mut ri = vec![0usize; total];
+    let mut v = vec![0.0f64; total];
+    for j in 0..n {
+        for p in col_ptr[j]..col_ptr[j + 1] {
+            let i = row_idx[p];
+            ri[next[j]] = i;
+            v[next[j]] = values[p];
+            next[j] += 1;
+            if i != j {
+                ri[next[i]] = j;
+                v[next[i]] = values[p];
+                next[i] += 1;
+            }
+        }
+    }
+    Ok(from_parts(n, n, cp, ri, v))
+}
+
+/// Creates a model from M, K and optional damping and node coordinates.
+///
+/// - `mass`, `stiffness`: required, both N×N (see `SparsemorCsc` for the checks).
+/// - `damping`: NULL or an explicit symmetric N×N damping matrix D. When NULL,
+///   D = `rayleigh_alpha`·M + `rayleigh_beta`·K (both finite and >= 0; 0, 0 = undamped).
+///   Giving both a matrix and nonzero Rayleigh coefficients is an error.
+/// - `nodes_xyz`: NULL, or `n_nodes`×3 coordinates (row-major: x, y, z of node 0, then node
+///   1, ...) with node i owning DoFs `dofs_per_node`·i .. `dofs_per_node`·(i+1) − 1;
+///   `dofs_per_node` is 3 or 6 and `n_nodes`·`dofs_per_node` must equal N. Node coordinates
+///   let the library detect a free body (K·V0 = 0) and separate its rigid-body part; without
+///   them the body is treated as constrained. When `nodes_xyz` is NULL, `n_nodes` must be 0
+///   and `dofs_per_node` may be 0 (meaning 3).
+///
+/// All arrays are copied; the caller keeps ownership. On success `*model_out` receives a new
+/// handle to be released with `sparsemor_model_free`; on failure it is set to NULL. Before
+/// a reduction, set the scene with `sparsemor_model_set_scene`.
+///
+/// # Safety
+/// `mass`, `stiffness` must point to valid `SparsemorCsc` descriptors whose arrays have the
+/// lengths they claim; `damping` likewise or NULL; `nodes_xyz` NULL or `3·n_nodes` doubles;
+/// `model_out` writable.
+#[no_mangle]
+#[allow(clippy::too_many_arguments)] // the C signature: matrices, damping, nodes, out
+pub unsafe extern "C" fn sparsemor_model_new(
+    mass: *const SparsemorCsc,
+    stiffness: *const SparsemorCsc,
+    damping: *const SparsemorCsc,
+    rayleigh_alpha: f64,
+    rayleigh_beta: f64,
+    nodes_xyz: *const f64,
+    n_nodes: usize,
+    dofs_per_node: usize,
+    model_out: *mut *mut SparsemorModel,
+) -> SparsemorStatus {
+    ffi_body!({
+        unsafe { write_out(model_out, std::ptr::null_mut(), "model_out")? };
+        let m = unsafe { csc_from_c(obj(mass, "mass")?, "mass matrix M")? };
+        let k = unsafe { csc_from_c(obj(stiffness, "stiffness")?, "stiffness matrix K")? };
+        let n = m.nrows();
+        if k.nrows() != n {
+            return Err(Failure::arg(format!(
+                "stiffness matrix K is {0}×{0} but the mass matrix M is {n}×{n}",
+                k.nrows()
+            )));
+        }
+        let damping = if damping.is_null() {
+            if !(rayleigh_alpha.is_finite()
+                && rayleigh_beta.is_finite()
+                && rayleigh_alpha >= 0.0
+                && rayleigh_beta >= 0.0)
+            {
+                return Err(Failure::arg(format!(
+                    "rayleigh_alpha = {rayleigh_alpha}, rayleigh_beta = {rayleigh_beta}: need finite values >= 0"
+                )));
+            }
+            if rayleigh_alpha == 0.0 && rayleigh_beta == 0.0 {
+                Damping::None
+            } else {
+                Damping::Rayleigh {
+                    alpha: rayleigh_alpha,
+                    beta: rayleigh_beta,
+                }
+            }
+        } else {
+            if rayleigh_alpha != 0.0 || rayleigh_beta != 0.0 {
+                return Err(Failure::arg(
+                    "both a damping matrix and Rayleigh coefficients were given; pass 0, 0 for alpha, beta with a matrix",
+                ));
+            }
+            let d = unsafe { csc_from_c(obj(damping, "damping")?, "damping matrix D")? };
+            if d.nrows() != n {
+                return Err(Failure::arg(format!(
+                    "damping matrix D is {0}×{0} but the mass matrix M is {n}×{n}",
+                    d.nrows()
+                )));
+            }
+            Damping::Matrix(d)
+        };
+        let (nodes, dpn) = if nodes_xyz.is_null() {
+            if n_nodes != 0 {
+                return Err(Failure::null(&format!(
+                    "nodes_xyz (with n_nodes = {n_nodes})"
+                )));
+            }
+            if dofs_per_node != 0 && dofs_per_node != 3 && dofs_per_node != 6 {
+                return Err(Failure::arg(format!(
+                    "dofs_per_node = {dofs_per_node}: use 3, 6 (or 0 without nodes)"
+                )));
+            }
+            (None, 3)
+        } else {
+            let len = n_nodes
+                .checked_mul(3)
+                .ok_or_else(|| Failure::arg(format!("n_nodes = {n_nodes} is too large")))?;
+            if n_nodes == 0 {
+                return Err(Failure::arg(
+                    "nodes_xyz is given but n_nodes = 0; pass NULL for no nodes",
+                ));
+            }
+            let xyz = unsafe { slice_in(nodes_xyz, len, "nodes_xyz")? };
+            let nodes: Vec<[f64; 3]> = xyz.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+            (Some(nodes), dofs_per_node)
+        };
+        let placeholder = Scene {
+            inputs: vec![0],
+            outputs: vec![0],
+            band_hz: [0.0, 1.0],
+        };
+        let (model, _) = Model::new("ffi".into(), m, k, damping, nodes, dpn, placeholder)?;
+        let h = Box::new(SparsemorModel {
+            model,
+            scene_set: false,
+        });
+        unsafe { write_out(model_out, Box::into_raw(h), "model_out")? };
+        Ok(())
+    })
+}
+
+/// Releases a model. NULL is a no-op. Any ROM made from it stays valid (ROMs do not borrow
+/// the model).
+///
+/// # Safety
+/// `model` must be NULL or a handle from `sparsemor_model_new` not yet freed.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_model_free(model: *mut SparsemorModel) -> SparsemorStatus {
+    ffi_body!({
+        if !model.is_null() {
+            // SAFETY: a live handle from Box::into_raw (caller contract).
+            drop(unsafe { Box::from_raw(model) });
+        }
+        Ok(())
+    })
+}
+
+/// Number of DoFs N of the model.
+///
+/// # Safety
+/// `model` a live handle; `n_out` writable.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_model_n(
+    model: *const SparsemorModel,
+    n_out: *mut usize,
+) -> SparsemorStatus {
+    ffi_body!({
+        let m = unsafe { obj(model, "model")? };
+        unsafe { write_out(n_out, m.model.n(), "n_out") }
+    })
+}
+
+/// True (1) when the model is a free body: it has node coordinates and K·V0 = 0 for its
+/// rigid-body modes V0, so the reductions separate the rigid part (DESIGN.md §3.2).
+///
+/// # Safety
+/// `model` a live handle; `free_out` writable.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_model_is_free(
+    model: *const SparsemorModel,
+    free_out: *mut i32,
+) -> SparsemorStatus {
+    ffi_body!({
+        let m = unsafe { obj(model, "model")? };
+        // in a call-local pool: faer's dense products would otherwise start rayon's global pool
+        let rigid = crate::rom::in_pool(1, || sparsemor::rigid::RigidBody::detect(&m.model))??;
+        let free = rigid.is_some();
+        unsafe { write_out(free_out, i32::from(free), "free_out") }
+    })
+}
+
+/// Sets the scene: the input DoFs (unit forces, the columns of B), the output DoFs (the rows
+/// of C; both 0-based, non-empty, unique, < N) and the band [`band_lo_hz`, `band_hi_hz`]
+/// (finite, 0 <= lo < hi). The band is used by SEREP (eigensolver shift) and by
+/// `sparsemor_options_set_reference_count`. The arrays are copied.
+///
+/// # Safety
+/// `model` a live handle not used concurrently; `inputs`/`outputs` valid for their lengths.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_model_set_scene(
+    model: *mut SparsemorModel,
+    inputs: *const usize,
+    n_inputs: usize,
+    outputs: *const usize,
+    n_outputs: usize,
+    band_lo_hz: f64,
+    band_hi_hz: f64,
+) -> SparsemorStatus {
+    ffi_body!({
+        let m = unsafe { obj_mut(model, "model")? };
+        if n_inputs == 0 || n_outputs == 0 {
+            return Err(Failure::arg(format!(
+                "scene: n_inputs = {n_inputs}, n_outputs = {n_outputs}; need at least one of each"
+            )));
+        }
+        let inputs = unsafe { slice_in(inputs, n_inputs, "inputs")? }.to_vec();
+        let outputs = unsafe { slice_in(outputs, n_outputs, "outputs")? }.to_vec();
+        let scene = Scene {
+            inputs,
+            outputs,
+            band_hz: [band_lo_hz, band_hi_hz],
+        };
+        scene.validate(m.model.n(), "scene")?;
+        m.model.scene = scene;
+        m.scene_set = true;
+        Ok(())
+    })
+}

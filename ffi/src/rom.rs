@@ -1,0 +1,760 @@
+//! Reductions (line-fitting, SEREP) and the ROM handle with its queries.
+
+use crate::error::{ffi_body, Failure, SparsemorStatus};
+use crate::model::SparsemorModel;
+use crate::options::{RefFreqs, SparsemorOptions};
+use crate::util::{check_ptr, copy_string, copy_to_buffer, obj, slice_in, write_opt, write_out};
+use faer::MatRef;
+use sparsemor::eigen::{eigenpairs, EigenOptions, Request};
+use sparsemor::metrics::Reference;
+use sparsemor::reduce::linefit::{self, place_reference_frequencies, LineFitOptions};
+use sparsemor::reduce::serep::{self, ModeChoice, SerepOptions};
+use sparsemor::reduce::{Method, Rom};
+use sparsemor::sweep::{no_progress, Progress, SweepOptions};
+use std::ffi::{c_char, c_void};
+use std::sync::Mutex;
+
+/// `sparsemor_rom_copy_matrix`: reduced mass Mr (n×n).
+pub const SPARSEMOR_MATRIX_MR: u32 = 0;
+/// `sparsemor_rom_copy_matrix`: reduced damping Dr (n×n).
+pub const SPARSEMOR_MATRIX_DR: u32 = 1;
+/// `sparsemor_rom_copy_matrix`: reduced stiffness Kr (n×n).
+pub const SPARSEMOR_MATRIX_KR: u32 = 2;
+/// `sparsemor_rom_copy_matrix`: reduced input matrix Br = Vᵀ P B (n×p).
+pub const SPARSEMOR_MATRIX_BR: u32 = 3;
+/// `sparsemor_rom_copy_matrix`: reduced output matrix Cr = C V (q×n).
+pub const SPARSEMOR_MATRIX_CR: u32 = 4;
+/// `sparsemor_rom_copy_matrix`: the basis V (N×n), only when kept
+/// (`sparsemor_options_set_keep_basis`).
+pub const SPARSEMOR_MATRIX_V: u32 = 5;
+
+/// `sparsemor_rom_method`: line-fitting.
+pub const SPARSEMOR_METHOD_LINEFIT: u32 = 0;
+/// `sparsemor_rom_method`: SEREP.
+pub const SPARSEMOR_METHOD_SEREP: u32 = 1;
+
+/// Progress callback: called after each finished frequency of a sweep with the number of
+/// frequencies done, their total, the frequency just finished (Hz) and the caller's
+/// `user_data`. Return 0 to continue, nonzero to cancel (the reduction then fails with
+/// `SPARSEMOR_STATUS_CANCELLED` after the frequencies already being solved finish).
+///
+/// The callback may be called from worker threads other than the caller's, but never
+/// concurrently (calls are serialized by the library) and never after the reduction
+/// returned. It must not call back into the same model, options or ROM handles' mutating
+/// functions, and must not unwind (C++ exceptions, longjmp) through the library.
+pub type SparsemorProgressFn = Option<
+    unsafe extern "C" fn(done: usize, total: usize, freq_hz: f64, user_data: *mut c_void) -> i32,
+>;
+
+/// Opaque reduced-model handle: Mr q̈ + Dr q̇ + Kr q = Br u, y = Cr q and the diagnostics
+/// of its construction. Made by `sparsemor_reduce_linefit` or `sparsemor_reduce_serep`,
+/// released by `sparsemor_rom_free`. Independent of the model handle it came from.
+pub struct SparsemorRom {
+    pub(crate) rom: Rom,
+    /// N of the model it was built from.
+    pub(crate) n_full: usize,
+}
+
+/// The caller's callback, serialized by a mutex.
+struct Callback {
+    f: unsafe extern "C" fn(usize, usize, f64, *mut c_void) -> i32,
+    user_data: *mut c_void,
+    lock: Mutex<()>,
+}
+
+// SAFETY: the callback contract (documented on SparsemorProgressFn) allows calls from other
+// threads; the mutex makes them sequential, so `user_data` is never used concurrently.
+unsafe impl Sync for Callback {}
+
+impl Callback {
+    fn new(f: SparsemorProgressFn, user_data: *mut c_void) -> Option<Self> {
+        f.map(|f| Callback {
+            f,
+            user_data,
+            lock: Mutex::new(()),
+        })
+    }
+
+    /// true = continue.
+    fn call(&self, done: usize, total: usize, freq_hz: f64) -> bool {
+        let _g = self.lock.lock().unwrap_or_else(|p| p.into_inner());
+        // SAFETY: the caller supplied a valid function pointer and its user data.
+        unsafe { (self.f)(done, total, freq_hz, self.user_data) == 0 }
+    }
+}
+
+/// The thread count for a call: 0 becomes `RAYON_NUM_THREADS` (when set to a positive
+/// number) or the number of available cores.
+pub(crate) fn resolve_threads(threads: usize) -> usize {
+    if threads > 0 {
+        return threads;
+    }
+    std::env::var("RAYON_NUM_THREADS")
+        .ok()
+        .and_then(|v| v.parse::<usize>().ok())
+        .filter(|&t| t > 0)
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+}
+
+/// Runs `f` inside a rayon pool of `threads` threads that lives only for this call: the
+/// library's parallel code (and rayon's `current_num_threads`) then never starts rayon's
+/// global pool, whose threads would outlive every call in the caller's process (and show as
+/// "possibly lost" memory in a leak checker). The pool's threads are joined before
+/// returning. A panic in `f` is resumed after the join (the export's guard catches it).
+pub(crate) fn in_pool<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> Result<T, Failure> {
+    let handles = Mutex::new(Vec::new());
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .spawn_handler(|t| {
+            let h = std::thread::Builder::new()
+                .name("sparsemor".into())
+                .spawn(move || t.run())?;
+            handles.lock().unwrap_or_else(|p| p.into_inner()).push(h);
+            Ok(())
+        })
+        .build()
+        .map_err(|e| Failure::arg(format!("cannot start {threads} threads: {e}")))?;
+    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| pool.install(f)));
+    drop(pool);
+    for h in handles.into_inner().unwrap_or_else(|p| p.into_inner()) {
+        let _ = h.join();
+    }
+    match r {
+        Ok(v) => Ok(v),
+        Err(p) => std::panic::resume_unwind(p),
+    }
+}
+
+fn boxed(rom: Rom, n_full: usize) -> *mut SparsemorRom {
+    Box::into_raw(Box::new(SparsemorRom { rom, n_full }))
+}
+
+/// Stores a new ROM handle in `*rom_out`, reclaiming it if the write fails.
+unsafe fn emit(rom: Rom, n_full: usize, rom_out: *mut *mut SparsemorRom) -> Result<(), Failure> {
+    let h = boxed(rom, n_full);
+    // SAFETY: forwarded contract; rom_out was checked writable at entry.
+    if let Err(e) = unsafe { write_out(rom_out, h, "rom_out") } {
+        drop(unsafe { Box::from_raw(h) });
+        return Err(e);
+    }
+    Ok(())
+}
+
+/// Reduces the model by line-fitting (DESIGN.md §3.3): V = Πᵀ[I; W] with W fitted by least
+/// squares to the elastic responses at the reference frequencies, then Galerkin projection.
+///
+/// Uses the model's scene (inputs, outputs, band; `sparsemor_model_set_scene` first) and
+/// from `options`: threads, interface, reference frequencies (required: explicit or a
+/// count), keep-basis. A set tolerance fails with `SPARSEMOR_STATUS_UNSUPPORTED`: the
+/// tolerance-driven sampling loop (DESIGN.md §3.5) is not implemented yet.
+///
+/// `progress` (may be NULL) is called after each reference frequency (see
+/// `SparsemorProgressFn`). On success `*rom_out` receives a new ROM handle; on failure it is
+/// set to NULL.
+///
+/// # Safety
+/// `model`, `options` live handles; `progress` NULL or a valid function; `rom_out` writable.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_reduce_linefit(
+    model: *const SparsemorModel,
+    options: *const SparsemorOptions,
+    progress: SparsemorProgressFn,
+    user_data: *mut c_void,
+    rom_out: *mut *mut SparsemorRom,
+) -> SparsemorStatus {
+    ffi_body!({
+        unsafe { write_out(rom_out, std::ptr::null_mut(), "rom_out")? };
+        let m = unsafe { obj(model, "model")? }.with_scene()?;
+        let o = unsafe { obj(options, "options")? };
+        if let Some(tol) = o.tolerance {
+            return Err(Failure::new(
+                SparsemorStatus::Unsupported,
+                format!(
+                    "tolerance = {tol}: tolerance-driven frequency sampling (DESIGN.md §3.5) is not implemented yet; \
+                     clear it (sparsemor_options_set_tolerance(options, 0)) and give reference frequencies \
+                     (sparsemor_options_set_reference_frequencies or _set_reference_count)"
+                ),
+            ));
+        }
+        let scene = &m.scene;
+        let threads = resolve_threads(o.threads);
+        let freqs = match &o.ref_freqs {
+            RefFreqs::Unset => {
+                return Err(Failure::arg(
+                    "line-fitting needs reference frequencies: call sparsemor_options_set_reference_frequencies \
+                     or sparsemor_options_set_reference_count",
+                ))
+            }
+            RefFreqs::Explicit(f) => f.clone(),
+            RefFreqs::Count(z) => {
+                let full = in_pool(threads, || {
+                    eigenpairs(m, Request::UpTo(scene.band_hz[1]), &EigenOptions::default())
+                })??;
+                let res = &full.freqs_hz()[full.rigid..];
+                place_reference_frequencies(res, scene.band_hz, *z)?
+            }
+        };
+        let opts = LineFitOptions {
+            interface: o.interface.clone(),
+            ref_freqs_hz: freqs,
+            keep_basis: o.keep_basis,
+            sweep: SweepOptions {
+                threads,
+                ..Default::default()
+            },
+            lsq: Default::default(),
+        };
+        let cb = Callback::new(progress, user_data);
+        let report = |p: Progress| {
+            cb.as_ref()
+                .is_none_or(|c| c.call(p.done, p.total, p.freq_hz))
+        };
+        let rom = in_pool(threads, || {
+            linefit::reduce(m, &scene.inputs, &scene.outputs, &opts, &report)
+        })??;
+        unsafe { emit(rom, m.n(), rom_out) }
+    })
+}
+
+/// Reduces the model by SEREP (DESIGN.md §3.6): V = U_c U_cr⁺ from c eigenvectors and their
+/// rows at the retained DoFs, then Galerkin projection.
+///
+/// Uses the model's scene (the band sets the eigensolver's shift) and from `options`: the
+/// modes (default: as many lowest deformation modes as retained DoFs), the retained DoFs
+/// (default: the outputs), keep-basis, threads (the size of the call's thread pool, used by
+/// the dense kernels; the sparse eigensolver itself is sequential).
+///
+/// The library's SEREP has no progress hook inside the eigensolver: `progress` (may be NULL)
+/// is called twice, with (0, 1, 0.0) before the work starts and (1, 1, 0.0) when the ROM is
+/// ready; returning nonzero cancels (`SPARSEMOR_STATUS_CANCELLED`, no ROM).
+///
+/// # Safety
+/// As `sparsemor_reduce_linefit`.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_reduce_serep(
+    model: *const SparsemorModel,
+    options: *const SparsemorOptions,
+    progress: SparsemorProgressFn,
+    user_data: *mut c_void,
+    rom_out: *mut *mut SparsemorRom,
+) -> SparsemorStatus {
+    ffi_body!({
+        unsafe { write_out(rom_out, std::ptr::null_mut(), "rom_out")? };
+        let m = unsafe { obj(model, "model")? }.with_scene()?;
+        let o = unsafe { obj(options, "options")? };
+        let scene = &m.scene;
+        let retain = o
+            .serep_retain
+            .clone()
+            .unwrap_or_else(|| scene.outputs.clone());
+        let modes = o
+            .serep_modes
+            .clone()
+            .unwrap_or(ModeChoice::LowestDeformation(retain.len()));
+        let opts = SerepOptions {
+            modes,
+            retain: Some(retain),
+            keep_basis: o.keep_basis,
+            eigen: EigenOptions::default(),
+        };
+        let cb = Callback::new(progress, user_data);
+        let cancelled = || {
+            Failure::new(
+                SparsemorStatus::Cancelled,
+                sparsemor::Error::Cancelled.to_string(),
+            )
+        };
+        if cb.as_ref().is_some_and(|c| !c.call(0, 1, 0.0)) {
+            return Err(cancelled());
+        }
+        let rom = in_pool(resolve_threads(o.threads), || {
+            serep::reduce(m, &scene.inputs, &scene.outputs, &opts)
+        })??;
+        if cb.as_ref().is_some_and(|c| !c.call(1, 1, 0.0)) {
+            return Err(cancelled());
+        }
+        unsafe { emit(rom, m.n(), rom_out) }
+    })
+}
+
+/// Releases a ROM. NULL is a no-op.
+///
+/// # Safety
+/// `rom` NULL or a live handle from a reduction.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_rom_free(rom: *mut SparsemorRom) -> SparsemorStatus {
+    ffi_body!({
+        if !rom.is_null() {
+            // SAFETY: a live handle from Box::into_raw (caller contract).
+            drop(unsafe { Box::from_raw(rom) });
+        }
+        Ok(())
+    })
+}
+
+/// How the ROM was built: `SPARSEMOR_METHOD_LINEFIT` or `SPARSEMOR_METHOD_SEREP`.
+///
+/// # Safety
+/// `rom` a live handle; `method_out` writable.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_rom_method(
+    rom: *const SparsemorRom,
+    method_out: *mut u32,
+) -> SparsemorStatus {
+    ffi_body!({
+        let r = unsafe { obj(rom, "rom")? };
+        let m = match r.rom.method {
+            Method::LineFit => SPARSEMOR_METHOD_LINEFIT,
+            Method::Serep => SPARSEMOR_METHOD_SEREP,
+        };
+        unsafe { write_out(method_out, m, "method_out") }
+    })
+}
+
+/// Order n of the ROM (size of Mr, Dr, Kr).
+///
+/// # Safety
+/// `rom` a live handle; `order_out` writable.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_rom_order(
+    rom: *const SparsemorRom,
+    order_out: *mut usize,
+) -> SparsemorStatus {
+    ffi_body!({
+        let r = unsafe { obj(rom, "rom")? };
+        unsafe { write_out(order_out, r.rom.order(), "order_out") }
+    })
+}
+
+/// Number of inputs p (columns of Br).
+///
+/// # Safety
+/// `rom` a live handle; `n_out` writable.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_rom_n_inputs(
+    rom: *const SparsemorRom,
+    n_out: *mut usize,
+) -> SparsemorStatus {
+    ffi_body!({
+        let r = unsafe { obj(rom, "rom")? };
+        unsafe { write_out(n_out, r.rom.br.ncols(), "n_out") }
+    })
+}
+
+/// Number of outputs q (rows of Cr).
+///
+/// # Safety
+/// `rom` a live handle; `n_out` writable.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_rom_n_outputs(
+    rom: *const SparsemorRom,
+    n_out: *mut usize,
+) -> SparsemorStatus {
+    ffi_body!({
+        let r = unsafe { obj(rom, "rom")? };
+        unsafe { write_out(n_out, r.rom.cr.nrows(), "n_out") }
+    })
+}
+
+fn matrix<'a>(r: &'a SparsemorRom, which: u32) -> Result<(MatRef<'a, f64>, &'static str), Failure> {
+    let rom = &r.rom;
+    Ok(match which {
+        SPARSEMOR_MATRIX_MR => (rom.mr.as_ref(), "Mr"),
+        SPARSEMOR_MATRIX_DR => (rom.dr.as_ref(), "Dr"),
+        SPARSEMOR_MATRIX_KR => (rom.kr.as_ref(), "Kr"),
+        SPARSEMOR_MATRIX_BR => (rom.br.as_ref(), "Br"),
+        SPARSEMOR_MATRIX_CR => (rom.cr.as_ref(), "Cr"),
+        SPARSEMOR_MATRIX_V => match &rom.basis {
+            Some(v) => (v.as_ref(), "V"),
+            None => {
+                return Err(Failure::new(
+                    SparsemorStatus::NotAvailable,
+                    "V was not kept: call sparsemor_options_set_keep_basis(options, 1) before the reduction",
+                ))
+            }
+        },
+        w => {
+            return Err(Failure::arg(format!(
+                "matrix id {w}: use SPARSEMOR_MATRIX_MR, _DR, _KR, _BR, _CR or _V (0..5)"
+            )))
+        }
+    })
+}
+
+/// Shape of a ROM matrix (`SPARSEMOR_MATRIX_*`): Mr, Dr, Kr n×n; Br n×p; Cr q×n; V N×n.
+/// `rows_out`, `cols_out` may each be NULL.
+///
+/// # Safety
+/// `rom` a live handle; non-NULL outs writable.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_rom_matrix_shape(
+    rom: *const SparsemorRom,
+    which: u32,
+    rows_out: *mut usize,
+    cols_out: *mut usize,
+) -> SparsemorStatus {
+    ffi_body!({
+        let (m, _) = matrix(unsafe { obj(rom, "rom")? }, which)?;
+        unsafe { write_opt(rows_out, m.nrows(), "rows_out")? };
+        unsafe { write_opt(cols_out, m.ncols(), "cols_out") }
+    })
+}
+
+/// Copies a ROM matrix (`SPARSEMOR_MATRIX_*`) in column-major order (entry (i, j) at
+/// `buf[i + j·rows]`) into the caller's `buf` of `buf_len` doubles.
+///
+/// `*required_len` (when not NULL) receives rows·cols. `buf == NULL && buf_len == 0` only
+/// queries that length. A shorter buffer fails with `SPARSEMOR_STATUS_BUFFER_TOO_SMALL` and
+/// leaves `buf` untouched. V without keep-basis: `SPARSEMOR_STATUS_NOT_AVAILABLE`.
+///
+/// # Safety
+/// `rom` a live handle; `buf` NULL or valid for `buf_len` doubles; `required_len` NULL or
+/// writable.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_rom_copy_matrix(
+    rom: *const SparsemorRom,
+    which: u32,
+    buf: *mut f64,
+    buf_len: usize,
+    required_len: *mut usize,
+) -> SparsemorStatus {
+    ffi_body!({
+        let (m, name) = matrix(unsafe { obj(rom, "rom")? }, which)?;
+        let (rows, cols) = (m.nrows(), m.ncols());
+        let need = rows * cols;
+        unsafe { write_opt(required_len, need, "required_len")? };
+        if buf.is_null() && buf_len == 0 {
+            return Ok(());
+        }
+        if buf_len < need {
+            return Err(Failure::new(
+                SparsemorStatus::BufferTooSmall,
+                format!(
+                    "{name} is {rows}×{cols}: buffer holds {buf_len} doubles but {need} are needed"
+                ),
+            ));
+        }
+        check_ptr(buf.cast_const(), buf_len, "buf")?;
+        let dst = buf;
+        for j in 0..cols {
+            for i in 0..rows {
+                // SAFETY: i + j·rows < need <= buf_len; buf valid for writes (caller contract).
+                unsafe { dst.add(i + j * rows).write(m[(i, j)]) };
+            }
+        }
+        Ok(())
+    })
+}
+
+/// The full-model DoF of each ROM coordinate (line-fitting interface or SEREP retained DoFs,
+/// in ROM order), copied into `buf` (same length protocol as `sparsemor_rom_copy_matrix`).
+///
+/// # Safety
+/// `rom` a live handle; `buf` NULL or valid for `buf_len` values; `required_len` NULL or
+/// writable.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_rom_dofs(
+    rom: *const SparsemorRom,
+    buf: *mut usize,
+    buf_len: usize,
+    required_len: *mut usize,
+) -> SparsemorStatus {
+    ffi_body!({
+        let r = unsafe { obj(rom, "rom")? };
+        unsafe { copy_to_buffer(&r.rom.dofs, buf, buf_len, required_len, "ROM DoFs") }
+    })
+}
+
+/// The reference frequencies (Hz) a line-fitting ROM was fitted at (none for SEREP),
+/// copied into `buf` (same length protocol as `sparsemor_rom_copy_matrix`).
+///
+/// # Safety
+/// As `sparsemor_rom_dofs`.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_rom_reference_frequencies(
+    rom: *const SparsemorRom,
+    buf: *mut f64,
+    buf_len: usize,
+    required_len: *mut usize,
+) -> SparsemorStatus {
+    ffi_body!({
+        let r = unsafe { obj(rom, "rom")? };
+        unsafe {
+            copy_to_buffer(
+                &r.rom.ref_freqs_hz,
+                buf,
+                buf_len,
+                required_len,
+                "reference frequencies",
+            )
+        }
+    })
+}
+
+/// Numerics of the line-fitting least-squares fit (DESIGN.md §3.3).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SparsemorFitReport {
+    /// cond(T_oᵀ) before column equilibration.
+    pub cond_raw: f64,
+    /// cond(T_oᵀ) after column equilibration (what the rank decision uses).
+    pub cond_equilibrated: f64,
+    /// Numerical rank of T_oᵀ.
+    pub rank: usize,
+    /// 1 when singular values were truncated (rank < n), else 0.
+    pub truncated: i32,
+    /// Max over non-interface DoFs of the relative fit residual (eq. 22).
+    pub residual_max: f64,
+    /// Mean of the relative fit residual.
+    pub residual_mean: f64,
+    /// DoF with the largest fit residual: the best candidate to add to the interface.
+    pub residual_argmax_dof: usize,
+    /// Rows of T_oᵀ (2·p·z).
+    pub rows: usize,
+}
+
+/// The fit diagnostics of a line-fitting ROM; `SPARSEMOR_STATUS_NOT_AVAILABLE` for SEREP.
+///
+/// # Safety
+/// `rom` a live handle; `report_out` writable.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_rom_fit_report(
+    rom: *const SparsemorRom,
+    report_out: *mut SparsemorFitReport,
+) -> SparsemorStatus {
+    ffi_body!({
+        let r = unsafe { obj(rom, "rom")? };
+        let f = r.rom.fit.as_ref().ok_or_else(|| {
+            Failure::new(
+                SparsemorStatus::NotAvailable,
+                "fit diagnostics exist only for line-fitting ROMs",
+            )
+        })?;
+        let rep = SparsemorFitReport {
+            cond_raw: f.cond_raw,
+            cond_equilibrated: f.cond_equilibrated,
+            rank: f.rank,
+            truncated: i32::from(f.truncated),
+            residual_max: f.residual_max,
+            residual_mean: f.residual_mean,
+            residual_argmax_dof: f.residual_argmax_dof,
+            rows: f.rows,
+        };
+        unsafe { write_out(report_out, rep, "report_out") }
+    })
+}
+
+/// cond(U_cr) of a SEREP ROM (the conditioning of the retained rows of the modes);
+/// `SPARSEMOR_STATUS_NOT_AVAILABLE` for line-fitting.
+///
+/// # Safety
+/// `rom` a live handle; `cond_out` writable.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_rom_serep_cond(
+    rom: *const SparsemorRom,
+    cond_out: *mut f64,
+) -> SparsemorStatus {
+    ffi_body!({
+        let r = unsafe { obj(rom, "rom")? };
+        let c = r.rom.serep_cond.ok_or_else(|| {
+            Failure::new(
+                SparsemorStatus::NotAvailable,
+                "cond(U_cr) exists only for SEREP ROMs",
+            )
+        })?;
+        unsafe { write_out(cond_out, c, "cond_out") }
+    })
+}
+
+/// Definiteness of a symmetric reduced matrix (Cholesky test and extreme eigenvalues).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SparsemorDefiniteness {
+    /// 1 when the Cholesky factorization succeeded (positive definite), else 0.
+    pub positive_definite: i32,
+    /// Smallest eigenvalue.
+    pub min_eig: f64,
+    /// Largest eigenvalue.
+    pub max_eig: f64,
+}
+
+/// Definiteness of Mr and Kr (a stable ROM has both positive definite). Either out pointer
+/// may be NULL.
+///
+/// # Safety
+/// `rom` a live handle; non-NULL outs writable.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_rom_definiteness(
+    rom: *const SparsemorRom,
+    mass_out: *mut SparsemorDefiniteness,
+    stiffness_out: *mut SparsemorDefiniteness,
+) -> SparsemorStatus {
+    ffi_body!({
+        let r = unsafe { obj(rom, "rom")? };
+        let conv = |d: &sparsemor::reduce::Definiteness| SparsemorDefiniteness {
+            positive_definite: i32::from(d.positive_definite),
+            min_eig: d.min_eig,
+            max_eig: d.max_eig,
+        };
+        unsafe { write_opt(mass_out, conv(&r.rom.mass_definiteness), "mass_out")? };
+        unsafe {
+            write_opt(
+                stiffness_out,
+                conv(&r.rom.stiffness_definiteness),
+                "stiffness_out",
+            )
+        }
+    })
+}
+
+/// Number of timed phases of the reduction.
+///
+/// # Safety
+/// `rom` a live handle; `count_out` writable.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_rom_timing_count(
+    rom: *const SparsemorRom,
+    count_out: *mut usize,
+) -> SparsemorStatus {
+    ffi_body!({
+        let r = unsafe { obj(rom, "rom")? };
+        unsafe { write_out(count_out, r.rom.timings.len(), "count_out") }
+    })
+}
+
+/// Phase `index` (0-based, < `sparsemor_rom_timing_count`) of the reduction: its wall time
+/// in seconds to `*seconds_out` (may be NULL) and its name (UTF-8, NUL-terminated) into
+/// `name_buf` of `name_len` bytes; `*name_required` (may be NULL) receives the bytes needed
+/// including the NUL. `name_buf == NULL && name_len == 0` only queries; a short buffer gets
+/// a truncated, NUL-terminated name and `SPARSEMOR_STATUS_BUFFER_TOO_SMALL`.
+///
+/// # Safety
+/// `rom` a live handle; `name_buf` NULL or valid for `name_len` bytes; outs NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_rom_timing(
+    rom: *const SparsemorRom,
+    index: usize,
+    name_buf: *mut c_char,
+    name_len: usize,
+    name_required: *mut usize,
+    seconds_out: *mut f64,
+) -> SparsemorStatus {
+    ffi_body!({
+        let r = unsafe { obj(rom, "rom")? };
+        let t = r.rom.timings.get(index).ok_or_else(|| {
+            Failure::arg(format!(
+                "timing index {index} is out of range: the ROM has {} timed phases",
+                r.rom.timings.len()
+            ))
+        })?;
+        unsafe { write_opt(seconds_out, t.seconds, "seconds_out")? };
+        unsafe { copy_string(&t.phase, name_buf, name_len, name_required, "timing name") }
+    })
+}
+
+/// Number of warnings of the reduction (ill-conditioning, rank truncation, indefinite Mr or
+/// Kr, ...).
+///
+/// # Safety
+/// `rom` a live handle; `count_out` writable.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_rom_warning_count(
+    rom: *const SparsemorRom,
+    count_out: *mut usize,
+) -> SparsemorStatus {
+    ffi_body!({
+        let r = unsafe { obj(rom, "rom")? };
+        unsafe { write_out(count_out, r.rom.warnings.len(), "count_out") }
+    })
+}
+
+/// Warning `index` (0-based) as UTF-8 text into `buf`; same buffer protocol as the name of
+/// `sparsemor_rom_timing`.
+///
+/// # Safety
+/// `rom` a live handle; `buf` NULL or valid for `buf_len` bytes; `required` NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_rom_warning(
+    rom: *const SparsemorRom,
+    index: usize,
+    buf: *mut c_char,
+    buf_len: usize,
+    required: *mut usize,
+) -> SparsemorStatus {
+    ffi_body!({
+        let r = unsafe { obj(rom, "rom")? };
+        let w = r.rom.warnings.get(index).ok_or_else(|| {
+            Failure::arg(format!(
+                "warning index {index} is out of range: the ROM has {} warnings",
+                r.rom.warnings.len()
+            ))
+        })?;
+        unsafe { copy_string(w, buf, buf_len, required, "warning") }
+    })
+}
+
+/// The relative transfer-function error of the ROM against the full model (eq. 23),
+/// ε(f) = ‖H(iω) − Hr(iω)‖_F / ‖H(iω)‖_F, at `n_freqs` frequencies (Hz, finite, > 0 on a
+/// free body): the elastic variant (H1 vs ROM) to `eps_elastic_out[k]` and the total variant
+/// (H0 + H1 vs H0 + ROM; equal to the elastic one on a constrained body) to
+/// `eps_total_out[k]`. Both buffers must hold `n_freqs` doubles. Costs one sparse
+/// factorization of the full model per frequency, on all cores.
+///
+/// `model` must be the model the ROM was built from (its N is checked).
+///
+/// # Safety
+/// `model`, `rom` live handles; `freqs_hz` valid for `n_freqs` reads; the two outs for
+/// `n_freqs` writes.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_rom_transfer_error(
+    model: *const SparsemorModel,
+    rom: *const SparsemorRom,
+    freqs_hz: *const f64,
+    n_freqs: usize,
+    eps_elastic_out: *mut f64,
+    eps_total_out: *mut f64,
+) -> SparsemorStatus {
+    ffi_body!({
+        let m = &unsafe { obj(model, "model")? }.model;
+        let r = unsafe { obj(rom, "rom")? };
+        if m.n() != r.n_full {
+            return Err(Failure::arg(format!(
+                "the ROM was built from a model with N = {} but this model has N = {}",
+                r.n_full,
+                m.n()
+            )));
+        }
+        if n_freqs == 0 {
+            return Err(Failure::arg("transfer error: n_freqs = 0"));
+        }
+        let f = unsafe { slice_in(freqs_hz, n_freqs, "freqs_hz")? };
+        if let Some((k, v)) = f.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+            return Err(Failure::arg(format!(
+                "frequency {k} is {v} Hz: need finite values"
+            )));
+        }
+        // check both outputs before the expensive work
+        check_ptr(eps_elastic_out.cast_const(), n_freqs, "eps_elastic_out")?;
+        check_ptr(eps_total_out.cast_const(), n_freqs, "eps_total_out")?;
+        let threads = resolve_threads(0);
+        let curve = in_pool(threads, || {
+            Reference::compute(
+                m,
+                &r.rom.inputs,
+                &r.rom.outputs,
+                f,
+                &SweepOptions {
+                    threads,
+                    ..Default::default()
+                },
+                &no_progress,
+            )?
+            .error(&r.rom)
+        })??;
+        unsafe {
+            std::ptr::copy_nonoverlapping(curve.eps_elastic.as_ptr(), eps_elastic_out, n_freqs);
+            std::ptr::copy_nonoverlapping(curve.eps_total.as_ptr(), eps_total_out, n_freqs);
+        }
+        Ok(())
+    })
+}
