@@ -22,7 +22,7 @@
 //!    least-squares compromise, not an interpolation, and measured on the bar the largest
 //!    error of a ROM often sits at a sampled point (e.g. the band end). Otherwise stop when
 //!    the factorization budget is spent, or on stagnation (the step's error did not drop
-//!    below 0.9× the best of the previous 3 steps). On stagnation, if `max_order` allows, the interface grows by one DoF
+//!    below 0.9× the best of the previous max(3, ⌈6/threads⌉) steps, about 6 factorizations). On stagnation, if `max_order` allows, the interface grows by one DoF
 //!    ([`Growth`]) and the fit is redone from the stored snapshots.
 //!
 //! Snapshot memory rule: snapshots are kept only when the order may grow. They stay in
@@ -286,11 +286,13 @@ pub fn reduce(
                 .filter(|s| s.true_error_max.is_finite())
                 .map(|s| s.true_error_max.max(s.sampled_error_max))
                 .collect();
+            // the window spans about 6 factorizations whatever the number of threads
+            let w = 3.max(6usize.div_ceil(threads));
             let k = errors.len();
-            stagnated = k >= 4
+            stagnated = k > w
                 && errors[k - 1]
                     > 0.9
-                        * errors[k - 4..k - 1]
+                        * errors[k - 1 - w..k - 1]
                             .iter()
                             .copied()
                             .fold(f64::INFINITY, f64::min);

@@ -128,10 +128,6 @@ typedef enum SparsemorStatus {
      */
     SPARSEMOR_STATUS_NOT_AVAILABLE = 5,
     /**
-     * The request is valid but not implemented (e.g. tolerance-driven frequency sampling).
-     */
-    SPARSEMOR_STATUS_UNSUPPORTED = 6,
-    /**
      * A pencil A(iω) is numerically singular at a frequency (undamped model at an
      * eigenfrequency?); the message names the frequency.
      */
@@ -436,16 +432,31 @@ enum SparsemorStatus sparsemor_options_set_threads(struct SparsemorOptions *opti
                                                    size_t threads);
 
 /**
- * RESERVED: the accuracy target of tolerance-driven frequency sampling (DESIGN.md §3.5).
- * The sampling loop is NOT implemented yet: the value is validated (finite, 0 < tol < 1;
- * 0 clears it) and stored, and `sparsemor_reduce_linefit` then fails with
- * `SPARSEMOR_STATUS_UNSUPPORTED`. Give reference frequencies instead.
+ * The accuracy target of line-fitting with tolerance-driven frequency sampling (DESIGN.md
+ * §3.5): with a tolerance set, `sparsemor_reduce_linefit` chooses the reference frequencies
+ * itself (explicit reference frequencies, if set, become extra seeds) until the true elastic
+ * error (eq. 23) at two consecutive steps' new and earlier points is ≤ tol, the budget of
+ * `sparsemor_options_set_sampling_limits` is spent, or more frequencies stop helping; the
+ * step log is read with `sparsemor_rom_step_count` / `sparsemor_rom_step`. Validated:
+ * finite, 0 < tol < 1; 0 clears it.
  *
  * # Safety
  * `options` a live handle.
  */
 enum SparsemorStatus sparsemor_options_set_tolerance(struct SparsemorOptions *options,
                                                      double tolerance);
+
+/**
+ * Limits of the sampling loop (with a tolerance): at most `max_points` factorizations
+ * (default 60, ≥ 1) and interface growth up to order `max_order` (default 0 = the interface
+ * never grows).
+ *
+ * # Safety
+ * `options` a live handle.
+ */
+enum SparsemorStatus sparsemor_options_set_sampling_limits(struct SparsemorOptions *options,
+                                                           size_t max_points,
+                                                           size_t max_order);
 
 /**
  * Line-fitting interface = exactly these DoFs (the ROM coordinates, order n = `n_dofs`;
@@ -535,9 +546,10 @@ enum SparsemorStatus sparsemor_options_set_keep_basis(struct SparsemorOptions *o
  * squares to the elastic responses at the reference frequencies, then Galerkin projection.
  *
  * Uses the model's scene (inputs, outputs, band; `sparsemor_model_set_scene` first) and
- * from `options`: threads, interface, reference frequencies (required: explicit or a
- * count), keep-basis. A set tolerance fails with `SPARSEMOR_STATUS_UNSUPPORTED`: the
- * tolerance-driven sampling loop (DESIGN.md §3.5) is not implemented yet.
+ * from `options`: threads, interface, reference frequencies (explicit or a count), keep-basis
+ * — or, with a tolerance (`sparsemor_options_set_tolerance`), the sampling loop of DESIGN.md
+ * §3.5 chooses the frequencies (not reaching the tolerance is not an error: see
+ * `sparsemor_rom_sampling_converged` and the step log).
  *
  * `progress` (may be NULL) is called after each reference frequency (see
  * `SparsemorProgressFn`). On success `*rom_out` receives a new ROM handle; on failure it is
@@ -765,6 +777,43 @@ enum SparsemorStatus sparsemor_rom_transfer_error(const struct SparsemorModel *m
                                                   size_t n_freqs,
                                                   double *eps_elastic_out,
                                                   double *eps_total_out);
+
+/**
+ * Whether the ROM came from the sampling loop (`*is_sampled_out`, 0/1) and, if so, whether
+ * it reached the tolerance (`*converged_out`, 0/1; may be NULL).
+ *
+ * # Safety
+ * `rom` a live handle; `is_sampled_out` writable; `converged_out` NULL or writable.
+ */
+enum SparsemorStatus sparsemor_rom_sampling_converged(const struct SparsemorRom *rom,
+                                                      int32_t *is_sampled_out,
+                                                      int32_t *converged_out);
+
+/**
+ * Number of steps of the sampling loop (0 for a ROM from explicit frequencies or SEREP).
+ *
+ * # Safety
+ * `rom` a live handle; `count_out` writable.
+ */
+enum SparsemorStatus sparsemor_rom_step_count(const struct SparsemorRom *rom, size_t *count_out);
+
+/**
+ * Step `index` (0-based) of the sampling loop: order, number of new points, indicator max,
+ * true error at the new points, true error at the earlier points (NaN where not measured),
+ * factorizations so far and seconds so far. Every out pointer may be NULL.
+ *
+ * # Safety
+ * `rom` a live handle; outs NULL or writable.
+ */
+enum SparsemorStatus sparsemor_rom_step(const struct SparsemorRom *rom,
+                                        size_t index,
+                                        size_t *order_out,
+                                        size_t *n_points_out,
+                                        double *indicator_max_out,
+                                        double *true_error_out,
+                                        double *sampled_error_out,
+                                        size_t *factorizations_out,
+                                        double *seconds_out);
 
 #ifdef __cplusplus
 }  // extern "C"

@@ -44,7 +44,6 @@ STATUS_NAMES = {
     3: "INVALID_MODEL",
     4: "BUFFER_TOO_SMALL",
     5: "NOT_AVAILABLE",
-    6: "UNSUPPORTED",
     7: "SINGULAR",
     8: "NUMERICAL",
     9: "CANCELLED",
@@ -468,8 +467,8 @@ def reduce_linefit(model, reference_frequencies=None, reference_count=None, inte
                    outputs_plus=0, threads=0, keep_basis=False, tolerance=None, progress=None):
     """Line-fitting reduction. Give `reference_frequencies` (Hz) or `reference_count` (the
     library places that many points from the in-band resonances). Interface: an explicit
-    DoF list, else the outputs plus `outputs_plus` spread DoFs. `tolerance` is reserved
-    (tolerance-driven sampling is not implemented: the call raises UNSUPPORTED)."""
+    DoF list, else the outputs plus `outputs_plus` spread DoFs. With `tolerance` the library
+    chooses the reference frequencies itself (DESIGN.md §3.5); given frequencies become seeds."""
     with _Options() as o:
         _check(lib.sparsemor_options_set_threads(o, threads))
         if interface is not None:

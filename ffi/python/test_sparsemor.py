@@ -222,7 +222,6 @@ def test_errors_raise_with_status_and_message():
         assert e.status_name == "INVALID_ARGUMENT" and "set_scene" in e.message, e
     model.set_scene([19], [19], (0.0, 10.0))
     for kwargs, status in (
-        (dict(reference_frequencies=[1.0, 5.0], tolerance=1e-3), "UNSUPPORTED"),
         (dict(reference_frequencies=[float("nan")]), "INVALID_ARGUMENT"),
         (dict(reference_frequencies=[1.0, 5.0], progress=lambda d, t, f: False), "CANCELLED"),
     ):

@@ -34,8 +34,6 @@ pub enum SparsemorStatus {
     /// The requested quantity does not exist for this ROM (V not kept, fit diagnostics of a
     /// SEREP ROM, ...).
     NotAvailable = 5,
-    /// The request is valid but not implemented (e.g. tolerance-driven frequency sampling).
-    Unsupported = 6,
     /// A pencil A(iω) is numerically singular at a frequency (undamped model at an
     /// eigenfrequency?); the message names the frequency.
     Singular = 7,

@@ -1,4 +1,4 @@
-//! Options handle: threads, tolerance (reserved), interface, reference frequencies, SEREP
+//! Options handle: threads, tolerance and sampling limits, interface, reference frequencies, SEREP
 //! modes and retained DoFs, keep-basis flag.
 
 use crate::error::{ffi_body, Failure, SparsemorStatus};
@@ -21,6 +21,8 @@ pub(crate) enum RefFreqs {
 pub struct SparsemorOptions {
     pub(crate) threads: usize,
     pub(crate) tolerance: Option<f64>,
+    pub(crate) max_points: usize,
+    pub(crate) max_order: usize,
     pub(crate) interface: Interface,
     pub(crate) ref_freqs: RefFreqs,
     pub(crate) serep_modes: Option<ModeChoice>,
@@ -33,6 +35,8 @@ impl Default for SparsemorOptions {
         SparsemorOptions {
             threads: 0,
             tolerance: None,
+            max_points: 60,
+            max_order: 0,
             interface: Interface::OutputsPlus(0),
             ref_freqs: RefFreqs::Unset,
             serep_modes: None,
@@ -121,10 +125,13 @@ pub unsafe extern "C" fn sparsemor_options_set_threads(
     })
 }
 
-/// RESERVED: the accuracy target of tolerance-driven frequency sampling (DESIGN.md §3.5).
-/// The sampling loop is NOT implemented yet: the value is validated (finite, 0 < tol < 1;
-/// 0 clears it) and stored, and `sparsemor_reduce_linefit` then fails with
-/// `SPARSEMOR_STATUS_UNSUPPORTED`. Give reference frequencies instead.
+/// The accuracy target of line-fitting with tolerance-driven frequency sampling (DESIGN.md
+/// §3.5): with a tolerance set, `sparsemor_reduce_linefit` chooses the reference frequencies
+/// itself (explicit reference frequencies, if set, become extra seeds) until the true elastic
+/// error (eq. 23) at two consecutive steps' new and earlier points is ≤ tol, the budget of
+/// `sparsemor_options_set_sampling_limits` is spent, or more frequencies stop helping; the
+/// step log is read with `sparsemor_rom_step_count` / `sparsemor_rom_step`. Validated:
+/// finite, 0 < tol < 1; 0 clears it.
 ///
 /// # Safety
 /// `options` a live handle.
@@ -145,6 +152,31 @@ pub unsafe extern "C" fn sparsemor_options_set_tolerance(
             )));
         }
         o.tolerance = Some(tolerance);
+        Ok(())
+    })
+}
+
+/// Limits of the sampling loop (with a tolerance): at most `max_points` factorizations
+/// (default 60, ≥ 1) and interface growth up to order `max_order` (default 0 = the interface
+/// never grows).
+///
+/// # Safety
+/// `options` a live handle.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_options_set_sampling_limits(
+    options: *mut SparsemorOptions,
+    max_points: usize,
+    max_order: usize,
+) -> SparsemorStatus {
+    ffi_body!({
+        let o = unsafe { obj_mut(options, "options")? };
+        if max_points == 0 {
+            return Err(Failure::arg(
+                "max_points = 0: the sampling loop needs at least one factorization",
+            ));
+        }
+        o.max_points = max_points;
+        o.max_order = max_order;
         Ok(())
     })
 }

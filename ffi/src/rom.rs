@@ -10,6 +10,7 @@ use sparsemor::metrics::Reference;
 use sparsemor::reduce::linefit::{self, place_reference_frequencies, LineFitOptions};
 use sparsemor::reduce::serep::{self, ModeChoice, SerepOptions};
 use sparsemor::reduce::{Method, Rom};
+use sparsemor::sampling::{self, Outcome, SamplingOptions, Step};
 use sparsemor::sweep::{no_progress, Progress, SweepOptions};
 use std::ffi::{c_char, c_void};
 use std::sync::Mutex;
@@ -53,6 +54,8 @@ pub struct SparsemorRom {
     pub(crate) rom: Rom,
     /// N of the model it was built from.
     pub(crate) n_full: usize,
+    /// The sampling loop's steps and whether it converged (tolerance-driven line-fitting).
+    pub(crate) sampling: Option<(Vec<Step>, bool)>,
 }
 
 /// The caller's callback, serialized by a mutex.
@@ -125,13 +128,18 @@ pub(crate) fn in_pool<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> 
     }
 }
 
-fn boxed(rom: Rom, n_full: usize) -> *mut SparsemorRom {
-    Box::into_raw(Box::new(SparsemorRom { rom, n_full }))
-}
-
 /// Stores a new ROM handle in `*rom_out`, reclaiming it if the write fails.
-unsafe fn emit(rom: Rom, n_full: usize, rom_out: *mut *mut SparsemorRom) -> Result<(), Failure> {
-    let h = boxed(rom, n_full);
+unsafe fn emit(
+    rom: Rom,
+    n_full: usize,
+    sampling: Option<(Vec<Step>, bool)>,
+    rom_out: *mut *mut SparsemorRom,
+) -> Result<(), Failure> {
+    let h = Box::into_raw(Box::new(SparsemorRom {
+        rom,
+        n_full,
+        sampling,
+    }));
     // SAFETY: forwarded contract; rom_out was checked writable at entry.
     if let Err(e) = unsafe { write_out(rom_out, h, "rom_out") } {
         drop(unsafe { Box::from_raw(h) });
@@ -144,9 +152,10 @@ unsafe fn emit(rom: Rom, n_full: usize, rom_out: *mut *mut SparsemorRom) -> Resu
 /// squares to the elastic responses at the reference frequencies, then Galerkin projection.
 ///
 /// Uses the model's scene (inputs, outputs, band; `sparsemor_model_set_scene` first) and
-/// from `options`: threads, interface, reference frequencies (required: explicit or a
-/// count), keep-basis. A set tolerance fails with `SPARSEMOR_STATUS_UNSUPPORTED`: the
-/// tolerance-driven sampling loop (DESIGN.md §3.5) is not implemented yet.
+/// from `options`: threads, interface, reference frequencies (explicit or a count), keep-basis
+/// — or, with a tolerance (`sparsemor_options_set_tolerance`), the sampling loop of DESIGN.md
+/// §3.5 chooses the frequencies (not reaching the tolerance is not an error: see
+/// `sparsemor_rom_sampling_converged` and the step log).
 ///
 /// `progress` (may be NULL) is called after each reference frequency (see
 /// `SparsemorProgressFn`). On success `*rom_out` receives a new ROM handle; on failure it is
@@ -166,18 +175,31 @@ pub unsafe extern "C" fn sparsemor_reduce_linefit(
         unsafe { write_out(rom_out, std::ptr::null_mut(), "rom_out")? };
         let m = unsafe { obj(model, "model")? }.with_scene()?;
         let o = unsafe { obj(options, "options")? };
-        if let Some(tol) = o.tolerance {
-            return Err(Failure::new(
-                SparsemorStatus::Unsupported,
-                format!(
-                    "tolerance = {tol}: tolerance-driven frequency sampling (DESIGN.md §3.5) is not implemented yet; \
-                     clear it (sparsemor_options_set_tolerance(options, 0)) and give reference frequencies \
-                     (sparsemor_options_set_reference_frequencies or _set_reference_count)"
-                ),
-            ));
-        }
         let scene = &m.scene;
         let threads = resolve_threads(o.threads);
+        let cb = Callback::new(progress, user_data);
+        let report = |p: Progress| {
+            cb.as_ref()
+                .is_none_or(|c| c.call(p.done, p.total, p.freq_hz))
+        };
+        if let Some(tol) = o.tolerance {
+            let mut so = SamplingOptions::new(tol, o.interface.clone());
+            if let RefFreqs::Explicit(f) = &o.ref_freqs {
+                so.seeds_hz = f.clone();
+            }
+            so.max_points = o.max_points;
+            so.max_order = o.max_order;
+            so.keep_basis = o.keep_basis;
+            so.sweep = SweepOptions {
+                threads,
+                ..Default::default()
+            };
+            let r = in_pool(threads, || {
+                sampling::reduce(m, &scene.inputs, &scene.outputs, &so, &report)
+            })??;
+            let converged = r.outcome == Outcome::Converged;
+            return unsafe { emit(r.rom, m.n(), Some((r.steps, converged)), rom_out) };
+        }
         let freqs = match &o.ref_freqs {
             RefFreqs::Unset => {
                 return Err(Failure::arg(
@@ -204,15 +226,10 @@ pub unsafe extern "C" fn sparsemor_reduce_linefit(
             },
             lsq: Default::default(),
         };
-        let cb = Callback::new(progress, user_data);
-        let report = |p: Progress| {
-            cb.as_ref()
-                .is_none_or(|c| c.call(p.done, p.total, p.freq_hz))
-        };
         let rom = in_pool(threads, || {
             linefit::reduce(m, &scene.inputs, &scene.outputs, &opts, &report)
         })??;
-        unsafe { emit(rom, m.n(), rom_out) }
+        unsafe { emit(rom, m.n(), None, rom_out) }
     })
 }
 
@@ -273,7 +290,7 @@ pub unsafe extern "C" fn sparsemor_reduce_serep(
         if cb.as_ref().is_some_and(|c| !c.call(1, 1, 0.0)) {
             return Err(cancelled());
         }
-        unsafe { emit(rom, m.n(), rom_out) }
+        unsafe { emit(rom, m.n(), None, rom_out) }
     })
 }
 
@@ -756,5 +773,95 @@ pub unsafe extern "C" fn sparsemor_rom_transfer_error(
             std::ptr::copy_nonoverlapping(curve.eps_total.as_ptr(), eps_total_out, n_freqs);
         }
         Ok(())
+    })
+}
+
+/// Whether the ROM came from the sampling loop (`*is_sampled_out`, 0/1) and, if so, whether
+/// it reached the tolerance (`*converged_out`, 0/1; may be NULL).
+///
+/// # Safety
+/// `rom` a live handle; `is_sampled_out` writable; `converged_out` NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_rom_sampling_converged(
+    rom: *const SparsemorRom,
+    is_sampled_out: *mut i32,
+    converged_out: *mut i32,
+) -> SparsemorStatus {
+    ffi_body!({
+        let r = unsafe { obj(rom, "rom")? };
+        unsafe {
+            write_out(
+                is_sampled_out,
+                i32::from(r.sampling.is_some()),
+                "is_sampled_out",
+            )?
+        };
+        unsafe {
+            write_opt(
+                converged_out,
+                i32::from(r.sampling.as_ref().is_some_and(|s| s.1)),
+                "converged_out",
+            )
+        }
+    })
+}
+
+/// Number of steps of the sampling loop (0 for a ROM from explicit frequencies or SEREP).
+///
+/// # Safety
+/// `rom` a live handle; `count_out` writable.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_rom_step_count(
+    rom: *const SparsemorRom,
+    count_out: *mut usize,
+) -> SparsemorStatus {
+    ffi_body!({
+        let r = unsafe { obj(rom, "rom")? };
+        unsafe {
+            write_out(
+                count_out,
+                r.sampling.as_ref().map_or(0, |s| s.0.len()),
+                "count_out",
+            )
+        }
+    })
+}
+
+/// Step `index` (0-based) of the sampling loop: order, number of new points, indicator max,
+/// true error at the new points, true error at the earlier points (NaN where not measured),
+/// factorizations so far and seconds so far. Every out pointer may be NULL.
+///
+/// # Safety
+/// `rom` a live handle; outs NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_rom_step(
+    rom: *const SparsemorRom,
+    index: usize,
+    order_out: *mut usize,
+    n_points_out: *mut usize,
+    indicator_max_out: *mut f64,
+    true_error_out: *mut f64,
+    sampled_error_out: *mut f64,
+    factorizations_out: *mut usize,
+    seconds_out: *mut f64,
+) -> SparsemorStatus {
+    ffi_body!({
+        let r = unsafe { obj(rom, "rom")? };
+        let steps = r.sampling.as_ref().map_or(&[][..], |s| &s.0[..]);
+        let s = steps.get(index).ok_or_else(|| {
+            Failure::arg(format!(
+                "step index {index} is out of range: the ROM has {} sampling steps",
+                steps.len()
+            ))
+        })?;
+        unsafe {
+            write_opt(order_out, s.order, "order_out")?;
+            write_opt(n_points_out, s.points_hz.len(), "n_points_out")?;
+            write_opt(indicator_max_out, s.indicator_max, "indicator_max_out")?;
+            write_opt(true_error_out, s.true_error_max, "true_error_out")?;
+            write_opt(sampled_error_out, s.sampled_error_max, "sampled_error_out")?;
+            write_opt(factorizations_out, s.factorizations, "factorizations_out")?;
+            write_opt(seconds_out, s.seconds, "seconds_out")
+        }
     })
 }

@@ -430,9 +430,31 @@ fn tolerance_is_validated_and_reserved() {
         );
         let f = [5.0];
         sparsemor_options_set_reference_frequencies(o, f.as_ptr(), 1);
+        // with a tolerance the sampling loop runs (f = 5 Hz is an extra seed)
         let st = sparsemor_reduce_linefit(h, o, None, null_mut(), &mut rom);
-        expect(st, SparsemorStatus::Unsupported, "not implemented yet");
-        assert!(rom.is_null());
+        assert_eq!(st, SparsemorStatus::Ok, "{}", last_error());
+        let (mut sampled, mut steps) = (0, 0usize);
+        sparsemor_rom_sampling_converged(rom, &mut sampled, null_mut());
+        sparsemor_rom_step_count(rom, &mut steps);
+        assert!(sampled == 1 && steps >= 1);
+        let mut facts = 0usize;
+        let st = sparsemor_rom_step(
+            rom,
+            steps,
+            null_mut(),
+            null_mut(),
+            null_mut(),
+            null_mut(),
+            null_mut(),
+            &mut facts,
+            null_mut(),
+        );
+        expect(st, SparsemorStatus::InvalidArgument, "out of range");
+        sparsemor_rom_free(rom);
+        assert_eq!(
+            sparsemor_options_set_sampling_limits(o, 0, 0),
+            SparsemorStatus::InvalidArgument
+        );
         assert_eq!(sparsemor_options_set_tolerance(o, 0.0), SparsemorStatus::Ok);
         let st = sparsemor_reduce_linefit(h, o, None, null_mut(), &mut rom);
         assert_eq!(st, SparsemorStatus::Ok, "{}", last_error());
