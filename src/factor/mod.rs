@@ -677,19 +677,9 @@ impl Numeric {
                         }
                     }
                 } else {
-                    let mut u = Mat::<f64>::from_fn(n, 2 * k, |r, c| {
-                        if c < k {
-                            rhs[(r, c)].re
-                        } else {
-                            rhs[(r, c - k)].im
-                        }
+                    solve_split(rhs.as_mut(), |u| {
+                        f.solve_in_place_with_conj(Conj::No, u, par, MemStack::new(stack))
                     });
-                    f.solve_in_place_with_conj(Conj::No, u.as_mut(), par, MemStack::new(stack));
-                    for c in 0..k {
-                        for i in 0..n {
-                            rhs[(i, c)] = c64::new(u[(i, c)], u[(i, c + k)]);
-                        }
-                    }
                 }
             }
             (
@@ -702,20 +692,10 @@ impl Numeric {
                 },
             ) => {
                 if an.real {
-                    let mut u = Mat::<f64>::from_fn(n, 2 * k, |r, c| {
-                        if c < k {
-                            rhs[(r, c)].re
-                        } else {
-                            rhs[(r, c - k)].im
-                        }
-                    });
                     let lu = LuRef::new_unchecked(sym, real);
-                    lu.solve_in_place_with_conj(Conj::No, u.as_mut(), par, MemStack::new(stack));
-                    for c in 0..k {
-                        for i in 0..n {
-                            rhs[(i, c)] = c64::new(u[(i, c)], u[(i, c + k)]);
-                        }
-                    }
+                    solve_split(rhs.as_mut(), |u| {
+                        lu.solve_in_place_with_conj(Conj::No, u, par, MemStack::new(stack))
+                    });
                 } else {
                     let lu = LuRef::new_unchecked(sym, complex);
                     lu.solve_in_place_with_conj(Conj::No, rhs.as_mut(), par, MemStack::new(stack));
@@ -746,6 +726,24 @@ impl Numeric {
             }
             #[allow(unreachable_patterns)]
             _ => unreachable!("state built by the same analysis"),
+        }
+    }
+}
+
+/// Solves a complex block with a real factorization: [Re B | Im B] (N × 2k) in one solve.
+fn solve_split(mut rhs: MatMut<'_, c64>, solve: impl FnOnce(MatMut<'_, f64>)) {
+    let (n, k) = (rhs.nrows(), rhs.ncols());
+    let mut u = Mat::<f64>::from_fn(n, 2 * k, |r, c| {
+        if c < k {
+            rhs[(r, c)].re
+        } else {
+            rhs[(r, c - k)].im
+        }
+    });
+    solve(u.as_mut());
+    for c in 0..k {
+        for i in 0..n {
+            rhs[(i, c)] = c64::new(u[(i, c)], u[(i, c + k)]);
         }
     }
 }

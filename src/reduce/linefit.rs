@@ -242,16 +242,8 @@ impl Partition {
                 sol.rank, sol.cond_equilibrated
             ));
         }
-        let mass_definiteness = Definiteness::of(pr.mr.as_ref());
-        let stiffness_definiteness = Definiteness::of(pr.kr.as_ref());
-        for (name, d) in [("Mr", &mass_definiteness), ("Kr", &stiffness_definiteness)] {
-            if !d.positive_definite {
-                warnings.push(format!(
-                    "{name} is not positive definite (eigenvalues in [{:.3e}, {:.3e}])",
-                    d.min_eig, d.max_eig
-                ));
-            }
-        }
+        let (mass_definiteness, stiffness_definiteness) =
+            Definiteness::of_projection(&pr, &mut warnings);
         Ok(Rom {
             method: Method::LineFit,
             mr: pr.mr,

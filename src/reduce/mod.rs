@@ -40,6 +40,21 @@ pub struct Definiteness {
 }
 
 impl Definiteness {
+    /// Checks Mr and Kr of a projection; a warning per matrix that is not positive definite
+    /// is appended to `warnings`.
+    pub fn of_projection(pr: &Projected, warnings: &mut Vec<String>) -> (Self, Self) {
+        let (m, k) = (Self::of(pr.mr.as_ref()), Self::of(pr.kr.as_ref()));
+        for (name, d) in [("Mr", &m), ("Kr", &k)] {
+            if !d.positive_definite {
+                warnings.push(format!(
+                    "{name} is not positive definite (eigenvalues in [{:.3e}, {:.3e}])",
+                    d.min_eig, d.max_eig
+                ));
+            }
+        }
+        (m, k)
+    }
+
     /// Checks a symmetric matrix.
     pub fn of(a: MatRef<'_, f64>) -> Self {
         let positive_definite = a.llt(faer::Side::Lower).is_ok();

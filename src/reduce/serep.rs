@@ -162,16 +162,8 @@ pub fn reduce(
     let basis = opts.keep_basis.then(|| &u_c * &pinv);
     drop(u_c);
     let proj_s = t.elapsed().as_secs_f64();
-    let mass_definiteness = Definiteness::of(pr.mr.as_ref());
-    let stiffness_definiteness = Definiteness::of(pr.kr.as_ref());
-    for (name, d) in [("Mr", &mass_definiteness), ("Kr", &stiffness_definiteness)] {
-        if !d.positive_definite {
-            warnings.push(format!(
-                "{name} is not positive definite (eigenvalues in [{:.3e}, {:.3e}])",
-                d.min_eig, d.max_eig
-            ));
-        }
-    }
+    let (mass_definiteness, stiffness_definiteness) =
+        Definiteness::of_projection(&pr, &mut warnings);
     Ok(Rom {
         method: Method::Serep,
         mr: pr.mr,
