@@ -39,8 +39,11 @@ use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{c64, Conj, Mat, MatMut, Par, Side};
 use std::time::Instant;
 
-/// Largest N for which [`Backend::Auto`] may pick faer LU (measured, see README).
-pub const LU_MAX_N: usize = 3000;
+/// Largest N for which [`Backend::Auto`] picks faer LU. Measured (`sparsemor bench sweep`,
+/// README): on the bar, faer LU and the LBLᵀ form factor equally fast at N = 1656 and LU
+/// sweeps 1.4–1.6× faster at N = 12 060 (its solve is 2× cheaper); at 10⁵ DoF LU's COLAMD fill
+/// explodes on 3-D pencils (DESIGN.md §3.1), so above this size Auto uses LBLᵀ.
+pub const LU_MAX_N: usize = 15_000;
 
 /// Which sparse factorization to use.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
