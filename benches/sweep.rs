@@ -4,22 +4,27 @@
 //! Larger N are in `sparsemor bench sweep` (single runs, peak memory).
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use sparsemor::body::Body;
 use sparsemor::factor::{reference_cholesky, Analysis, Backend};
-use sparsemor::fe::{bar_model, BoxSpec};
+use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
 use sparsemor::model::{Damping, Model};
 use sparsemor::pencil::Pencil;
+use sparsemor::scene::Scene;
 use sparsemor::sweep::{no_progress, transfer_function, Part, SweepOptions};
 
+const SIZES: [[usize; 3]; 2] = [[2, 3, 45], [3, 4, 200]];
+
+fn spec(elements: [usize; 3]) -> BoxSpec {
+    BoxSpec {
+        elements,
+        ..BoxSpec::paper_bar()
+    }
+}
+
 fn models() -> Vec<Model> {
-    [[2, 3, 45], [3, 4, 200]]
+    SIZES
         .iter()
-        .map(|&elements| {
-            bar_model(&BoxSpec {
-                elements,
-                ..BoxSpec::paper_bar()
-            })
-            .expect("bar")
-        })
+        .map(|&e| bar_model(&spec(e)).expect("bar"))
         .collect()
 }
 
@@ -63,7 +68,9 @@ fn bench(c: &mut Criterion) {
 
     let mut g = c.benchmark_group("sweep_4_freqs");
     g.sample_size(10);
-    for m in models() {
+    for (m, e) in models().into_iter().zip(SIZES) {
+        let body = Body::new(&m).unwrap();
+        let scene: Scene = paper_scene(&spec(e));
         for threads in [1, 2] {
             let opts = SweepOptions {
                 threads,
@@ -73,9 +80,8 @@ fn bench(c: &mut Criterion) {
             g.bench_function(BenchmarkId::new(format!("{threads}-threads"), m.n()), |b| {
                 b.iter(|| {
                     transfer_function(
-                        &m,
-                        &m.scene.inputs,
-                        &m.scene.outputs,
+                        &body,
+                        &scene,
                         &[150.0, 350.0, 550.0, 750.0],
                         Part::Elastic,
                         false,

@@ -51,12 +51,13 @@ fn child(case: usize, backend: EigenBackend) -> Result<(), String> {
     let rss_model = rss_bytes();
     reset_peak_rss();
     let t = Instant::now();
+    let body = sparsemor::body::Body::new(&model).map_err(|e| e.to_string())?;
     let modes = eigenpairs(
-        &model,
+        &body,
         req,
         &EigenOptions {
             backend,
-            ..Default::default()
+            ..EigenOptions::for_band(sparsemor::fe::PAPER_BAND_HZ[1])
         },
     )
     .map_err(|e| e.to_string())?;

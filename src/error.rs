@@ -34,6 +34,29 @@ pub enum Error {
     /// A setting (scene, band, frequencies, interface, thread count, ...) is impossible.
     #[error("invalid setting: {0}")]
     InvalidSetting(String),
+    /// A DoF index is outside 0..N (a scene, interface or retained-DoF list).
+    #[error("invalid setting: {what}: DoF {dof} is out of range (the model has DoFs 0..{})", n.saturating_sub(1))]
+    DofOutOfRange {
+        /// The list it came from ("inputs", "interface", ...).
+        what: String,
+        /// The offending index.
+        dof: usize,
+        /// N.
+        n: usize,
+    },
+    /// The least-squares fit of eq. 22 has fewer rows 2pz than unknowns per row n.
+    #[error(
+        "invalid setting: 2pz = {rows} < n = {order}: the least-squares fit of eq. 22 is underdetermined; \
+         use at least {min_frequencies} reference frequencies or a smaller interface"
+    )]
+    Underdetermined {
+        /// 2pz: twice the inputs times the reference frequencies.
+        rows: usize,
+        /// n: the interface size (ROM order).
+        order: usize,
+        /// The smallest number of reference frequencies z with 2pz ≥ n.
+        min_frequencies: usize,
+    },
     /// A factorization is numerically singular or inaccurate at a frequency (DESIGN.md §3.1).
     #[error("A(s) at {freq_hz} Hz is numerically singular: {detail}")]
     Singular {
@@ -54,6 +77,15 @@ pub enum Error {
 pub type Result<T> = std::result::Result<T, Error>;
 
 impl Error {
+    /// True for every impossible-setting error: [`Error::InvalidSetting`] and its structured
+    /// forms [`Error::DofOutOfRange`] and [`Error::Underdetermined`].
+    pub fn is_invalid_setting(&self) -> bool {
+        matches!(
+            self,
+            Error::InvalidSetting(_) | Error::DofOutOfRange { .. } | Error::Underdetermined { .. }
+        )
+    }
+
     /// An I/O error on `path`.
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
         Error::Io {

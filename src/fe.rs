@@ -674,20 +674,24 @@ fn fill_slab(
     debug_assert_eq!(pm, mrow.len());
 }
 
-/// The built-in model as a validated [`crate::model::Model`]: the box of `spec` with the
-/// paper's damping (Rayleigh α = 0, β = 10⁻⁵), inputs = outputs = [`paper_io_dofs`] and band
+/// The paper's scene on the box of `spec`: inputs = outputs = [`paper_io_dofs`], band
 /// [`PAPER_BAND_HZ`].
+pub fn paper_scene(spec: &BoxSpec) -> crate::scene::Scene {
+    let io = paper_io_dofs(spec);
+    crate::scene::Scene {
+        inputs: io.clone(),
+        outputs: io,
+        band_hz: PAPER_BAND_HZ,
+    }
+}
+
+/// The built-in model as a validated [`crate::model::Model`]: the box of `spec` with the
+/// paper's damping (Rayleigh α = 0, β = 10⁻⁵). Its scene is [`paper_scene`].
 ///
 /// # Errors
 /// As [`assemble`].
 pub fn bar_model(spec: &BoxSpec) -> Result<crate::model::Model> {
     let body = assemble(spec)?;
-    let io = paper_io_dofs(spec);
-    let scene = crate::scene::Scene {
-        inputs: io.clone(),
-        outputs: io,
-        band_hz: PAPER_BAND_HZ,
-    };
     let name = format!(
         "bar {}x{}x{}",
         spec.elements[0], spec.elements[1], spec.elements[2]
@@ -703,7 +707,6 @@ pub fn bar_model(spec: &BoxSpec) -> Result<crate::model::Model> {
         damping,
         Some(body.nodes),
         3,
-        scene,
     )?;
     Ok(model)
 }

@@ -11,6 +11,7 @@
 // Sparse kernels walk CSC arrays by index; iterator rewrites hide the structure.
 #![allow(clippy::needless_range_loop)]
 
+pub mod body;
 pub mod eigen;
 pub mod error;
 pub mod factor;
@@ -24,9 +25,9 @@ pub mod pencil;
 pub mod reduce;
 pub mod report;
 pub mod rigid;
-pub mod sampling;
 pub mod scene;
 pub mod sparse;
 pub mod sweep;
+pub mod units;
 
 pub use error::{Error, Result};

@@ -9,23 +9,14 @@
 //!
 //! The full H1 on the grid comes from the same parallel sweep as everything else.
 
+use crate::body::Body;
 use crate::eigen::Modes;
-use crate::model::Model;
 use crate::reduce::Rom;
-use crate::rigid::RigidBody;
+use crate::units::lambda_to_hz;
+use crate::scene::Scene;
 use crate::sweep::{transfer_function, Part, ProgressFn, SweepOptions};
 use crate::{Error, Result};
 use faer::{c64, Mat, MatRef};
-
-/// The band with f_lo = 0 moved to min(1 Hz, f_hi/2): H is infinite at 0 Hz on a free body,
-/// and the elastic part is quasi-static below the first mode anyway.
-pub fn positive_band(band: [f64; 2]) -> [f64; 2] {
-    if band[0] > 0.0 {
-        band
-    } else {
-        [1.0_f64.min(0.5 * band[1]), band[1]]
-    }
-}
 
 /// ε(f) on a frequency grid.
 #[derive(Clone, Debug)]
@@ -70,9 +61,8 @@ impl Reference {
     /// # Errors
     /// The sweep's errors (e.g. f = 0 on a free body).
     pub fn compute(
-        model: &Model,
-        inputs: &[usize],
-        outputs: &[usize],
+        body: &Body<'_>,
+        scene: &Scene,
         freqs_hz: &[f64],
         opts: &SweepOptions,
         progress: ProgressFn<'_>,
@@ -80,22 +70,21 @@ impl Reference {
         if freqs_hz.is_empty() {
             return Err(Error::InvalidSetting("error curve: no frequencies".into()));
         }
+        let (inputs, outputs) = (&scene.inputs[..], &scene.outputs[..]);
         let frf = transfer_function(
-            model,
-            inputs,
-            outputs,
+            body,
+            scene,
             freqs_hz,
             Part::Elastic,
             false,
             opts,
             progress,
         )?;
-        let rigid = RigidBody::detect(model)?;
         let h = frf
             .h
             .iter()
             .zip(freqs_hz)
-            .map(|(h1, &f)| match &rigid {
+            .map(|(h1, &f)| match body.rigid() {
                 Some(rb) => h1 + rb.h0(2.0 * std::f64::consts::PI * f, inputs, outputs),
                 None => h1.clone(),
             })
@@ -133,11 +122,6 @@ impl Reference {
             eps_total,
         })
     }
-}
-
-/// Frequency (Hz) of an eigenvalue λ = ω²: sign(λ)·√|λ| / 2π.
-pub fn lambda_to_hz(l: f64) -> f64 {
-    l.signum() * l.abs().sqrt() / (2.0 * std::f64::consts::PI)
 }
 
 /// Eigenpairs of the ROM, Kr φ̃ = λ Mr φ̃ (ascending λ, Mr-orthonormal φ̃).

@@ -2,10 +2,10 @@
 //! validation.
 //!
 //! M and K are stored in full (both triangles) CSC; B and C are selections of DoFs given by
-//! the [`Scene`]. Entry point: [`Model::new`], which validates everything once so that later
+//! a [`crate::scene::Scene`], which is not part of the model: every computation takes it as an
+//! argument. Entry point: [`Model::new`], which validates everything once so that later
 //! stages can rely on shapes, symmetry and finiteness.
 
-use crate::scene::Scene;
 use crate::sparse::{asymmetry, Csc};
 use crate::{Error, Result};
 
@@ -29,6 +29,27 @@ pub enum Damping {
 }
 
 impl Damping {
+    /// The damping counterpart of a mass term `m` and a stiffness term `k` (the same
+    /// operation applied to M and K, e.g. VᵀMV and VᵀKV, or MV and KV): 0 without damping,
+    /// α m + β k for Rayleigh damping, and `matrix(D)` (the operation applied to D) for an
+    /// explicit matrix. The one place where the damping model is applied.
+    pub fn combine(
+        &self,
+        m: &faer::Mat<f64>,
+        k: &faer::Mat<f64>,
+        matrix: impl FnOnce(&Csc) -> faer::Mat<f64>,
+    ) -> faer::Mat<f64> {
+        match self {
+            Damping::None => faer::Mat::zeros(m.nrows(), m.ncols()),
+            Damping::Rayleigh { alpha, beta } => {
+                faer::Mat::from_fn(m.nrows(), m.ncols(), |i, j| {
+                    alpha * m[(i, j)] + beta * k[(i, j)]
+                })
+            }
+            Damping::Matrix(d) => matrix(d),
+        }
+    }
+
     /// True when D = 0 (no damping matrix, or Rayleigh with α = β = 0).
     pub fn is_zero(&self) -> bool {
         matches!(
@@ -57,8 +78,6 @@ pub struct Model {
     pub nodes: Option<Vec<[f64; 3]>>,
     /// 3 (translations) or 6 (translations + rotations).
     pub dofs_per_node: usize,
-    /// The default scene (inputs, outputs, band).
-    pub scene: Scene,
 }
 
 /// What [`Model::new`] measured while validating: returned to the user (`sparsemor info`).
@@ -77,7 +96,7 @@ impl Model {
     ///
     /// Checks: M, K (and D) square of the same size N ≥ 1, all values finite, symmetric within
     /// [`SYMMETRY_RTOL`], diag(M) > 0, Rayleigh coefficients finite and ≥ 0, nodes consistent
-    /// with N and `dofs_per_node` ∈ {3, 6}, scene DoFs in range and unique.
+    /// with N and `dofs_per_node` ∈ {3, 6}.
     ///
     /// # Errors
     /// [`Error::InvalidModel`] or [`Error::InvalidSetting`] naming the field and the fix.
@@ -88,7 +107,6 @@ impl Model {
         damping: Damping,
         nodes: Option<Vec<[f64; 3]>>,
         dofs_per_node: usize,
-        scene: Scene,
     ) -> Result<(Self, ValidationReport)> {
         let n = mass.nrows();
         let mass_asymmetry = check_matrix(&mass, n, "mass matrix M")?;
@@ -141,7 +159,6 @@ impl Model {
                 )));
             }
         }
-        scene.validate(n, "scene")?;
         let model = Model {
             name,
             mass,
@@ -149,7 +166,6 @@ impl Model {
             damping,
             nodes,
             dofs_per_node,
-            scene,
         };
         Ok((
             model,

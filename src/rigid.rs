@@ -21,7 +21,7 @@
 //!
 //! Entry points: [`RigidBody::from_nodes`], [`RigidBody::detect`].
 
-use crate::model::{Damping, Model};
+use crate::model::Model;
 use crate::sparse::{mul_dense, Csc};
 use crate::{Error, Result};
 use faer::linalg::solvers::{DenseSolveCore, Solve};
@@ -107,11 +107,10 @@ impl RigidBody {
         let stiffness_residual = frob(kv0.as_ref())
             / (sparse_frob(&model.stiffness) * frob(v0.as_ref())).max(f64::MIN_POSITIVE);
         let m0 = sym(v0.transpose() * &mv0);
-        let d0 = match &model.damping {
-            Damping::None => Mat::zeros(6, 6),
-            Damping::Rayleigh { alpha, .. } => Mat::from_fn(6, 6, |i, j| alpha * m0[(i, j)]),
-            Damping::Matrix(d) => sym(v0.transpose() * mul_dense(d.as_ref(), v0.as_ref())),
-        };
+        // K V0 = 0 on a free body, so the stiffness part of Rayleigh damping drops out
+        let d0 = model.damping.combine(&m0, &Mat::zeros(6, 6), |d| {
+            sym(v0.transpose() * mul_dense(d.as_ref(), v0.as_ref()))
+        });
         let llt = m0.llt(faer::Side::Lower).map_err(|_| {
             Error::InvalidModel(
                 "rigid modes: V0ᵀ M V0 is not positive definite (are the node coordinates right?)"

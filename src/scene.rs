@@ -34,7 +34,8 @@ impl Scene {
 /// Checks a DoF list: non-empty, every index < n, no duplicates.
 ///
 /// # Errors
-/// [`crate::Error::InvalidSetting`] naming `what`, the index and the valid range.
+/// [`crate::Error::DofOutOfRange`] naming `what`, the index and the valid range;
+/// [`crate::Error::InvalidSetting`] for an empty list or a repeated DoF.
 pub fn check_dofs(dofs: &[usize], n: usize, what: &str) -> crate::Result<()> {
     if dofs.is_empty() {
         return Err(crate::Error::InvalidSetting(format!(
@@ -44,10 +45,11 @@ pub fn check_dofs(dofs: &[usize], n: usize, what: &str) -> crate::Result<()> {
     let mut seen = vec![false; n];
     for &d in dofs {
         if d >= n {
-            return Err(crate::Error::InvalidSetting(format!(
-                "{what}: DoF {d} is out of range (the model has DoFs 0..{})",
-                n.saturating_sub(1)
-            )));
+            return Err(crate::Error::DofOutOfRange {
+                what: what.to_string(),
+                dof: d,
+                n,
+            });
         }
         if std::mem::replace(&mut seen[d], true) {
             return Err(crate::Error::InvalidSetting(format!(
@@ -56,4 +58,14 @@ pub fn check_dofs(dofs: &[usize], n: usize, what: &str) -> crate::Result<()> {
         }
     }
     Ok(())
+}
+
+/// The band with f_lo = 0 moved to min(1 Hz, f_hi/2): H is infinite at 0 Hz on a free body,
+/// and the elastic part is quasi-static below the first mode anyway.
+pub fn positive_band(band: [f64; 2]) -> [f64; 2] {
+    if band[0] > 0.0 {
+        band
+    } else {
+        [1.0_f64.min(0.5 * band[1]), band[1]]
+    }
 }

@@ -19,10 +19,10 @@
 //! part is checked: the rigid part of a solve at low frequency is ill-conditioned by nature
 //! and removed by Pᵀ (or is dominated by the analytic H0).
 
+use crate::body::Body;
 use crate::factor::{Analysis, Backend, Numeric, SymbolicStats};
-use crate::model::Model;
-use crate::pencil::Pencil;
 use crate::rigid::RigidBody;
+use crate::scene::Scene;
 use crate::{Error, Result};
 use faer::{c64, Mat, MatRef, Par};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -40,6 +40,31 @@ pub struct SweepOptions {
     pub memory_budget: Option<usize>,
     /// Largest accepted relative probe error of a solve (see module doc).
     pub probe_tol: f64,
+}
+
+impl SweepOptions {
+    /// The thread count these options run with: [`Self::threads`], or all cores for 0.
+    pub fn resolved_threads(&self) -> usize {
+        resolve_threads(self.threads)
+    }
+}
+
+/// The one thread-count policy: `requested` when > 0; for 0, the size of the rayon pool the
+/// caller runs in, or — outside any pool — what rayon's global pool would use
+/// (`RAYON_NUM_THREADS` when set to a positive number, else the available cores), found
+/// without starting that pool (a C caller's process must not keep its threads).
+pub fn resolve_threads(requested: usize) -> usize {
+    if requested > 0 {
+        return requested;
+    }
+    if rayon::current_thread_index().is_some() {
+        return rayon::current_num_threads().max(1);
+    }
+    std::env::var("RAYON_NUM_THREADS")
+        .ok()
+        .and_then(|v| v.parse::<usize>().ok())
+        .filter(|&t| t > 0)
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
 }
 
 impl Default for SweepOptions {
@@ -122,11 +147,9 @@ pub struct Snapshot<'a> {
 }
 
 /// Frequency-independent preparation of a sweep; see the module doc.
-pub struct Solver<'m> {
-    model: &'m Model,
-    pencil: Pencil,
+pub struct Solver<'a> {
+    body: &'a Body<'a>,
     analysis: Analysis,
-    rigid: Option<RigidBody>,
     response: Response,
     inputs: Vec<usize>,
     load: Mat<c64>,
@@ -136,18 +159,18 @@ pub struct Solver<'m> {
     probe_tol: f64,
 }
 
-impl<'m> Solver<'m> {
-    /// Prepares a solver for unit loads at `inputs`.
+impl<'a> Solver<'a> {
+    /// Prepares a solver of `body` for unit loads at `inputs`.
     ///
     /// # Errors
     /// Bad settings ([`Error::InvalidSetting`]) and analysis failures ([`Error::Factor`]).
     pub fn new(
-        model: &'m Model,
+        body: &'a Body<'a>,
         inputs: &[usize],
         response: Response,
         opts: &SweepOptions,
     ) -> Result<Self> {
-        let n = model.n();
+        let n = body.n();
         crate::scene::check_dofs(inputs, n, "inputs")?;
         if !(opts.probe_tol > 0.0) {
             return Err(Error::InvalidSetting(format!(
@@ -155,18 +178,12 @@ impl<'m> Solver<'m> {
                 opts.probe_tol
             )));
         }
-        let threads = if opts.threads == 0 {
-            rayon::current_num_threads()
-        } else {
-            opts.threads
+        let threads = opts.resolved_threads();
+        let analysis = Analysis::new(body.pencil(), opts.backend, inputs.len() + 1)?;
+        let load = match response {
+            Response::Elastic => body.elastic_load(inputs),
+            Response::Total => body.unit_load(inputs),
         };
-        let rigid = RigidBody::detect(model)?;
-        let pencil = Pencil::new(model);
-        let analysis = Analysis::new(&pencil, opts.backend, inputs.len() + 1)?;
-        let mut load = Mat::<c64>::zeros(n, inputs.len());
-        for (j, &d) in inputs.iter().enumerate() {
-            load[(d, j)] = c64::new(1.0, 0.0);
-        }
         // fixed pseudo-random probe (xorshift), elastic on a free body
         let mut s = 0x9e3779b97f4a7c15u64;
         let mut probe = Mat::<c64>::from_fn(n, 1, |_, _| {
@@ -175,20 +192,15 @@ impl<'m> Solver<'m> {
             s ^= s << 17;
             c64::new((s >> 11) as f64 / (1u64 << 53) as f64 - 0.5, 0.0)
         });
-        if let Some(rb) = &rigid {
+        if let Some(rb) = body.rigid() {
             rb.project_response(probe.as_mut());
-            if response == Response::Elastic {
-                rb.project_load(load.as_mut());
-            }
         }
         let memory_budget = opts
             .memory_budget
             .unwrap_or_else(|| crate::memory::available_bytes().unwrap_or(8 << 30) / 2);
         Ok(Solver {
-            model,
-            pencil,
+            body,
             analysis,
-            rigid,
             response,
             inputs: inputs.to_vec(),
             load,
@@ -206,7 +218,7 @@ impl<'m> Solver<'m> {
 
     /// The rigid body, if the model is free.
     pub fn rigid(&self) -> Option<&RigidBody> {
-        self.rigid.as_ref()
+        self.body.rigid()
     }
 
     /// The input DoFs.
@@ -214,9 +226,9 @@ impl<'m> Solver<'m> {
         &self.inputs
     }
 
-    /// The model.
-    pub fn model(&self) -> &Model {
-        self.model
+    /// The prepared body.
+    pub fn body(&self) -> &'a Body<'a> {
+        self.body
     }
 
     /// The schedule [`Self::run`] uses for `n_freqs` frequencies.
@@ -257,7 +269,7 @@ impl<'m> Solver<'m> {
                     "frequency {f} Hz: must be finite and >= 0"
                 )));
             }
-            if f == 0.0 && self.rigid.is_some() {
+            if f == 0.0 && self.body.rigid().is_some() {
                 return Err(Error::InvalidSetting(
                     "frequency 0 Hz on a free body: A(0) = K is singular (rigid modes) and H(0) is infinite; \
                      use frequencies > 0 (e.g. a band starting at 1 Hz)"
@@ -297,12 +309,12 @@ impl<'m> Solver<'m> {
                 .get_or_insert(e);
         };
         let worker = || {
-            let mut numeric = match self.analysis.numeric(&self.pencil) {
+            let mut numeric = match self.analysis.numeric(self.body.pencil()) {
                 Ok(x) => x,
                 Err(e) => return fail(e),
             };
             let mut state = init();
-            let mut rhs = Mat::<c64>::zeros(self.model.n(), self.inputs.len() + 1);
+            let mut rhs = Mat::<c64>::zeros(self.body.n(), self.inputs.len() + 1);
             while !stop.load(Ordering::Relaxed) {
                 let k = next.fetch_add(1, Ordering::Relaxed);
                 let Some(&f) = freqs_hz.get(k) else { break };
@@ -368,16 +380,17 @@ impl<'m> Solver<'m> {
         let omega = 2.0 * std::f64::consts::PI * f;
         let p = self.inputs.len();
         let t0 = Instant::now();
-        numeric.factor(&self.analysis, &self.pencil, omega, par)?;
+        numeric.factor(&self.analysis, self.body.pencil(), omega, par)?;
         let factor_s = t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
         rhs.as_mut().subcols_mut(0, p).copy_from(&self.load);
-        self.pencil
+        self.body
+            .pencil()
             .apply(omega, self.probe.as_ref(), rhs.as_mut().subcols_mut(p, 1));
         numeric.solve(&self.analysis, rhs.as_mut(), par);
         let solve_s = t1.elapsed().as_secs_f64();
         let mut err = Mat::<c64>::from_fn(rhs.nrows(), 1, |i, _| rhs[(i, p)] - self.probe[(i, 0)]);
-        if let Some(rb) = &self.rigid {
+        if let Some(rb) = self.body.rigid() {
             rb.project_response(err.as_mut());
             if self.response == Response::Elastic {
                 rb.project_response(rhs.as_mut().subcols_mut(0, p));
@@ -450,15 +463,14 @@ pub struct Frf {
     pub seconds: f64,
 }
 
-/// H(iω) (or H1, H0) = C X at `freqs_hz` for the scene's inputs and outputs.
+/// H(iω) (or H1, H0) = C X at `freqs_hz` for the scene's inputs and outputs (its band is not
+/// used: the frequencies are given).
 ///
 /// # Errors
 /// As [`Solver::new`] and [`Solver::run`]; `Part::Rigid` on a model without rigid part.
-#[allow(clippy::too_many_arguments)] // the scene (inputs, outputs, frequencies, part) plus how to run it
 pub fn transfer_function(
-    model: &Model,
-    inputs: &[usize],
-    outputs: &[usize],
+    body: &Body<'_>,
+    scene: &Scene,
     freqs_hz: &[f64],
     part: Part,
     keep_snapshots: bool,
@@ -466,10 +478,11 @@ pub fn transfer_function(
     progress: ProgressFn<'_>,
 ) -> Result<Frf> {
     let start = Instant::now();
-    crate::scene::check_dofs(outputs, model.n(), "outputs")?;
+    let (inputs, outputs) = (&scene.inputs[..], &scene.outputs[..]);
+    crate::scene::check_dofs(outputs, body.n(), "outputs")?;
     if part == Part::Rigid {
-        crate::scene::check_dofs(inputs, model.n(), "inputs")?;
-        let rb = RigidBody::detect(model)?.ok_or_else(|| {
+        crate::scene::check_dofs(inputs, body.n(), "inputs")?;
+        let rb = body.rigid().ok_or_else(|| {
             Error::InvalidSetting(
                 "part rigid: the model has no rigid part (no nodes, or K V0 != 0: a constrained body)".into(),
             )
@@ -493,7 +506,7 @@ pub fn transfer_function(
     } else {
         Response::Total
     };
-    let solver = Solver::new(model, inputs, response, opts)?;
+    let solver = Solver::new(body, inputs, response, opts)?;
     type Acc = Vec<(usize, Mat<c64>, Option<Mat<c64>>)>;
     let (states, freq_stats) = solver.run(
         freqs_hz,

@@ -180,17 +180,17 @@ fn generate_info_sweep_matches_the_library_bit_exactly() {
     }
 
     // The same numbers from the library, bit for bit.
-    let (model, _) = model_dir::read(bar()).expect("read the generated bar");
-    assert_eq!(model.scene.inputs, PAPER_IO);
-    assert_eq!(model.scene.outputs, PAPER_IO);
+    let (model, scene, _) = model_dir::read(bar()).expect("read the generated bar");
+    assert_eq!(scene.inputs, PAPER_IO);
+    assert_eq!(scene.outputs, PAPER_IO);
     let opts = SweepOptions {
         threads: 2,
         ..Default::default()
     };
+    let body = sparsemor::body::Body::new(&model).expect("prepare the bar");
     let frf = transfer_function(
-        &model,
-        &PAPER_IO,
-        &PAPER_IO,
+        &body,
+        &scene,
         &freqs,
         Part::Elastic,
         false,

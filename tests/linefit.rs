@@ -6,28 +6,42 @@ mod common;
 use common::*;
 use faer::linalg::solvers::SolveLstsq;
 use faer::{c64, Mat};
+use sparsemor::body::Body;
 use sparsemor::eigen::{eigenpairs, EigenOptions, Request};
-use sparsemor::fe::{bar_model, BoxSpec};
+use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
 use sparsemor::io::rom_dir;
 use sparsemor::metrics::Reference;
 use sparsemor::model::{Damping, Model};
 use sparsemor::reduce::linefit::{
-    place_reference_frequencies, reduce, spread_dofs, Interface, LineFitOptions,
+    place_reference_frequencies, reduce, spread_dofs, Interface, LineFitOptions, References,
 };
+use sparsemor::reduce::Rom;
+use sparsemor::scene::Scene;
 use sparsemor::sweep::{no_progress, SweepOptions};
 use sparsemor::Error;
 
 fn opts(interface: Interface, freqs: &[f64], threads: usize) -> LineFitOptions {
-    LineFitOptions {
-        interface,
-        ref_freqs_hz: freqs.to_vec(),
-        keep_basis: true,
-        sweep: SweepOptions {
-            threads,
-            ..Default::default()
-        },
-        lsq: Default::default(),
-    }
+    let mut o = LineFitOptions::new(interface, References::Explicit(freqs.to_vec()));
+    o.keep_basis = true;
+    o.sweep.threads = threads;
+    o
+}
+
+/// Line-fitting of `model` for `scene` on a freshly prepared body.
+fn lf(model: &Model, scene: &Scene, o: &LineFitOptions) -> sparsemor::Result<Rom> {
+    reduce(&Body::new(model)?, scene, o, None, &no_progress)
+}
+
+/// The paper bar and its scene.
+fn paper_bar() -> (Model, Scene) {
+    let spec = BoxSpec::paper_bar();
+    (bar_model(&spec).unwrap(), paper_scene(&spec))
+}
+
+/// A reference transfer function on a frequency grid.
+fn reference(model: &Model, scene: &Scene, freqs: &[f64]) -> Reference {
+    let body = Body::new(model).unwrap();
+    Reference::compute(&body, scene, freqs, &SweepOptions::default(), &no_progress).unwrap()
 }
 
 /// Dense X_k = Pᵀ A(iω)⁻¹ P B (P = I on a constrained body).
@@ -73,14 +87,12 @@ fn dense_w(
     (rest, wt.transpose().to_owned())
 }
 
-fn check_against_dense(model: &Model, interface: Vec<usize>, freqs: &[f64]) {
-    let (i, o) = (model.scene.inputs.clone(), model.scene.outputs.clone());
-    let rom = reduce(
+fn check_against_dense(model: &Model, scene: &Scene, interface: Vec<usize>, freqs: &[f64]) {
+    let i = scene.inputs.clone();
+    let rom = lf(
         model,
-        &i,
-        &o,
+        scene,
         &opts(Interface::Explicit(interface.clone()), freqs, 2),
-        &no_progress,
     )
     .unwrap();
     let v = rom.basis.as_ref().unwrap();
@@ -90,7 +102,7 @@ fn check_against_dense(model: &Model, interface: Vec<usize>, freqs: &[f64]) {
     println!(
         "N = {}: ‖W − W_dense‖/‖W_dense‖ = {e:.2e}, cond(T_o) = {:.2e}",
         model.n(),
-        rom.fit.as_ref().unwrap().cond_raw
+        rom.fit().unwrap().cond_raw
     );
     assert!(e <= 1e-8, "W differs from the dense reference: {e:.2e}");
     for (c, &d) in interface.iter().enumerate() {
@@ -109,51 +121,35 @@ fn constrained_model_matches_dense_reference() {
             beta: 2e-5,
         },
     );
-    let mut interface = model.scene.outputs.clone();
+    let scene = random_scene(400);
+    let mut interface = scene.outputs.clone();
     interface.extend([50, 120, 260, 333]);
-    check_against_dense(&model, interface, &[20.0, 60.0, 110.0, 170.0]);
+    check_against_dense(&model, &scene, interface, &[20.0, 60.0, 110.0, 170.0]);
 }
 
 #[test]
 fn free_bar_matches_dense_reference() {
-    let model = bar_model(&BoxSpec {
+    let spec = BoxSpec {
         elements: [1, 2, 24],
         size_m: [0.006, 0.008, 0.3],
         ..BoxSpec::paper_bar()
-    })
-    .unwrap();
+    };
+    let (model, scene) = (bar_model(&spec).unwrap(), paper_scene(&spec));
     assert!(model.n() <= 1000);
-    let mut interface = model.scene.outputs.clone();
+    let mut interface = scene.outputs.clone();
     interface.extend(spread_dofs(&model, 4, &interface).unwrap());
-    check_against_dense(&model, interface, &[50.0, 180.0, 400.0, 700.0, 950.0]);
+    check_against_dense(&model, &scene, interface, &[50.0, 180.0, 400.0, 700.0, 950.0]);
 }
 
 #[test]
 fn exact_fit_interpolates_at_reference_frequencies() {
     // 2pz = n: p = 9 inputs, z = 1 frequency → n = 18 = 9 outputs + 9 spread DoFs
-    let model = bar_model(&BoxSpec::paper_bar()).unwrap();
-    let (i, o) = (model.scene.inputs.clone(), model.scene.outputs.clone());
+    let (model, scene) = paper_bar();
     for freqs in [[333.0], [777.0]] {
-        let rom = reduce(
-            &model,
-            &i,
-            &o,
-            &opts(Interface::OutputsPlus(9), &freqs, 1),
-            &no_progress,
-        )
-        .unwrap();
-        let fit = rom.fit.as_ref().unwrap();
+        let rom = lf(&model, &scene, &opts(Interface::OutputsPlus(9), &freqs, 1)).unwrap();
+        let fit = rom.fit().unwrap();
         assert_eq!((fit.rows, rom.order(), fit.rank), (18, 18, 18));
-        let reference = Reference::compute(
-            &model,
-            &i,
-            &o,
-            &freqs,
-            &SweepOptions::default(),
-            &no_progress,
-        )
-        .unwrap();
-        let e = reference.error(&rom).unwrap().eps_elastic[0];
+        let e = reference(&model, &scene, &freqs).error(&rom).unwrap().eps_elastic[0];
         println!("exact fit at {} Hz: eps = {e:.2e}", freqs[0]);
         assert!(
             e <= 1e-8,
@@ -165,32 +161,19 @@ fn exact_fit_interpolates_at_reference_frequencies() {
 
 #[test]
 fn paper_bar_with_demo_settings_is_within_three_percent() {
-    let model = bar_model(&BoxSpec::paper_bar()).unwrap();
-    let (i, o) = (model.scene.inputs.clone(), model.scene.outputs.clone());
-    let full = eigenpairs(&model, Request::UpTo(1000.0), &EigenOptions::default()).unwrap();
+    let (model, scene) = paper_bar();
+    let full = eigenpairs(
+        &Body::new(&model).unwrap(),
+        Request::UpTo(1000.0),
+        &EigenOptions::default(),
+    )
+    .unwrap();
     let res = full.freqs_hz()[full.rigid..].to_vec();
     let freqs = place_reference_frequencies(&res, [0.0, 1000.0], 20).unwrap();
-    let rom = reduce(
-        &model,
-        &i,
-        &o,
-        &opts(Interface::OutputsPlus(5), &freqs, 2),
-        &no_progress,
-    )
-    .unwrap();
+    let rom = lf(&model, &scene, &opts(Interface::OutputsPlus(5), &freqs, 2)).unwrap();
     assert_eq!(rom.order(), 14);
     let grid: Vec<f64> = (0..2000).map(|k| 1.0 + 999.0 * k as f64 / 1999.0).collect();
-    let curve = Reference::compute(
-        &model,
-        &i,
-        &o,
-        &grid,
-        &SweepOptions::default(),
-        &no_progress,
-    )
-    .unwrap()
-    .error(&rom)
-    .unwrap();
+    let curve = reference(&model, &scene, &grid).error(&rom).unwrap();
     let max = curve.eps_elastic.iter().copied().fold(0.0, f64::max);
     println!(
         "max elastic eps over [1, 1000] Hz (2000 points): {:.3} %",
@@ -204,25 +187,10 @@ fn paper_bar_with_demo_settings_is_within_three_percent() {
 
 #[test]
 fn thread_count_changes_only_rounding() {
-    let model = bar_model(&BoxSpec::paper_bar()).unwrap();
-    let (i, o) = (model.scene.inputs.clone(), model.scene.outputs.clone());
+    let (model, scene) = paper_bar();
     let freqs: Vec<f64> = (1..=8).map(|k| 120.0 * k as f64 + 3.0).collect();
-    let a = reduce(
-        &model,
-        &i,
-        &o,
-        &opts(Interface::OutputsPlus(5), &freqs, 1),
-        &no_progress,
-    )
-    .unwrap();
-    let b = reduce(
-        &model,
-        &i,
-        &o,
-        &opts(Interface::OutputsPlus(5), &freqs, 2),
-        &no_progress,
-    )
-    .unwrap();
+    let a = lf(&model, &scene, &opts(Interface::OutputsPlus(5), &freqs, 1)).unwrap();
+    let b = lf(&model, &scene, &opts(Interface::OutputsPlus(5), &freqs, 2)).unwrap();
     let (va, vb) = (a.basis.unwrap(), b.basis.unwrap());
     let e = (&va - &vb).norm_l2() / va.norm_l2();
     assert!(e <= 1e-10, "1 vs 2 threads: {e:.2e}");
@@ -230,34 +198,29 @@ fn thread_count_changes_only_rounding() {
 
 #[test]
 fn rom_directory_round_trips_exactly() {
-    let model = bar_model(&BoxSpec::paper_bar()).unwrap();
-    let (i, o) = (model.scene.inputs.clone(), model.scene.outputs.clone());
+    let (model, scene) = paper_bar();
     let freqs: Vec<f64> = (1..=4).map(|k| 200.0 * k as f64).collect();
-    let rom = reduce(
-        &model,
-        &i,
-        &o,
-        &opts(Interface::OutputsPlus(3), &freqs, 2),
-        &no_progress,
-    )
-    .unwrap();
+    let rom = lf(&model, &scene, &opts(Interface::OutputsPlus(3), &freqs, 2)).unwrap();
     let dir = std::env::temp_dir().join(format!("sparsemor-romdir-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     rom_dir::write(&dir, &rom).unwrap();
     let back = rom_dir::read(&dir).unwrap();
     assert_eq!(
-        (back.mr, back.dr, back.kr, back.br, back.cr),
-        (rom.mr, rom.dr, rom.kr, rom.br, rom.cr)
+        (&back.mr, &back.dr, &back.kr, &back.br, &back.cr),
+        (&rom.mr, &rom.dr, &rom.kr, &rom.br, &rom.cr)
     );
     assert_eq!(back.basis, rom.basis);
-    assert_eq!((back.dofs, back.ref_freqs_hz), (rom.dofs, rom.ref_freqs_hz));
+    assert_eq!(
+        (&back.dofs, back.ref_freqs_hz()),
+        (&rom.dofs, rom.ref_freqs_hz())
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-fn expect_setting_error(model: &Model, o: LineFitOptions, needle: &str) {
-    let (i, out) = (model.scene.inputs.clone(), model.scene.outputs.clone());
-    match reduce(model, &i, &out, &o, &no_progress) {
-        Err(Error::InvalidSetting(m)) => {
+fn expect_setting_error(model: &Model, scene: &Scene, o: LineFitOptions, needle: &str) {
+    match lf(model, scene, &o) {
+        Err(e) if e.is_invalid_setting() => {
+            let m = e.to_string();
             assert!(m.contains(needle), "message '{m}' lacks '{needle}'")
         }
         other => panic!(
@@ -269,41 +232,46 @@ fn expect_setting_error(model: &Model, o: LineFitOptions, needle: &str) {
 
 #[test]
 fn bad_settings_are_clear_errors() {
-    let model = bar_model(&BoxSpec::paper_bar()).unwrap();
+    let (model, scene) = paper_bar();
     let f20: Vec<f64> = (1..=20).map(|k| 50.0 * k as f64).collect();
     // outputs not in the interface
     expect_setting_error(
         &model,
+        &scene,
         opts(Interface::Explicit(vec![0, 1, 2, 5, 6]), &f20, 2),
         "not in the interface",
     );
     // duplicate interface DoF
-    let mut dup = model.scene.outputs.clone();
+    let mut dup = scene.outputs.clone();
     dup.push(0);
     expect_setting_error(
         &model,
+        &scene,
         opts(Interface::Explicit(dup), &f20, 2),
         "appears twice",
     );
     // 2pz < n: 9 inputs, 1 frequency, n = 19
-    expect_setting_error(&model, opts(Interface::OutputsPlus(10), &[300.0], 2), "2pz");
+    expect_setting_error(&model, &scene, opts(Interface::OutputsPlus(10), &[300.0], 2), "2pz");
     // frequency 0 on a free body
     expect_setting_error(
         &model,
+        &scene,
         opts(Interface::OutputsPlus(5), &[0.0, 100.0, 200.0], 2),
         "free body",
     );
     // no frequency at all
     expect_setting_error(
         &model,
+        &scene,
         opts(Interface::OutputsPlus(5), &[], 2),
         "at least one reference frequency",
     );
     // interface DoF out of range
-    let mut far = model.scene.outputs.clone();
+    let mut far = scene.outputs.clone();
     far.push(model.n());
     expect_setting_error(
         &model,
+        &scene,
         opts(Interface::Explicit(far), &f20, 2),
         "out of range",
     );

@@ -3,9 +3,10 @@
 
 mod common;
 
-use common::{dense_h, random_model, rel_err, sparse};
+use common::{dense_h, random_model, random_scene, rel_err, sparse};
 use faer::Mat;
-use sparsemor::fe::{bar_model, BoxSpec};
+use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
+use sparsemor::scene::Scene;
 use sparsemor::io::model_dir;
 use sparsemor::model::{Damping, Model};
 use sparsemor::sparse::Csc;
@@ -162,14 +163,14 @@ fn assert_same_model(a: &Model, b: &Model) {
     };
     assert_eq!(bits(&a.nodes), bits(&b.nodes), "nodes (bitwise)");
     assert_eq!(a.dofs_per_node, b.dofs_per_node);
-    assert_eq!(a.scene, b.scene);
 }
 
-fn round_trip(name: &str, model: &Model) {
+fn round_trip(name: &str, model: &Model, scene: &Scene) {
     let dir = scratch(name).join("model");
-    model_dir::write(&dir, model).expect("write");
-    let (back, _) = model_dir::read(&dir).expect("read back");
+    model_dir::write(&dir, model, scene).expect("write");
+    let (back, back_scene, _) = model_dir::read(&dir).expect("read back");
     assert_same_model(model, &back);
+    assert_eq!(scene, &back_scene);
 }
 
 /// Names in `parent` that start with `.{name}.tmp-` (leftovers of [`model_dir::write_atomically`]).
@@ -189,7 +190,7 @@ fn tmp_siblings(parent: &Path, name: &str) -> Vec<String> {
 fn round_trip_paper_bar_is_bit_exact() {
     let model = bar_model(&BoxSpec::paper_bar()).expect("bar");
     assert!(model.nodes.is_some() && matches!(model.damping, Damping::Rayleigh { .. }));
-    round_trip("rt_bar", &model);
+    round_trip("rt_bar", &model, &paper_scene(&BoxSpec::paper_bar()));
 }
 
 #[test]
@@ -207,19 +208,19 @@ fn round_trip_explicit_damping_matrix_without_nodes_is_bit_exact() {
     }
     let model = random_model(n, 3, 7, Damping::Matrix(sparse(&d)));
     assert!(model.nodes.is_none());
-    round_trip("rt_dmatrix", &model);
+    round_trip("rt_dmatrix", &model, &random_scene(n));
 }
 
 #[test]
 fn round_trip_undamped_without_nodes_is_bit_exact() {
     let model = random_model(24, 2, 11, Damping::None);
-    round_trip("rt_none", &model);
+    round_trip("rt_none", &model, &random_scene(24));
 }
 
 #[test]
 fn tiny_fixture_is_valid() {
     let dir = tiny("tiny_ok", "nodes.csv", NODES);
-    let (m, _) = model_dir::read(&dir).expect("the base fixture must be valid");
+    let (m, _, _) = model_dir::read(&dir).expect("the base fixture must be valid");
     assert_eq!(m.n(), 6);
     assert_eq!(m.nodes.as_ref().map(Vec::len), Some(2));
 }
@@ -259,22 +260,22 @@ outputs = [0, 1, 2, 90, 91, 92, 78, 79, 80]
 band_hz = [0.0, 12207.14]
 ",
     );
-    let (model, report) = model_dir::read(&dir).expect("read the ANSYS model");
+    let (model, scene, report) = model_dir::read(&dir).expect("read the ANSYS model");
     assert_eq!(model.n(), 900);
     assert_eq!(model.nodes.as_ref().map(Vec::len), Some(300));
     assert!(matches!(model.damping, Damping::None));
     assert!(report.mass_diagonal[0] > 0.0);
     // Away from the eigenfrequencies 1283.2 (×2), 5782.0, 6919.4 (×2), 10172.6.
     let freqs = [0.0, 100.0, 3000.0, 8000.0, 12000.0];
-    let (inputs, outputs) = (&model.scene.inputs, &model.scene.outputs);
+    let (inputs, outputs) = (&scene.inputs, &scene.outputs);
     let opts = SweepOptions {
         threads: 2,
         ..Default::default()
     };
+    let body = sparsemor::body::Body::new(&model).expect("prepare");
     let frf = transfer_function(
-        &model,
-        inputs,
-        outputs,
+        &body,
+        &scene,
         &freqs,
         Part::Total,
         false,
@@ -425,7 +426,6 @@ fn nan_in_stiffness_matrix_is_rejected_by_validation() {
         Damping::None,
         None,
         3,
-        base.scene.clone(),
     )
     .expect_err("NaN must be rejected");
     assert!(matches!(e, Error::InvalidModel(_)), "{e:?}");
@@ -482,7 +482,7 @@ fn input_dof_out_of_range_is_rejected() {
         &edit(TOML, "inputs = [0, 1]", "inputs = [0, 6]"),
     );
     let e = read_err(&dir);
-    assert!(matches!(e, Error::InvalidSetting(_)), "{e:?}");
+    assert!(e.is_invalid_setting(), "{e:?}");
     says(
         &e,
         &["model.toml", "inputs", "DoF 6", "out of range", "0..5"],
@@ -586,7 +586,8 @@ fn write_into_a_non_empty_directory_fails_and_leaves_it_untouched() {
     std::fs::create_dir(&dir).expect("mkdir");
     put(&dir, "keep.txt", "precious");
     let model = random_model(9, 2, 5, Damping::None);
-    let e = model_dir::write(&dir, &model).expect_err("must refuse a non-empty directory");
+    let e = model_dir::write(&dir, &model, &random_scene(9))
+        .expect_err("must refuse a non-empty directory");
     assert!(matches!(e, Error::InvalidSetting(_)), "{e:?}");
     says(&e, &["out", "not empty"]);
     let names: Vec<_> = std::fs::read_dir(&dir)
@@ -605,8 +606,8 @@ fn write_into_a_non_empty_directory_fails_and_leaves_it_untouched() {
 fn write_into_an_existing_empty_directory_works() {
     let dir = scratch("write_empty_existing");
     let model = random_model(9, 2, 5, Damping::None);
-    model_dir::write(&dir, &model).expect("an empty directory may be reused");
-    let (back, _) = model_dir::read(&dir).expect("read back");
+    model_dir::write(&dir, &model, &random_scene(9)).expect("an empty directory may be reused");
+    let (back, _, _) = model_dir::read(&dir).expect("read back");
     assert_same_model(&model, &back);
 }
 
@@ -619,7 +620,7 @@ fn failed_write_leaves_no_directory_behind() {
     k[(8, 8)] = f64::NAN;
     model.stiffness = sparse(&k);
     let dir = parent.join("out");
-    let e = model_dir::write(&dir, &model).expect_err("writing a NaN must fail");
+    let e = model_dir::write(&dir, &model, &random_scene(9)).expect_err("writing a NaN must fail");
     assert!(matches!(e, Error::InvalidModel(_)), "{e:?}");
     says(&e, &["K.mtx", "NaN"]);
     assert!(!dir.exists(), "a partial {} was left behind", dir.display());

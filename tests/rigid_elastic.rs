@@ -5,35 +5,40 @@
 mod common;
 use common::*;
 use faer::{c64, Mat};
-use sparsemor::fe::{bar_model, BoxSpec};
+use sparsemor::body::Body;
+use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
 use sparsemor::model::{Damping, Model};
-use sparsemor::sweep::{no_progress, transfer_function, Part, SweepOptions};
+use sparsemor::scene::Scene;
+use sparsemor::sweep::{no_progress, transfer_function, Frf, Part, SweepOptions};
 use sparsemor::Error;
 
-fn h(model: &Model, freqs: &[f64], part: Part, threads: usize) -> Vec<Mat<c64>> {
+fn tf(model: &Model, scene: &Scene, freqs: &[f64], part: Part, opts: &SweepOptions) -> sparsemor::Result<Frf> {
+    let body = Body::new(model)?;
+    transfer_function(&body, scene, freqs, part, false, opts, &no_progress)
+}
+
+fn h(model: &Model, scene: &Scene, freqs: &[f64], part: Part, threads: usize) -> Vec<Mat<c64>> {
     let opts = SweepOptions {
         threads,
         ..Default::default()
     };
-    let (i, o) = (&model.scene.inputs, &model.scene.outputs);
-    transfer_function(model, i, o, freqs, part, false, &opts, &no_progress)
-        .unwrap()
-        .h
+    tf(model, scene, freqs, part, &opts).unwrap().h
 }
 
-fn bar() -> Model {
-    bar_model(&BoxSpec::paper_bar()).unwrap()
+fn bar() -> (Model, Scene) {
+    let spec = BoxSpec::paper_bar();
+    (bar_model(&spec).unwrap(), paper_scene(&spec))
 }
 
 #[test]
 fn elastic_equals_total_minus_rigid_mid_band_and_survives_low_frequency() {
-    let model = bar();
+    let (model, scene) = bar();
     let v0 = sparsemor::rigid::rigid_modes(model.nodes.as_ref().unwrap(), 3);
-    let (i, o) = (&model.scene.inputs, &model.scene.outputs);
+    let (i, o) = (&scene.inputs, &scene.outputs);
     let freqs = [1e-3, 250.0, 640.0, 930.0];
-    let h1 = h(&model, &freqs, Part::Elastic, 2);
-    let ht = h(&model, &freqs, Part::Total, 2);
-    let h0 = h(&model, &freqs, Part::Rigid, 2);
+    let h1 = h(&model, &scene, &freqs, Part::Elastic, 2);
+    let ht = h(&model, &scene, &freqs, Part::Total, 2);
+    let h0 = h(&model, &scene, &freqs, Part::Rigid, 2);
     for (k, &f) in freqs.iter().enumerate() {
         let reference = dense_h1_deflated(&model, &v0, f, i, o);
         let e_proj = rel_err(&h1[k], &reference);
@@ -56,7 +61,7 @@ fn elastic_equals_total_minus_rigid_mid_band_and_survives_low_frequency() {
 
 #[test]
 fn invariant_to_unit_scaling() {
-    let si = bar();
+    let (si, scene) = bar();
     // mm / t / N: lengths ×1e3, mass ×1e-3, stiffness (N/mm) ×1e-3; H (mm/N) = 1e3 · H_SI
     let mut mm = si.clone();
     mm.mass = scaled(&si.mass, 1e-3);
@@ -76,7 +81,10 @@ fn invariant_to_unit_scaling() {
         } else {
             &freqs
         };
-        let (a, b) = (h(&si, freqs, part, 2), h(&mm, freqs, part, 2));
+        let (a, b) = (
+            h(&si, &scene, freqs, part, 2),
+            h(&mm, &scene, freqs, part, 2),
+        );
         for k in 0..freqs.len() {
             let b_si = Mat::from_fn(b[k].nrows(), b[k].ncols(), |r, c| b[k][(r, c)] * 1e-3);
             let e = rel_err(&b_si, &a[k]);
@@ -95,7 +103,7 @@ fn scaled(a: &sparsemor::sparse::Csc, s: f64) -> sparsemor::sparse::Csc {
 
 #[test]
 fn invariant_to_node_permutation() {
-    let model = bar();
+    let (model, scene) = bar();
     let nn = model.nodes.as_ref().unwrap().len();
     // a fixed scrambled node order: new node q is old node perm[q]
     let perm: Vec<usize> = (0..nn).map(|q| (q * 7919 + 13) % nn).collect();
@@ -117,8 +125,9 @@ fn invariant_to_node_permutation() {
         .nodes
         .as_ref()
         .map(|n| perm.iter().map(|&q| n[q]).collect());
-    p.scene.inputs = model.scene.inputs.iter().map(|&d| dof(d)).collect();
-    p.scene.outputs = model.scene.outputs.iter().map(|&d| dof(d)).collect();
+    let mut p_scene = scene.clone();
+    p_scene.inputs = scene.inputs.iter().map(|&d| dof(d)).collect();
+    p_scene.outputs = scene.outputs.iter().map(|&d| dof(d)).collect();
     let freqs = [5.0, 333.0, 777.0];
     for part in [Part::Elastic, Part::Total] {
         // the total by direct solve only where it is well conditioned (see the scaling test)
@@ -127,7 +136,10 @@ fn invariant_to_node_permutation() {
         } else {
             &freqs
         };
-        let (a, b) = (h(&model, freqs, part, 2), h(&p, freqs, part, 2));
+        let (a, b) = (
+            h(&model, &scene, freqs, part, 2),
+            h(&p, &p_scene, freqs, part, 2),
+        );
         for k in 0..freqs.len() {
             let e = rel_err(&b[k], &a[k]);
             assert!(e <= 1e-9, "{part:?} at {} Hz: {e:.2e}", freqs[k]);
@@ -137,11 +149,11 @@ fn invariant_to_node_permutation() {
 
 #[test]
 fn two_threads_give_the_same_numbers_as_one() {
-    let model = bar();
+    let (model, scene) = bar();
     let freqs: Vec<f64> = (1..=12).map(|k| 80.0 * k as f64 + 0.5).collect();
     let (a, b) = (
-        h(&model, &freqs, Part::Elastic, 1),
-        h(&model, &freqs, Part::Elastic, 2),
+        h(&model, &scene, &freqs, Part::Elastic, 1),
+        h(&model, &scene, &freqs, Part::Elastic, 2),
     );
     for k in 0..freqs.len() {
         assert_eq!(a[k], b[k], "bit-identical at {} Hz", freqs[k]);
@@ -150,7 +162,7 @@ fn two_threads_give_the_same_numbers_as_one() {
 
 #[test]
 fn undamped_at_an_eigenfrequency_is_reported_singular() {
-    let mut model = bar();
+    let (mut model, scene) = bar();
     model.damping = Damping::None;
     let lam = dense_eigenvalues(&model);
     let f = lam[6].sqrt() / (2.0 * std::f64::consts::PI);
@@ -158,17 +170,7 @@ fn undamped_at_an_eigenfrequency_is_reported_singular() {
         threads: 1,
         ..Default::default()
     };
-    let (i, o) = (&model.scene.inputs, &model.scene.outputs);
-    let r = transfer_function(
-        &model,
-        i,
-        o,
-        &[f],
-        Part::Elastic,
-        false,
-        &opts,
-        &no_progress,
-    );
+    let r = tf(&model, &scene, &[f], Part::Elastic, &opts);
     match r {
         Err(Error::Singular { freq_hz, detail }) => {
             assert_eq!(freq_hz, f);
@@ -177,32 +179,19 @@ fn undamped_at_an_eigenfrequency_is_reported_singular() {
         other => panic!("expected Error::Singular, got {:?}", other.map(|x| x.h)),
     }
     // a little off resonance it is fine
-    let r = transfer_function(
-        &model,
-        i,
-        o,
-        &[f * 1.01],
-        Part::Elastic,
-        false,
-        &opts,
-        &no_progress,
-    );
+    let r = tf(&model, &scene, &[f * 1.01], Part::Elastic, &opts);
     assert!(r.is_ok());
 }
 
 #[test]
 fn zero_frequency_on_a_free_body_is_an_error() {
-    let model = bar();
-    let (i, o) = (&model.scene.inputs, &model.scene.outputs);
-    let r = transfer_function(
+    let (model, scene) = bar();
+    let r = tf(
         &model,
-        i,
-        o,
+        &scene,
         &[0.0, 10.0],
         Part::Elastic,
-        false,
         &SweepOptions::default(),
-        &no_progress,
     );
     assert!(matches!(r, Err(Error::InvalidSetting(m)) if m.contains("free body")));
 }

@@ -4,33 +4,51 @@
 
 mod common;
 use common::*;
+use sparsemor::body::Body;
 use sparsemor::eigen::{eigenpairs, EigenOptions, Request};
-use sparsemor::fe::{bar_model, BoxSpec};
+use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
 use sparsemor::metrics::Reference;
 use sparsemor::model::Model;
-use sparsemor::reduce::linefit::{self, place_reference_frequencies, Interface, LineFitOptions};
-use sparsemor::sampling::{reduce, Growth, Indicator, Outcome, SamplingOptions};
-use sparsemor::sweep::{no_progress, Progress, SweepOptions};
+use sparsemor::reduce::linefit::{
+    self, place_reference_frequencies, Growth, Indicator, Interface, LineFitOptions, Outcome,
+    References, SamplingOptions, SamplingReport,
+};
+use sparsemor::reduce::Rom;
+use sparsemor::scene::Scene;
+use sparsemor::sweep::{no_progress, Progress, ProgressFn, SweepOptions};
 use sparsemor::Error;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::OnceLock;
 
-fn bar() -> &'static (Model, Reference) {
-    static BAR: OnceLock<(Model, Reference)> = OnceLock::new();
+fn bar() -> &'static (Model, Scene, Reference) {
+    static BAR: OnceLock<(Model, Scene, Reference)> = OnceLock::new();
     BAR.get_or_init(|| {
-        let m = bar_model(&BoxSpec::paper_bar()).unwrap();
+        let spec = BoxSpec::paper_bar();
+        let (m, scene) = (bar_model(&spec).unwrap(), paper_scene(&spec));
         let grid: Vec<f64> = (0..2000).map(|k| 1.0 + 999.0 * k as f64 / 1999.0).collect();
-        let r = Reference::compute(
-            &m,
-            &m.scene.inputs,
-            &m.scene.outputs,
-            &grid,
-            &SweepOptions::default(),
-            &no_progress,
-        )
-        .unwrap();
-        (m, r)
+        let body = Body::new(&m).unwrap();
+        let r = Reference::compute(&body, &scene, &grid, &SweepOptions::default(), &no_progress)
+            .unwrap();
+        (m, scene, r)
     })
+}
+
+/// Line-fitting with the tolerance-driven sampling loop, interface = outputs + `extra`.
+fn sampled(
+    m: &Model,
+    scene: &Scene,
+    s: SamplingOptions,
+    extra: usize,
+    threads: usize,
+    progress: ProgressFn<'_>,
+) -> sparsemor::Result<Rom> {
+    let mut o = LineFitOptions::new(Interface::OutputsPlus(extra), References::Tolerance(s));
+    o.sweep.threads = threads;
+    linefit::reduce(&Body::new(m)?, scene, &o, None, progress)
+}
+
+fn report(rom: &Rom) -> &SamplingReport {
+    rom.sampling().expect("a sampling report")
 }
 
 fn verified_max(reference: &Reference, rom: &sparsemor::reduce::Rom) -> f64 {
@@ -45,58 +63,51 @@ fn verified_max(reference: &Reference, rom: &sparsemor::reduce::Rom) -> f64 {
 
 #[test]
 fn tolerances_are_met_on_a_fine_grid() {
-    let (m, reference) = bar();
+    let (m, scene, reference) = bar();
     for (tol, growth) in [
         (1e-2, Growth::Residual),
         (1e-3, Growth::Residual),
         (1e-3, Growth::QDeim),
     ] {
-        let mut o = SamplingOptions::new(tol, Interface::OutputsPlus(5));
+        let mut o = SamplingOptions::new(tol);
         o.max_order = 40;
         o.growth = growth;
-        let r = reduce(m, &m.scene.inputs, &m.scene.outputs, &o, &no_progress).unwrap();
-        let v = verified_max(reference, &r.rom);
+        let rom = sampled(m, scene, o, 5, 0, &no_progress).unwrap();
+        let r = report(&rom);
+        let v = verified_max(reference, &rom);
         println!(
             "tol {tol:.0e} ({growth:?}): {:?}, order {}, {} factorizations, verified max eps over 2000 points {v:.3e}",
             r.outcome,
-            r.rom.order(),
+            rom.order(),
             r.steps.last().unwrap().factorizations
         );
-        assert_eq!(r.outcome, Outcome::Converged, "{}", r.message);
+        assert_eq!(
+            r.outcome,
+            Outcome::Converged,
+            "{}",
+            r.summary(rom.order(), rom.ref_freqs_hz().len())
+        );
         assert!(v <= tol, "verified {v:.3e} > tol {tol:.0e}");
     }
 }
 
 #[test]
 fn automatic_beats_the_hand_placed_demo_points() {
-    let (m, reference) = bar();
-    let (i, o) = (&m.scene.inputs, &m.scene.outputs);
-    let full = eigenpairs(m, Request::UpTo(1000.0), &EigenOptions::default()).unwrap();
+    let (m, scene, reference) = bar();
+    let body = Body::new(m).unwrap();
+    let full = eigenpairs(&body, Request::UpTo(1000.0), &EigenOptions::default()).unwrap();
     let freqs =
         place_reference_frequencies(&full.freqs_hz()[full.rigid..], [0.0, 1000.0], 20).unwrap();
-    let demo_opts = LineFitOptions {
-        interface: Interface::OutputsPlus(5),
-        ref_freqs_hz: freqs,
-        keep_basis: false,
-        sweep: SweepOptions::default(),
-        lsq: Default::default(),
-    };
+    let demo_opts = LineFitOptions::new(Interface::OutputsPlus(5), References::Explicit(freqs));
     let demo = verified_max(
         reference,
-        &linefit::reduce(m, i, o, &demo_opts, &no_progress).unwrap(),
+        &linefit::reduce(&body, scene, &demo_opts, None, &no_progress).unwrap(),
     );
     // same order 14 as the demo, no growth
-    let r = reduce(
-        m,
-        i,
-        o,
-        &SamplingOptions::new(1e-2, Interface::OutputsPlus(5)),
-        &no_progress,
-    )
-    .unwrap();
+    let rom = sampled(m, scene, SamplingOptions::new(1e-2), 5, 0, &no_progress).unwrap();
     let (auto, facts) = (
-        verified_max(reference, &r.rom),
-        r.steps.last().unwrap().factorizations,
+        verified_max(reference, &rom),
+        report(&rom).steps.last().unwrap().factorizations,
     );
     println!("demo: 20 factorizations, max eps {demo:.3e}; automatic: {facts} factorizations, max eps {auto:.3e}");
     assert!(
@@ -107,8 +118,8 @@ fn automatic_beats_the_hand_placed_demo_points() {
 
 #[test]
 fn indicator_argmax_lies_where_the_true_error_is_large() {
-    let (m, reference) = bar();
-    let (i, o) = (&m.scene.inputs, &m.scene.outputs);
+    let (m, scene, reference) = bar();
+    let body = Body::new(m).unwrap();
     let grid = &reference.freqs_hz;
     // ROMs from a few reference sets (as the loop builds them); the first step (2 seeds only)
     // is excluded: there the indicator is still blind (observed factor 15.6)
@@ -120,15 +131,10 @@ fn indicator_argmax_lies_where_the_true_error_is_large() {
             1.0, 142.0, 143.0, 175.0, 389.0, 396.0, 483.0, 773.0, 964.0, 1000.0,
         ],
     ] {
-        let lo = LineFitOptions {
-            interface: Interface::OutputsPlus(5),
-            ref_freqs_hz: freqs,
-            keep_basis: true,
-            sweep: SweepOptions::default(),
-            lsq: Default::default(),
-        };
-        let rom = linefit::reduce(m, i, o, &lo, &no_progress).unwrap();
-        let ind = Indicator::new(m, &rom, true).unwrap();
+        let mut lo = LineFitOptions::new(Interface::OutputsPlus(5), References::Explicit(freqs));
+        lo.keep_basis = true;
+        let rom = linefit::reduce(&body, scene, &lo, None, &no_progress).unwrap();
+        let ind = Indicator::new(&body, &rom).unwrap();
         let delta: Vec<f64> = grid.iter().map(|&f| ind.eval(&rom, f)).collect();
         let eps = reference.error(&rom).unwrap().eps_elastic;
         let am = (0..delta.len())
@@ -151,17 +157,18 @@ fn indicator_argmax_lies_where_the_true_error_is_large() {
 
 #[test]
 fn adding_frequencies_never_refactors() {
-    let (m, _) = bar();
+    let (m, scene, _) = bar();
     let calls = AtomicUsize::new(0);
     let cb = |_: Progress| {
         calls.fetch_add(1, Ordering::Relaxed);
         true
     };
-    let mut o = SamplingOptions::new(1e-3, Interface::OutputsPlus(5));
+    let mut o = SamplingOptions::new(1e-3);
     o.max_order = 24;
-    let r = reduce(m, &m.scene.inputs, &m.scene.outputs, &o, &cb).unwrap();
+    let rom = sampled(m, scene, o, 5, 0, &cb).unwrap();
+    let r = report(&rom);
     let solved: usize = r.steps.iter().map(|s| s.points_hz.len()).sum();
-    let mut f = r.rom.ref_freqs_hz.clone();
+    let mut f = rom.ref_freqs_hz().to_vec();
     let n = f.len();
     f.sort_by(f64::total_cmp);
     f.dedup();
@@ -174,56 +181,47 @@ fn adding_frequencies_never_refactors() {
 
 #[test]
 fn spilled_snapshots_give_the_same_rom() {
-    let (m, _) = bar();
-    let mut o = SamplingOptions::new(1e-3, Interface::OutputsPlus(5));
+    let (m, scene, _) = bar();
+    let mut o = SamplingOptions::new(1e-3);
     o.max_order = 18;
     // one worker: the same absorption order in both runs, so the results are bit-identical
-    o.sweep.threads = 1;
-    let a = reduce(m, &m.scene.inputs, &m.scene.outputs, &o, &no_progress).unwrap();
+    let a = sampled(m, scene, o.clone(), 5, 1, &no_progress).unwrap();
     o.snapshot_memory = Some(0);
-    let b = reduce(m, &m.scene.inputs, &m.scene.outputs, &o, &no_progress).unwrap();
-    assert!(!a.spilled && b.spilled);
-    assert_eq!(
-        (a.rom.order(), &a.rom.kr, &a.rom.mr),
-        (b.rom.order(), &b.rom.kr, &b.rom.mr)
-    );
+    let b = sampled(m, scene, o, 5, 1, &no_progress).unwrap();
+    assert!(!report(&a).spilled && report(&b).spilled);
+    assert_eq!((a.order(), &a.kr, &a.mr), (b.order(), &b.kr, &b.mr));
 }
 
 #[test]
 fn impossible_requests_say_what_was_reached_and_what_would_help() {
-    let (m, _) = bar();
-    let (i, o) = (&m.scene.inputs, &m.scene.outputs);
+    let (m, scene, _) = bar();
     for tol in [0.0, -1.0, f64::NAN] {
-        let r = reduce(
-            m,
-            i,
-            o,
-            &SamplingOptions::new(tol, Interface::OutputsPlus(5)),
-            &no_progress,
-        );
+        let r = sampled(m, scene, SamplingOptions::new(tol), 5, 0, &no_progress);
         assert!(
             matches!(r, Err(Error::InvalidSetting(ref s)) if s.contains("tol")),
             "tol {tol}"
         );
     }
     // order 14 cannot reach 1e-6
-    let r = reduce(
-        m,
-        i,
-        o,
-        &SamplingOptions::new(1e-6, Interface::OutputsPlus(5)),
-        &no_progress,
-    )
-    .unwrap();
-    println!("{}", r.message);
+    let rom = sampled(m, scene, SamplingOptions::new(1e-6), 5, 0, &no_progress).unwrap();
+    let (r, message) = (
+        report(&rom),
+        report(&rom).summary(rom.order(), rom.ref_freqs_hz().len()),
+    );
+    println!("{message}");
     assert_eq!(r.outcome, Outcome::Stagnated);
-    assert!(r.message.contains("NOT reached") && r.message.contains("larger interface"));
-    // a tiny budget
-    let mut small = SamplingOptions::new(1e-6, Interface::OutputsPlus(5));
+    assert!(message.contains("NOT reached") && message.contains("larger interface"));
+    // a tiny budget: the library names the option (the CLI words it as --max-points, tested
+    // in tests/cli.rs)
+    let mut small = SamplingOptions::new(1e-6);
     small.max_points = 5;
-    let r = reduce(m, i, o, &small, &no_progress).unwrap();
-    println!("{}", r.message);
+    let rom = sampled(m, scene, small, 5, 0, &no_progress).unwrap();
+    let (r, message) = (
+        report(&rom),
+        report(&rom).summary(rom.order(), rom.ref_freqs_hz().len()),
+    );
+    println!("{message}");
     assert_eq!(r.outcome, Outcome::Budget);
-    assert!(r.message.contains("max-points"));
+    assert!(message.contains("max_points"));
     let _ = random_freqs; // shared fixtures
 }

@@ -2,23 +2,25 @@
 
 mod common;
 use common::*;
+use sparsemor::body::Body;
 use sparsemor::factor::Backend;
 use sparsemor::model::Damping;
 use sparsemor::sweep::{no_progress, transfer_function, Part, SweepOptions};
 
 fn check(damping: Damping, backend: Backend, threads: usize) {
     let model = random_model(400, 7, 11, damping);
-    let (inp, out) = (model.scene.inputs.clone(), model.scene.outputs.clone());
+    let scene = random_scene(400);
+    let (inp, out) = (scene.inputs.clone(), scene.outputs.clone());
     let freqs = random_freqs(6, 1.0, 400.0, 5);
     let opts = SweepOptions {
         backend,
         threads,
         ..Default::default()
     };
+    let body = Body::new(&model).unwrap();
     let frf = transfer_function(
-        &model,
-        &inp,
-        &out,
+        &body,
+        &scene,
         &freqs,
         Part::Total,
         false,

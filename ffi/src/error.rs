@@ -80,7 +80,9 @@ impl From<sparsemor::Error> for Failure {
         use sparsemor::Error as E;
         let status = match &e {
             E::InvalidModel(_) => SparsemorStatus::InvalidModel,
-            E::InvalidSetting(_) => SparsemorStatus::InvalidArgument,
+            E::InvalidSetting(_) | E::DofOutOfRange { .. } | E::Underdetermined { .. } => {
+                SparsemorStatus::InvalidArgument
+            }
             E::Singular { .. } => SparsemorStatus::Singular,
             E::Factor(_) => SparsemorStatus::Numerical,
             E::Cancelled => SparsemorStatus::Cancelled,

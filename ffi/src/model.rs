@@ -45,18 +45,18 @@ pub struct SparsemorCsc {
 /// `sparsemor_model_set_scene` must not run concurrently with anything else on the handle.
 pub struct SparsemorModel {
     pub(crate) model: Model,
-    pub(crate) scene_set: bool,
+    pub(crate) scene: Option<Scene>,
 }
 
 impl SparsemorModel {
-    /// The model after checking that a scene was set.
-    pub(crate) fn with_scene(&self) -> Result<&Model, Failure> {
-        if !self.scene_set {
-            return Err(Failure::arg(
+    /// The model and its scene, after checking that a scene was set.
+    pub(crate) fn with_scene(&self) -> Result<(&Model, &Scene), Failure> {
+        let scene = self.scene.as_ref().ok_or_else(|| {
+            Failure::arg(
                 "the model has no scene: call sparsemor_model_set_scene (inputs, outputs, band) first",
-            ));
-        }
-        Ok(&self.model)
+            )
+        })?;
+        Ok((&self.model, scene))
     }
 }
 
@@ -286,16 +286,8 @@ pub unsafe extern "C" fn sparsemor_model_new(
             let nodes: Vec<[f64; 3]> = xyz.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
             (Some(nodes), dofs_per_node)
         };
-        let placeholder = Scene {
-            inputs: vec![0],
-            outputs: vec![0],
-            band_hz: [0.0, 1.0],
-        };
-        let (model, _) = Model::new("ffi".into(), m, k, damping, nodes, dpn, placeholder)?;
-        let h = Box::new(SparsemorModel {
-            model,
-            scene_set: false,
-        });
+        let (model, _) = Model::new("ffi".into(), m, k, damping, nodes, dpn)?;
+        let h = Box::new(SparsemorModel { model, scene: None });
         unsafe { write_out(model_out, Box::into_raw(h), "model_out")? };
         Ok(())
     })
@@ -383,8 +375,7 @@ pub unsafe extern "C" fn sparsemor_model_set_scene(
             band_hz: [band_lo_hz, band_hi_hz],
         };
         scene.validate(m.model.n(), "scene")?;
-        m.model.scene = scene;
-        m.scene_set = true;
+        m.scene = Some(scene);
         Ok(())
     })
 }

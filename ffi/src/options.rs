@@ -3,7 +3,7 @@
 
 use crate::error::{ffi_body, Failure, SparsemorStatus};
 use crate::util::{obj_mut, slice_in, write_out};
-use sparsemor::reduce::linefit::Interface;
+use sparsemor::reduce::linefit::{Interface, LineFitOptions, References, SamplingOptions};
 use sparsemor::reduce::serep::ModeChoice;
 
 /// How the reference frequencies of line-fitting are given.
@@ -43,6 +43,36 @@ impl Default for SparsemorOptions {
             serep_retain: None,
             keep_basis: false,
         }
+    }
+}
+
+impl SparsemorOptions {
+    /// The library's line-fitting options: the tolerance (with explicit frequencies as
+    /// extra seeds) when one is set, else the explicit frequencies or the count.
+    pub(crate) fn linefit(&self, threads: usize) -> Result<LineFitOptions, Failure> {
+        let references = match (self.tolerance, &self.ref_freqs) {
+            (Some(tol), seeds) => {
+                let mut s = SamplingOptions::new(tol);
+                if let RefFreqs::Explicit(f) = seeds {
+                    s.seeds_hz = f.clone();
+                }
+                s.max_points = self.max_points;
+                s.max_order = self.max_order;
+                References::Tolerance(s)
+            }
+            (None, RefFreqs::Explicit(f)) => References::Explicit(f.clone()),
+            (None, RefFreqs::Count(z)) => References::Count(*z),
+            (None, RefFreqs::Unset) => {
+                return Err(Failure::arg(
+                    "line-fitting needs reference frequencies: call sparsemor_options_set_reference_frequencies \
+                     or sparsemor_options_set_reference_count",
+                ))
+            }
+        };
+        let mut o = LineFitOptions::new(self.interface.clone(), references);
+        o.keep_basis = self.keep_basis;
+        o.sweep.threads = threads;
+        Ok(o)
     }
 }
 

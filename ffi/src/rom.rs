@@ -2,16 +2,17 @@
 
 use crate::error::{ffi_body, Failure, SparsemorStatus};
 use crate::model::SparsemorModel;
-use crate::options::{RefFreqs, SparsemorOptions};
+use crate::options::SparsemorOptions;
 use crate::util::{check_ptr, copy_string, copy_to_buffer, obj, slice_in, write_opt, write_out};
 use faer::MatRef;
-use sparsemor::eigen::{eigenpairs, EigenOptions, Request};
+use sparsemor::body::Body;
+use sparsemor::eigen::EigenOptions;
 use sparsemor::metrics::Reference;
-use sparsemor::reduce::linefit::{self, place_reference_frequencies, LineFitOptions};
+use sparsemor::reduce::linefit::{self, Outcome};
 use sparsemor::reduce::serep::{self, ModeChoice, SerepOptions};
 use sparsemor::reduce::{Method, Rom};
-use sparsemor::sampling::{self, Outcome, SamplingOptions, Step};
-use sparsemor::sweep::{no_progress, Progress, SweepOptions};
+use sparsemor::scene::Scene;
+use sparsemor::sweep::{no_progress, resolve_threads, Progress, SweepOptions};
 use std::ffi::{c_char, c_void};
 use std::sync::Mutex;
 
@@ -52,10 +53,6 @@ pub type SparsemorProgressFn = Option<
 /// released by `sparsemor_rom_free`. Independent of the model handle it came from.
 pub struct SparsemorRom {
     pub(crate) rom: Rom,
-    /// N of the model it was built from.
-    pub(crate) n_full: usize,
-    /// The sampling loop's steps and whether it converged (tolerance-driven line-fitting).
-    pub(crate) sampling: Option<(Vec<Step>, bool)>,
 }
 
 /// The caller's callback, serialized by a mutex.
@@ -84,19 +81,6 @@ impl Callback {
         // SAFETY: the caller supplied a valid function pointer and its user data.
         unsafe { (self.f)(done, total, freq_hz, self.user_data) == 0 }
     }
-}
-
-/// The thread count for a call: 0 becomes `RAYON_NUM_THREADS` (when set to a positive
-/// number) or the number of available cores.
-pub(crate) fn resolve_threads(threads: usize) -> usize {
-    if threads > 0 {
-        return threads;
-    }
-    std::env::var("RAYON_NUM_THREADS")
-        .ok()
-        .and_then(|v| v.parse::<usize>().ok())
-        .filter(|&t| t > 0)
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
 }
 
 /// Runs `f` inside a rayon pool of `threads` threads that lives only for this call: the
@@ -129,17 +113,8 @@ pub(crate) fn in_pool<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> 
 }
 
 /// Stores a new ROM handle in `*rom_out`, reclaiming it if the write fails.
-unsafe fn emit(
-    rom: Rom,
-    n_full: usize,
-    sampling: Option<(Vec<Step>, bool)>,
-    rom_out: *mut *mut SparsemorRom,
-) -> Result<(), Failure> {
-    let h = Box::into_raw(Box::new(SparsemorRom {
-        rom,
-        n_full,
-        sampling,
-    }));
+unsafe fn emit(rom: Rom, rom_out: *mut *mut SparsemorRom) -> Result<(), Failure> {
+    let h = Box::into_raw(Box::new(SparsemorRom { rom }));
     // SAFETY: forwarded contract; rom_out was checked writable at entry.
     if let Err(e) = unsafe { write_out(rom_out, h, "rom_out") } {
         drop(unsafe { Box::from_raw(h) });
@@ -173,63 +148,20 @@ pub unsafe extern "C" fn sparsemor_reduce_linefit(
 ) -> SparsemorStatus {
     ffi_body!({
         unsafe { write_out(rom_out, std::ptr::null_mut(), "rom_out")? };
-        let m = unsafe { obj(model, "model")? }.with_scene()?;
+        let (m, scene) = unsafe { obj(model, "model")? }.with_scene()?;
         let o = unsafe { obj(options, "options")? };
-        let scene = &m.scene;
         let threads = resolve_threads(o.threads);
         let cb = Callback::new(progress, user_data);
         let report = |p: Progress| {
             cb.as_ref()
                 .is_none_or(|c| c.call(p.done, p.total, p.freq_hz))
         };
-        if let Some(tol) = o.tolerance {
-            let mut so = SamplingOptions::new(tol, o.interface.clone());
-            if let RefFreqs::Explicit(f) = &o.ref_freqs {
-                so.seeds_hz = f.clone();
-            }
-            so.max_points = o.max_points;
-            so.max_order = o.max_order;
-            so.keep_basis = o.keep_basis;
-            so.sweep = SweepOptions {
-                threads,
-                ..Default::default()
-            };
-            let r = in_pool(threads, || {
-                sampling::reduce(m, &scene.inputs, &scene.outputs, &so, &report)
-            })??;
-            let converged = r.outcome == Outcome::Converged;
-            return unsafe { emit(r.rom, m.n(), Some((r.steps, converged)), rom_out) };
-        }
-        let freqs = match &o.ref_freqs {
-            RefFreqs::Unset => {
-                return Err(Failure::arg(
-                    "line-fitting needs reference frequencies: call sparsemor_options_set_reference_frequencies \
-                     or sparsemor_options_set_reference_count",
-                ))
-            }
-            RefFreqs::Explicit(f) => f.clone(),
-            RefFreqs::Count(z) => {
-                let full = in_pool(threads, || {
-                    eigenpairs(m, Request::UpTo(scene.band_hz[1]), &EigenOptions::default())
-                })??;
-                let res = &full.freqs_hz()[full.rigid..];
-                place_reference_frequencies(res, scene.band_hz, *z)?
-            }
-        };
-        let opts = LineFitOptions {
-            interface: o.interface.clone(),
-            ref_freqs_hz: freqs,
-            keep_basis: o.keep_basis,
-            sweep: SweepOptions {
-                threads,
-                ..Default::default()
-            },
-            lsq: Default::default(),
-        };
+        let opts = o.linefit(threads)?;
         let rom = in_pool(threads, || {
-            linefit::reduce(m, &scene.inputs, &scene.outputs, &opts, &report)
+            let body = Body::new(m)?;
+            linefit::reduce(&body, scene, &opts, None, &report)
         })??;
-        unsafe { emit(rom, m.n(), None, rom_out) }
+        unsafe { emit(rom, rom_out) }
     })
 }
 
@@ -257,9 +189,8 @@ pub unsafe extern "C" fn sparsemor_reduce_serep(
 ) -> SparsemorStatus {
     ffi_body!({
         unsafe { write_out(rom_out, std::ptr::null_mut(), "rom_out")? };
-        let m = unsafe { obj(model, "model")? }.with_scene()?;
+        let (m, scene) = unsafe { obj(model, "model")? }.with_scene()?;
         let o = unsafe { obj(options, "options")? };
-        let scene = &m.scene;
         let retain = o
             .serep_retain
             .clone()
@@ -272,7 +203,7 @@ pub unsafe extern "C" fn sparsemor_reduce_serep(
             modes,
             retain: Some(retain),
             keep_basis: o.keep_basis,
-            eigen: EigenOptions::default(),
+            eigen: EigenOptions::for_band(scene.band_hz[1]),
         };
         let cb = Callback::new(progress, user_data);
         let cancelled = || {
@@ -285,12 +216,13 @@ pub unsafe extern "C" fn sparsemor_reduce_serep(
             return Err(cancelled());
         }
         let rom = in_pool(resolve_threads(o.threads), || {
-            serep::reduce(m, &scene.inputs, &scene.outputs, &opts)
+            let body = Body::new(m)?;
+            serep::reduce(&body, scene, &opts, None)
         })??;
         if cb.as_ref().is_some_and(|c| !c.call(1, 1, 0.0)) {
             return Err(cancelled());
         }
-        unsafe { emit(rom, m.n(), None, rom_out) }
+        unsafe { emit(rom, rom_out) }
     })
 }
 
@@ -320,7 +252,7 @@ pub unsafe extern "C" fn sparsemor_rom_method(
 ) -> SparsemorStatus {
     ffi_body!({
         let r = unsafe { obj(rom, "rom")? };
-        let m = match r.rom.method {
+        let m = match r.rom.method() {
             Method::LineFit => SPARSEMOR_METHOD_LINEFIT,
             Method::Serep => SPARSEMOR_METHOD_SEREP,
         };
@@ -498,7 +430,7 @@ pub unsafe extern "C" fn sparsemor_rom_reference_frequencies(
         let r = unsafe { obj(rom, "rom")? };
         unsafe {
             copy_to_buffer(
-                &r.rom.ref_freqs_hz,
+                r.rom.ref_freqs_hz(),
                 buf,
                 buf_len,
                 required_len,
@@ -541,7 +473,7 @@ pub unsafe extern "C" fn sparsemor_rom_fit_report(
 ) -> SparsemorStatus {
     ffi_body!({
         let r = unsafe { obj(rom, "rom")? };
-        let f = r.rom.fit.as_ref().ok_or_else(|| {
+        let f = r.rom.fit().ok_or_else(|| {
             Failure::new(
                 SparsemorStatus::NotAvailable,
                 "fit diagnostics exist only for line-fitting ROMs",
@@ -573,7 +505,7 @@ pub unsafe extern "C" fn sparsemor_rom_serep_cond(
 ) -> SparsemorStatus {
     ffi_body!({
         let r = unsafe { obj(rom, "rom")? };
-        let c = r.rom.serep_cond.ok_or_else(|| {
+        let c = r.rom.serep_cond().ok_or_else(|| {
             Failure::new(
                 SparsemorStatus::NotAvailable,
                 "cond(U_cr) exists only for SEREP ROMs",
@@ -734,13 +666,7 @@ pub unsafe extern "C" fn sparsemor_rom_transfer_error(
     ffi_body!({
         let m = &unsafe { obj(model, "model")? }.model;
         let r = unsafe { obj(rom, "rom")? };
-        if m.n() != r.n_full {
-            return Err(Failure::arg(format!(
-                "the ROM was built from a model with N = {} but this model has N = {}",
-                r.n_full,
-                m.n()
-            )));
-        }
+        r.rom.check_model(m)?;
         if n_freqs == 0 {
             return Err(Failure::arg("transfer error: n_freqs = 0"));
         }
@@ -755,10 +681,16 @@ pub unsafe extern "C" fn sparsemor_rom_transfer_error(
         check_ptr(eps_total_out.cast_const(), n_freqs, "eps_total_out")?;
         let threads = resolve_threads(0);
         let curve = in_pool(threads, || {
+            let body = Body::new(m)?;
+            // the ROM's inputs and outputs over the span of the evaluated frequencies
+            let scene = Scene {
+                inputs: r.rom.inputs.clone(),
+                outputs: r.rom.outputs.clone(),
+                band_hz: [0.0, f.iter().copied().fold(0.0, f64::max)],
+            };
             Reference::compute(
-                m,
-                &r.rom.inputs,
-                &r.rom.outputs,
+                &body,
+                &scene,
                 f,
                 &SweepOptions {
                     threads,
@@ -792,14 +724,18 @@ pub unsafe extern "C" fn sparsemor_rom_sampling_converged(
         unsafe {
             write_out(
                 is_sampled_out,
-                i32::from(r.sampling.is_some()),
+                i32::from(r.rom.sampling().is_some()),
                 "is_sampled_out",
             )?
         };
         unsafe {
             write_opt(
                 converged_out,
-                i32::from(r.sampling.as_ref().is_some_and(|s| s.1)),
+                i32::from(
+                    r.rom
+                        .sampling()
+                        .is_some_and(|s| s.outcome == Outcome::Converged),
+                ),
                 "converged_out",
             )
         }
@@ -820,7 +756,7 @@ pub unsafe extern "C" fn sparsemor_rom_step_count(
         unsafe {
             write_out(
                 count_out,
-                r.sampling.as_ref().map_or(0, |s| s.0.len()),
+                r.rom.sampling().map_or(0, |s| s.steps.len()),
                 "count_out",
             )
         }
@@ -847,7 +783,7 @@ pub unsafe extern "C" fn sparsemor_rom_step(
 ) -> SparsemorStatus {
     ffi_body!({
         let r = unsafe { obj(rom, "rom")? };
-        let steps = r.sampling.as_ref().map_or(&[][..], |s| &s.0[..]);
+        let steps = r.rom.sampling().map_or(&[][..], |s| &s.steps[..]);
         let s = steps.get(index).ok_or_else(|| {
             Failure::arg(format!(
                 "step index {index} is out of range: the ROM has {} sampling steps",

@@ -6,13 +6,15 @@
 
 mod common;
 use common::*;
-use sparsemor::eigen::{eigenpairs, EigenOptions, Request};
-use sparsemor::fe::{bar_model, BoxSpec};
+use sparsemor::body::Body;
+use sparsemor::eigen::EigenOptions;
+use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
 use sparsemor::metrics::Reference;
 use sparsemor::model::{Damping, Model};
-use sparsemor::reduce::linefit::{self, place_reference_frequencies, Interface, LineFitOptions};
+use sparsemor::reduce::linefit::{self, Interface, LineFitOptions, References};
 use sparsemor::reduce::serep::{self, ModeChoice, SerepOptions};
 use sparsemor::reduce::Rom;
+use sparsemor::scene::Scene;
 use sparsemor::sweep::{no_progress, SweepOptions};
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -46,7 +48,7 @@ impl Fixture {
     }
 }
 
-fn write_fixture(model: &Model, s: &Settings, path: &Path) {
+fn write_fixture(model: &Model, scene: &Scene, s: &Settings, path: &Path) {
     let mut f = Fixture {
         bytes: b"SMORFIX1".to_vec(),
     };
@@ -62,12 +64,12 @@ fn write_fixture(model: &Model, s: &Settings, path: &Path) {
     f.u64(nodes.len());
     nodes.iter().flatten().for_each(|&c| f.f64(c));
     f.u64(model.dofs_per_node);
-    f.u64(model.scene.inputs.len());
-    model.scene.inputs.iter().for_each(|&d| f.u64(d));
-    f.u64(model.scene.outputs.len());
-    model.scene.outputs.iter().for_each(|&d| f.u64(d));
-    f.f64(model.scene.band_hz[0]);
-    f.f64(model.scene.band_hz[1]);
+    f.u64(scene.inputs.len());
+    scene.inputs.iter().for_each(|&d| f.u64(d));
+    f.u64(scene.outputs.len());
+    scene.outputs.iter().for_each(|&d| f.u64(d));
+    f.f64(scene.band_hz[0]);
+    f.f64(scene.band_hz[1]);
     f.u64(s.threads);
     f.u64(s.plus_k);
     f.u64(s.n_reference);
@@ -119,47 +121,33 @@ fn compile(dir: &Path) -> PathBuf {
 /// The Rust API's ROMs for the same settings, in a rayon pool of the same thread count as the
 /// C side's (faer's dense kernels split their work by the pool size, so the last bits of
 /// e.g. SEREP's pseudo-inverse products depend on it).
-fn rust_roms(model: &Model, s: &Settings) -> (Rom, Rom) {
+fn rust_roms(model: &Model, scene: &Scene, s: &Settings) -> (Rom, Rom) {
     rayon::ThreadPoolBuilder::new()
         .num_threads(s.threads)
         .build()
         .unwrap()
-        .install(|| rust_roms_in_pool(model, s))
+        .install(|| rust_roms_in_pool(model, scene, s))
 }
 
-fn rust_roms_in_pool(model: &Model, s: &Settings) -> (Rom, Rom) {
-    let (inputs, outputs) = (&model.scene.inputs, &model.scene.outputs);
-    let band = model.scene.band_hz;
-    let full = eigenpairs(model, Request::UpTo(band[1]), &EigenOptions::default()).unwrap();
-    let res = &full.freqs_hz()[full.rigid..];
-    let freqs = place_reference_frequencies(res, band, s.n_reference).unwrap();
-    let lf = linefit::reduce(
-        model,
-        inputs,
-        outputs,
-        &LineFitOptions {
-            interface: Interface::OutputsPlus(s.plus_k),
-            ref_freqs_hz: freqs,
-            keep_basis: true,
-            sweep: SweepOptions {
-                threads: s.threads,
-                ..Default::default()
-            },
-            lsq: Default::default(),
-        },
-        &no_progress,
-    )
-    .unwrap();
+fn rust_roms_in_pool(model: &Model, scene: &Scene, s: &Settings) -> (Rom, Rom) {
+    let body = Body::new(model).unwrap();
+    let mut o = LineFitOptions::new(
+        Interface::OutputsPlus(s.plus_k),
+        References::Count(s.n_reference),
+    );
+    o.keep_basis = true;
+    o.sweep.threads = s.threads;
+    let lf = linefit::reduce(&body, scene, &o, None, &no_progress).unwrap();
     let se = serep::reduce(
-        model,
-        inputs,
-        outputs,
+        &body,
+        scene,
         &SerepOptions {
             modes: ModeChoice::LowestDeformation(s.serep_modes),
-            retain: Some(outputs.clone()),
+            retain: Some(scene.outputs.clone()),
             keep_basis: true,
-            eigen: EigenOptions::default(),
+            eigen: EigenOptions::for_band(scene.band_hz[1]),
         },
+        None,
     )
     .unwrap();
     (lf, se)
@@ -228,7 +216,7 @@ fn check_rom(r: &mut Reader<'_>, name: &str, rom: &Rom, reference: &Reference) -
     count += same_bits(
         &format!("{name} reference frequencies"),
         &r.f64s(n_ref),
-        &rom.ref_freqs_hz,
+        rom.ref_freqs_hz(),
     );
     let curve = reference.error(rom).unwrap();
     let k = curve.freqs_hz.len();
@@ -240,10 +228,10 @@ fn check_rom(r: &mut Reader<'_>, name: &str, rom: &Rom, reference: &Reference) -
 
 fn run_case(tag: &str, spec: BoxSpec, s: Settings, valgrind: bool) {
     let dir = scratch(tag);
-    let model = bar_model(&spec).unwrap();
+    let (model, scene) = (bar_model(&spec).unwrap(), paper_scene(&spec));
     let fixture = dir.join("fixture.bin");
     let output = dir.join("roms.bin");
-    write_fixture(&model, &s, &fixture);
+    write_fixture(&model, &scene, &s, &fixture);
     let exe = compile(&dir);
     let mut cmd = if valgrind {
         let mut c = Command::new("valgrind");
@@ -269,11 +257,10 @@ fn run_case(tag: &str, spec: BoxSpec, s: Settings, valgrind: bool) {
     );
     assert!(stdout.contains("smoke.c: OK"));
 
-    let (lf, se) = rust_roms(&model, &s);
+    let (lf, se) = rust_roms(&model, &scene, &s);
     let reference = Reference::compute(
-        &model,
-        &model.scene.inputs,
-        &model.scene.outputs,
+        &Body::new(&model).unwrap(),
+        &scene,
         &s.eval,
         &SweepOptions::default(),
         &no_progress,

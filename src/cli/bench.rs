@@ -8,9 +8,11 @@
 
 use super::commands::human_bytes;
 use sparsemor::factor::{reference_cholesky, Analysis, Backend};
-use sparsemor::fe::BoxSpec;
+use sparsemor::body::Body;
+use sparsemor::fe::{paper_scene, BoxSpec};
 use sparsemor::model::{Damping, Model};
 use sparsemor::pencil::Pencil;
+use sparsemor::scene::Scene;
 use sparsemor::sweep::{no_progress, transfer_function, Part, SweepOptions};
 use sparsemor::{memory, Error, Result};
 use std::time::Instant;
@@ -104,7 +106,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
             {
                 continue;
             }
-            let row = measure(&model, backend)?;
+            let row = measure(&model, &paper_scene(&spec), backend)?;
             println!(
                 "| {} | {} | {} | {:.3} | {:.3} | {:.3} | {:.4} | {} | {} | {:.3} | {:.2} | {:.2} | {:.2} | {:.2} |",
                 case.name,
@@ -139,9 +141,9 @@ struct Row {
     sweep2_s: f64,
 }
 
-fn measure(model: &Model, backend: Backend) -> Result<Row> {
+fn measure(model: &Model, scene: &Scene, backend: Backend) -> Result<Row> {
     let omega = 2.0 * std::f64::consts::PI * 300.0;
-    let p = model.scene.inputs.len();
+    let p = scene.inputs.len();
     memory::reset_peak_rss();
     let base = memory::rss_bytes().unwrap_or(0);
     let pencil = Pencil::new(model);
@@ -150,9 +152,8 @@ fn measure(model: &Model, backend: Backend) -> Result<Row> {
     let t = Instant::now();
     num.factor(&an, &pencil, omega, faer::Par::Seq)?;
     let factor_complex_s = t.elapsed().as_secs_f64();
-    let mut rhs = faer::Mat::<faer::c64>::from_fn(model.n(), p, |i, j| {
-        faer::c64::new(if i == model.scene.inputs[j] { 1.0 } else { 0.0 }, 0.0)
-    });
+    let body = Body::new(model)?;
+    let mut rhs = body.unit_load(&scene.inputs);
     let t = Instant::now();
     num.solve(&an, rhs.as_mut(), faer::Par::Seq);
     let solve_s = t.elapsed().as_secs_f64();
@@ -189,9 +190,8 @@ fn measure(model: &Model, backend: Backend) -> Result<Row> {
         };
         let t = Instant::now();
         transfer_function(
-            model,
-            &model.scene.inputs,
-            &model.scene.outputs,
+            &body,
+            scene,
             freqs,
             Part::Elastic,
             false,
@@ -218,7 +218,7 @@ fn measure(model: &Model, backend: Backend) -> Result<Row> {
 /// `bench reduce`: line-fitting (order 14, 20 reference frequencies in the band) per phase
 /// vs N, with the peak RSS of the whole reduction and one factorization's estimated bytes.
 fn reduce_table(a: &BenchArgs) -> Result<()> {
-    use sparsemor::reduce::linefit::{reduce, Interface, LineFitOptions};
+    use sparsemor::reduce::linefit::{reduce, Interface, LineFitOptions, References};
     println!("| model | N | symbolic s | sweep (factor+solve+absorb) s | absorb s | fit + projection s | total s | peak RSS | one factorization (est.) | streamed QR state |");
     println!("|---|---|---|---|---|---|---|---|---|---|");
     for case in CASES.iter().filter(|c| c.name.starts_with("bar")) {
@@ -236,26 +236,15 @@ fn reduce_table(a: &BenchArgs) -> Result<()> {
         let freqs: Vec<f64> = (1..=z)
             .map(|k| 1000.0 / z as f64 * k as f64 - 3.0)
             .collect();
-        let opts = LineFitOptions {
-            interface: Interface::OutputsPlus(5),
-            ref_freqs_hz: freqs,
-            keep_basis: false,
-            sweep: SweepOptions::default(),
-            lsq: Default::default(),
-        };
+        let opts = LineFitOptions::new(Interface::OutputsPlus(5), References::Explicit(freqs));
+        let scene = paper_scene(&spec);
         memory::reset_peak_rss();
         let t = Instant::now();
-        let rom = reduce(
-            &model,
-            &model.scene.inputs,
-            &model.scene.outputs,
-            &opts,
-            &no_progress,
-        )?;
+        let body = Body::new(&model)?;
+        let rom = reduce(&body, &scene, &opts, None, &no_progress)?;
         let total = t.elapsed().as_secs_f64();
         let peak = memory::peak_rss_bytes().unwrap_or(0);
-        let pencil = Pencil::new(&model);
-        let an = Analysis::new(&pencil, Backend::Auto, model.scene.inputs.len() + 1)?;
+        let an = Analysis::new(body.pencil(), Backend::Auto, scene.inputs.len() + 1)?;
         let phase = |name: &str| {
             rom.timings
                 .iter()

@@ -97,7 +97,7 @@ pub fn generate(kind: &str, elements: Option<&str>, size: Option<&str>, out: &Pa
     let model = sparsemor::fe::bar_model(&spec)?;
     let t_asm = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    model_dir::write(out, &model)?;
+    model_dir::write(out, &model, &sparsemor::fe::paper_scene(&spec))?;
     eprintln!(
         "wrote {} (N = {}, nnz(M)+nnz(K) = {}; assembled in {:.2} s, written in {:.2} s)",
         out.display(),
@@ -111,7 +111,7 @@ pub fn generate(kind: &str, elements: Option<&str>, size: Option<&str>, out: &Pa
 
 pub fn info(dir: &Path) -> Result<()> {
     let t = Instant::now();
-    let (model, report) = model_dir::read(dir)?;
+    let (model, scene, report) = model_dir::read(dir)?;
     let t_read = t.elapsed().as_secs_f64();
     println!("model            {} ({})", model.name, dir.display());
     println!("N                {}", model.n());
@@ -153,13 +153,13 @@ pub fn info(dir: &Path) -> Result<()> {
     }
     println!(
         "scene            {} inputs, {} outputs, band {:?} Hz",
-        model.scene.inputs.len(),
-        model.scene.outputs.len(),
-        model.scene.band_hz
+        scene.inputs.len(),
+        scene.outputs.len(),
+        scene.band_hz
     );
     let pencil = Pencil::new(&model);
     let chol = sparsemor::factor::symbolic_cholesky(&pencil)?;
-    let an = Analysis::new(&pencil, Backend::FaerLblt, model.scene.inputs.len() + 1)?;
+    let an = Analysis::new(&pencil, Backend::FaerLblt, scene.inputs.len() + 1)?;
     let s = an.stats();
     println!(
         "factorization    {} path; real Cholesky fill nnz(L) = {}; LBLᵀ factor {} entries, ~{} per factorization",
@@ -228,7 +228,7 @@ pub struct SweepArgs {
 }
 
 pub fn sweep(a: &SweepArgs, verbose: bool) -> Result<()> {
-    let (model, _) = model_dir::read(&a.model)?;
+    let (model, scene, _) = model_dir::read(&a.model)?;
     let freqs = match (&a.freqs, &a.band) {
         (Some(f), _) => parse_list::<f64>(f, "--freqs")?,
         (None, Some(b)) => linspace(parse_band(b)?, a.points),
@@ -260,10 +260,10 @@ pub fn sweep(a: &SweepArgs, verbose: bool) -> Result<()> {
         pb.set_position(p.done as u64);
         true
     };
+    let body = sparsemor::body::Body::new(&model)?;
     let frf = transfer_function(
-        &model,
-        &model.scene.inputs,
-        &model.scene.outputs,
+        &body,
+        &scene,
         &freqs,
         part,
         false,
@@ -275,8 +275,8 @@ pub fn sweep(a: &SweepArgs, verbose: bool) -> Result<()> {
         &a.out,
         &frf.freqs_hz,
         &frf.h,
-        &model.scene.outputs,
-        &model.scene.inputs,
+        &scene.outputs,
+        &scene.inputs,
     )?;
     eprintln!(
         "{} frequencies in {:.2} s -> {}",

@@ -1,17 +1,20 @@
 //! `reduce`, `evaluate`, `modes`, `demo`.
 
 use super::commands::{linspace, parse_band, parse_list, progress_bar};
+use sparsemor::body::Body;
 use sparsemor::eigen::{eigenpairs, EigenOptions, Modes, Request};
-use sparsemor::fe::{bar_model, BoxSpec};
+use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
 use sparsemor::io::{model_dir, rom_dir};
 use sparsemor::metrics::{
-    modal_comparison, positive_band, rom_eigenfrequencies, ErrorCurve, ModalComparison, Reference,
+    modal_comparison, rom_eigenfrequencies, ErrorCurve, ModalComparison, Reference,
 };
-use sparsemor::model::Model;
-use sparsemor::reduce::linefit::{self, place_reference_frequencies, Interface, LineFitOptions};
+use sparsemor::reduce::linefit::{
+    self, Growth, Interface, LineFitOptions, Outcome, References, SamplingOptions,
+    SamplingReport, Step,
+};
 use sparsemor::reduce::serep::{self, ModeChoice, SerepOptions};
 use sparsemor::reduce::Rom;
-use sparsemor::sampling::{self, Growth, SamplingOptions, Step};
+use sparsemor::scene::{positive_band, Scene};
 use sparsemor::sweep::{no_progress, Progress, SweepOptions};
 use sparsemor::{Error, Result};
 use std::path::{Path, PathBuf};
@@ -63,8 +66,8 @@ pub struct ReduceArgs {
 }
 
 pub fn reduce(a: &ReduceArgs) -> Result<()> {
-    let (model, _) = model_dir::read(&a.model)?;
-    let (inputs, outputs) = (&model.scene.inputs, &model.scene.outputs);
+    let (model, scene, _) = model_dir::read(&a.model)?;
+    let body = Body::new(&model)?;
     let t = Instant::now();
     let rom = match a.method.as_str() {
         "linefit" => {
@@ -77,54 +80,48 @@ pub fn reduce(a: &ReduceArgs) -> Result<()> {
                     ))
                 }
             };
-            if let Some(tol) = a.tol {
-                let mut o = SamplingOptions::new(tol, interface);
-                o.seeds_hz = a
-                    .ref_freqs
-                    .as_deref()
-                    .map(|f| parse_list(f, "--ref-freqs"))
-                    .transpose()?
-                    .unwrap_or_default();
-                o.max_points = a.max_points;
-                o.max_order = a.max_order.unwrap_or(0);
-                o.growth = parse_growth(&a.growth)?;
-                o.keep_basis = a.keep_basis;
-                o.sweep = SweepOptions {
-                    threads: a.threads,
-                    ..Default::default()
-                };
-                let r = sampling::reduce(&model, inputs, outputs, &o, &no_progress)?;
-                print_steps(&r.steps);
-                println!("{}", r.message);
-                r.rom
-            } else {
-                let ref_freqs_hz = parse_list(
-                    a.ref_freqs.as_deref().ok_or_else(|| {
-                        Error::InvalidSetting(
-                            "linefit needs --ref-freqs F1,F2,... (Hz) or --tol".into(),
-                        )
-                    })?,
-                    "--ref-freqs",
-                )?;
-                let opts = LineFitOptions {
-                    interface,
-                    ref_freqs_hz,
-                    keep_basis: a.keep_basis,
-                    sweep: SweepOptions {
-                        threads: a.threads,
-                        ..Default::default()
-                    },
-                    lsq: Default::default(),
-                };
-                let pb = progress_bar(opts.ref_freqs_hz.len(), "reference frequencies");
-                let cb = |p: Progress| {
-                    pb.set_position(p.done as u64);
-                    true
-                };
-                let rom = linefit::reduce(&model, inputs, outputs, &opts, &cb)?;
-                pb.finish_and_clear();
-                rom
+            let ref_freqs = a
+                .ref_freqs
+                .as_deref()
+                .map(|f| parse_list(f, "--ref-freqs"))
+                .transpose()?;
+            let references = match (a.tol, ref_freqs) {
+                (Some(tol), seeds) => {
+                    let mut s = SamplingOptions::new(tol);
+                    s.seeds_hz = seeds.unwrap_or_default();
+                    s.max_points = a.max_points;
+                    s.max_order = a.max_order.unwrap_or(0);
+                    s.growth = parse_growth(&a.growth)?;
+                    References::Tolerance(s)
+                }
+                (None, Some(f)) => References::Explicit(f),
+                (None, None) => {
+                    return Err(Error::InvalidSetting(
+                        "linefit needs --ref-freqs F1,F2,... (Hz) or --tol".into(),
+                    ))
+                }
+            };
+            let mut opts = LineFitOptions::new(interface, references);
+            opts.keep_basis = a.keep_basis;
+            opts.sweep.threads = a.threads;
+            let rom = match &opts.references {
+                References::Explicit(f) => {
+                    let pb = progress_bar(f.len(), "reference frequencies");
+                    let cb = |p: Progress| {
+                        pb.set_position(p.done as u64);
+                        true
+                    };
+                    let rom = linefit::reduce(&body, &scene, &opts, None, &cb)?;
+                    pb.finish_and_clear();
+                    rom
+                }
+                _ => linefit::reduce(&body, &scene, &opts, None, &no_progress)?,
+            };
+            if let Some(s) = rom.sampling() {
+                print_steps(&s.steps);
+                println!("{}", sampling_message(s, &rom));
             }
+            rom
         }
         "serep" => {
             let c = a
@@ -138,9 +135,9 @@ pub fn reduce(a: &ReduceArgs) -> Result<()> {
                     .map(|r| parse_list(r, "--retain"))
                     .transpose()?,
                 keep_basis: a.keep_basis,
-                eigen: EigenOptions::default(),
+                eigen: EigenOptions::for_band(scene.band_hz[1]),
             };
-            serep::reduce(&model, inputs, outputs, &opts)?
+            serep::reduce(&body, &scene, &opts, None)?
         }
         m => {
             return Err(Error::InvalidSetting(format!(
@@ -155,10 +152,20 @@ pub fn reduce(a: &ReduceArgs) -> Result<()> {
     Ok(())
 }
 
+/// The sampling loop's summary with the options it names worded as this command's flags.
+fn sampling_message(s: &SamplingReport, rom: &Rom) -> String {
+    [("max_points", "--max-points"), ("max_order", "--max-order")]
+        .iter()
+        .fold(
+            s.summary(rom.order(), rom.ref_freqs_hz().len()),
+            |m, (field, flag)| m.replace(field, flag),
+        )
+}
+
 fn print_rom(rom: &Rom) {
-    println!("method           {}", rom.method);
+    println!("method           {}", rom.method());
     println!("order            {}", rom.order());
-    if let Some(f) = &rom.fit {
+    if let Some(f) = rom.fit() {
         println!(
             "fit              cond(T_o) {:.2e} (equilibrated {:.2e}), rank {}/{}{}, residual max {:.2e} (DoF {}) mean {:.2e}",
             f.cond_raw,
@@ -171,7 +178,7 @@ fn print_rom(rom: &Rom) {
             f.residual_mean
         );
     }
-    if let Some(c) = rom.serep_cond {
+    if let Some(c) = rom.serep_cond() {
         println!("cond(U_cr)       {c:.2e}");
     }
     for (name, d) in [
@@ -217,30 +224,26 @@ pub struct EvaluateArgs {
     threads: usize,
 }
 
-/// The requested (or the model's) band, starting above 0 Hz ([`positive_band`]).
-fn evaluation_band(model: &Model, band: Option<&str>) -> Result<[f64; 2]> {
+/// The requested (or the scene's) band, starting above 0 Hz ([`positive_band`]).
+fn evaluation_band(scene: &Scene, band: Option<&str>) -> Result<[f64; 2]> {
     Ok(positive_band(match band {
         Some(s) => parse_band(s)?,
-        None => model.scene.band_hz,
+        None => scene.band_hz,
     }))
 }
 
 pub fn evaluate(a: &EvaluateArgs) -> Result<()> {
-    let (model, _) = model_dir::read(&a.model)?;
+    let (model, scene, _) = model_dir::read(&a.model)?;
     let rom = rom_dir::read(&a.rom)?;
-    if rom
-        .inputs
-        .iter()
-        .chain(&rom.outputs)
-        .chain(&rom.dofs)
-        .any(|&d| d >= model.n())
-    {
-        return Err(Error::InvalidSetting(format!(
-            "{} does not belong to this model (DoF out of range)",
-            a.rom.display()
-        )));
-    }
-    let band = evaluation_band(&model, a.band.as_deref())?;
+    rom.check_model(&model)
+        .map_err(|e| Error::InvalidSetting(format!("{}: {e}", a.rom.display())))?;
+    let band = evaluation_band(&scene, a.band.as_deref())?;
+    let body = Body::new(&model)?;
+    let rom_scene = Scene {
+        inputs: rom.inputs.clone(),
+        outputs: rom.outputs.clone(),
+        band_hz: band,
+    };
     if a.points < 2 {
         return Err(Error::InvalidSetting("--points must be >= 2".into()));
     }
@@ -254,10 +257,9 @@ pub fn evaluate(a: &EvaluateArgs) -> Result<()> {
         pb.set_position(p.done as u64);
         true
     };
-    let curve =
-        Reference::compute(&model, &rom.inputs, &rom.outputs, &freqs, &opts, &cb)?.error(&rom)?;
+    let curve = Reference::compute(&body, &rom_scene, &freqs, &opts, &cb)?.error(&rom)?;
     pb.finish_and_clear();
-    let full = eigenpairs(&model, Request::UpTo(band[1]), &EigenOptions::default())?;
+    let full = eigenpairs(&body, Request::UpTo(band[1]), &EigenOptions::default())?;
     let modal = modal_comparison(&rom, &full, rom.basis.as_ref().map(|v| v.as_ref()))?;
     print_evaluation(&rom, &curve, &modal)?;
     if let Some(path) = &a.csv {
@@ -350,17 +352,18 @@ pub struct ModesArgs {
 }
 
 pub fn modes(a: &ModesArgs) -> Result<()> {
-    let (model, _) = model_dir::read(&a.model)?;
+    let (model, scene, _) = model_dir::read(&a.model)?;
+    let body = Body::new(&model)?;
     let (req, lo) = match (&a.band, a.count) {
         (Some(b), _) => {
             let b = parse_band(b)?;
             (Request::UpTo(b[1]), b[0])
         }
         (None, Some(c)) => (Request::Lowest(c), f64::NEG_INFINITY),
-        (None, None) => (Request::UpTo(model.scene.band_hz[1]), f64::NEG_INFINITY),
+        (None, None) => (Request::UpTo(scene.band_hz[1]), f64::NEG_INFINITY),
     };
     let t = Instant::now();
-    let m = eigenpairs(&model, req, &EigenOptions::default())?;
+    let m = eigenpairs(&body, req, &EigenOptions::for_band(scene.band_hz[1]))?;
     let secs = t.elapsed().as_secs_f64();
     print_modes(&m, lo);
     println!(
@@ -408,8 +411,10 @@ pub fn demo(threads: usize) -> Result<()> {
     let t0 = Instant::now();
     let spec = BoxSpec::paper_bar();
     let model = bar_model(&spec)?;
-    let (inputs, outputs) = (&model.scene.inputs, &model.scene.outputs);
-    let band = model.scene.band_hz;
+    let scene = paper_scene(&spec);
+    let body = Body::new(&model)?;
+    let (inputs, outputs) = (&scene.inputs, &scene.outputs);
+    let band = scene.band_hz;
     println!(
         "paper bar: {} x {} x {} mm, N = {}, {} inputs = outputs, band [{}, {}] Hz, Rayleigh beta = {:e}",
         spec.size_m[0] * 1e3,
@@ -422,7 +427,7 @@ pub fn demo(threads: usize) -> Result<()> {
         sparsemor::fe::PAPER_RAYLEIGH_BETA
     );
     let t = Instant::now();
-    let full = eigenpairs(&model, Request::UpTo(band[1]), &EigenOptions::default())?;
+    let full = eigenpairs(&body, Request::UpTo(band[1]), &EigenOptions::default())?;
     let eig_s = t.elapsed().as_secs_f64();
     let res: Vec<f64> = full.freqs_hz()[full.rigid..].to_vec();
     println!(
@@ -436,48 +441,38 @@ pub fn demo(threads: usize) -> Result<()> {
             .join(", "),
         eig_s
     );
-    let ref_freqs = place_reference_frequencies(&res, band, 20)?;
-    let sweep = SweepOptions {
-        threads,
-        ..Default::default()
-    };
+    let mut opts = LineFitOptions::new(Interface::OutputsPlus(5), References::Count(20));
+    opts.keep_basis = true;
+    opts.sweep.threads = threads;
     let t = Instant::now();
-    let lf = linefit::reduce(
-        &model,
-        inputs,
-        outputs,
-        &LineFitOptions {
-            interface: Interface::OutputsPlus(5),
-            ref_freqs_hz: ref_freqs.clone(),
-            keep_basis: true,
-            sweep: sweep.clone(),
-            lsq: Default::default(),
-        },
-        &no_progress,
-    )?;
+    let lf = linefit::reduce(&body, &scene, &opts, Some(&full), &no_progress)?;
     let lf_s = t.elapsed().as_secs_f64();
     println!(
         "line-fitting: interface {:?}; 20 reference frequencies {} Hz",
         lf.dofs,
-        ref_freqs
+        lf.ref_freqs_hz()
             .iter()
             .map(|f| format!("{f:.0}"))
             .collect::<Vec<_>>()
             .join(",")
     );
+    // one eigensolve serves both SEREP ROMs
+    let t = Instant::now();
+    let serep_modes = eigenpairs(
+        &body,
+        Request::Lowest(full.rigid + 14),
+        &EigenOptions::for_band(band[1]),
+    )?;
+    let serep_eig_s = t.elapsed().as_secs_f64();
     let serep = |c: usize, retain: Vec<usize>| -> Result<(Rom, f64)> {
         let t = Instant::now();
-        let r = serep::reduce(
-            &model,
-            inputs,
-            outputs,
-            &SerepOptions {
-                modes: ModeChoice::LowestDeformation(c),
-                retain: Some(retain),
-                keep_basis: true,
-                eigen: EigenOptions::default(),
-            },
-        )?;
+        let opts = SerepOptions {
+            modes: ModeChoice::LowestDeformation(c),
+            retain: Some(retain),
+            keep_basis: true,
+            eigen: EigenOptions::for_band(band[1]),
+        };
+        let r = serep::reduce(&body, &scene, &opts, Some(&serep_modes))?;
         Ok((r, t.elapsed().as_secs_f64()))
     };
     let (s9, s9_s) = serep(9, outputs.clone())?;
@@ -487,7 +482,7 @@ pub fn demo(threads: usize) -> Result<()> {
     println!("| ROM | order | reduce s | max eps | mean eps | max eigfreq err | min MAC | largest ROM freq Hz | Mr, Kr SPD |");
     println!("|---|---|---|---|---|---|---|---|---|");
     let t = Instant::now();
-    let reference = Reference::compute(&model, inputs, outputs, &grid, &sweep, &no_progress)?;
+    let reference = Reference::compute(&body, &scene, &grid, &opts.sweep, &no_progress)?;
     for (name, rom, secs) in [
         ("line-fitting", &lf, lf_s),
         ("SEREP 9 modes / 9 DoFs", &s9, s9_s),
@@ -529,7 +524,7 @@ pub fn demo(threads: usize) -> Result<()> {
         band[1],
         res.len()
     );
-    if let Some(f) = &lf.fit {
+    if let Some(f) = lf.fit() {
         println!(
             "line-fitting fit: cond(T_o) {:.2e} (equilibrated {:.2e}), rank {}, max residual {:.2e} at DoF {}",
             f.cond_raw, f.cond_equilibrated, f.rank, f.residual_max, f.residual_argmax_dof
@@ -537,9 +532,10 @@ pub fn demo(threads: usize) -> Result<()> {
     }
     let eval_s = t.elapsed().as_secs_f64();
     println!(
-        "compute: line-fitting {lf_s:.3} s, SEREP {:.3} s + {:.3} s, full eigenpairs {eig_s:.3} s, evaluation sweeps {eval_s:.2} s, total {:.2} s",
+        "compute: line-fitting {lf_s:.3} s, SEREP {:.3} s + {:.3} s (+ {serep_eig_s:.3} s for their {} modes), full eigenpairs {eig_s:.3} s, evaluation sweeps {eval_s:.2} s, total {:.2} s",
         s9_s,
         s14_s,
+        serep_modes.lambdas.len(),
         t0.elapsed().as_secs_f64()
     );
     Ok(())
@@ -613,22 +609,23 @@ pub struct TradeoffArgs {
 /// Speed vs accuracy: the sampling loop per tolerance and SEREP per mode count, each
 /// verified on a fine grid by full solves (computed once).
 pub fn tradeoff(a: &TradeoffArgs) -> Result<()> {
-    let (model, _) = model_dir::read(&a.model)?;
-    let (inputs, outputs) = (&model.scene.inputs, &model.scene.outputs);
+    let (model, scene, _) = model_dir::read(&a.model)?;
+    let body = Body::new(&model)?;
+    let outputs = &scene.outputs;
     let tols: Vec<f64> = parse_list(&a.tols, "--tols")?;
     let modes: Vec<usize> = parse_list(&a.serep_modes, "--serep-modes")?;
     let sweep = SweepOptions {
         threads: a.threads,
         ..Default::default()
     };
-    let grid = linspace(positive_band(model.scene.band_hz), a.points.max(2));
+    let grid = linspace(positive_band(scene.band_hz), a.points.max(2));
     let pb = progress_bar(grid.len(), "verification grid");
     let cb = |p: Progress| {
         pb.set_position(p.done as u64);
         true
     };
     let t = Instant::now();
-    let reference = Reference::compute(&model, inputs, outputs, &grid, &sweep, &cb)?;
+    let reference = Reference::compute(&body, &scene, &grid, &sweep, &cb)?;
     pb.finish_and_clear();
     eprintln!(
         "verification grid: {} full solves in {:.1} s",
@@ -637,25 +634,31 @@ pub fn tradeoff(a: &TradeoffArgs) -> Result<()> {
     );
     let mut rows: Vec<(String, String, f64, usize, usize, f64)> = Vec::new();
     for &tol in &tols {
-        let mut o = SamplingOptions::new(tol, Interface::OutputsPlus(a.extra_interface));
-        o.max_order = a.max_order;
-        o.max_points = a.max_points;
+        let mut s = SamplingOptions::new(tol);
+        s.max_order = a.max_order;
+        s.max_points = a.max_points;
+        let mut o = LineFitOptions::new(
+            Interface::OutputsPlus(a.extra_interface),
+            References::Tolerance(s),
+        );
         o.sweep = sweep.clone();
         let t = Instant::now();
-        let r = sampling::reduce(&model, inputs, outputs, &o, &no_progress)?;
+        let rom = linefit::reduce(&body, &scene, &o, None, &no_progress)?;
         let secs = t.elapsed().as_secs_f64();
-        let e = ErrorCurve::max_mean(&reference.error(&r.rom)?.eps_elastic).0;
-        let facts = r.steps.last().map(|s| s.factorizations).unwrap_or(0);
+        let e = ErrorCurve::max_mean(&reference.error(&rom)?.eps_elastic).0;
+        let report = rom
+            .sampling()
+            .ok_or_else(|| Error::InvalidSetting("the sampling loop returned no report".into()))?;
         rows.push((
             "linefit".into(),
             format!("tol {tol:.0e}"),
             secs,
-            facts,
-            r.rom.order(),
+            report.factorizations(),
+            rom.order(),
             e,
         ));
-        if r.outcome != sampling::Outcome::Converged {
-            eprintln!("tol {tol:.0e}: {}", r.message);
+        if report.outcome != Outcome::Converged {
+            eprintln!("tol {tol:.0e}: {}", sampling_message(report, &rom));
         }
     }
     for &c in &modes {
@@ -668,9 +671,9 @@ pub fn tradeoff(a: &TradeoffArgs) -> Result<()> {
             modes: ModeChoice::LowestDeformation(c),
             retain: Some(retain),
             keep_basis: false,
-            eigen: EigenOptions::default(),
+            eigen: EigenOptions::for_band(scene.band_hz[1]),
         };
-        let rom = serep::reduce(&model, inputs, outputs, &opts)?;
+        let rom = serep::reduce(&body, &scene, &opts, None)?;
         let secs = t.elapsed().as_secs_f64();
         let e = ErrorCurve::max_mean(&reference.error(&rom)?.eps_elastic).0;
         rows.push((

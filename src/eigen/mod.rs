@@ -38,10 +38,10 @@
 mod arpack;
 mod krylov;
 
-use crate::factor::{count_eigenvalues_below_with, symbolic_cholesky};
+use crate::body::Body;
+use crate::factor::count_eigenvalues_below_with;
 use crate::model::Model;
 use crate::pencil::Pencil;
-use crate::rigid::RigidBody;
 use crate::sparse::mul_dense;
 use crate::{Error, Result};
 use faer::dyn_stack::{MemBuffer, MemStack};
@@ -86,9 +86,12 @@ impl std::fmt::Display for EigenBackend {
 /// Settings of the eigensolver.
 #[derive(Clone, Debug)]
 pub struct EigenOptions {
-    /// Shift σ < 0; `None` = −0.01·(2π f_hi)² with f_hi the request's bound or the model's
-    /// band end.
+    /// Shift σ < 0; `None` = −0.01·(2π f_hi)² with f_hi the bound of [`Request::UpTo`], or
+    /// [`Self::band_end_hz`] for [`Request::Lowest`].
     pub sigma: Option<f64>,
+    /// The frequency scale f_hi (Hz) of the default shift for [`Request::Lowest`]: the end of
+    /// the scene's band, where the wanted modes lie below; `None` = 1 Hz.
+    pub band_end_hz: Option<f64>,
     /// Convergence: Ritz residual ≤ tol · θ (ARPACK: its `tol`, the same criterion).
     pub tol: f64,
     /// Krylov dimension (ARPACK: `ncv`); `None` = max(2·count + 20, 40), capped at N.
@@ -99,10 +102,21 @@ pub struct EigenOptions {
     pub backend: EigenBackend,
 }
 
+impl EigenOptions {
+    /// The defaults with the shift scale of a scene band ending at `band_end_hz`.
+    pub fn for_band(band_end_hz: f64) -> Self {
+        EigenOptions {
+            band_end_hz: Some(band_end_hz),
+            ..Default::default()
+        }
+    }
+}
+
 impl Default for EigenOptions {
     fn default() -> Self {
         EigenOptions {
             sigma: None,
+            band_end_hz: None,
             tol: 1e-12,
             krylov_dim: None,
             max_restarts: 200,
@@ -160,7 +174,7 @@ impl Modes {
     pub fn freqs_hz(&self) -> Vec<f64> {
         self.lambdas
             .iter()
-            .map(|&l| crate::metrics::lambda_to_hz(l))
+            .map(|&l| crate::units::lambda_to_hz(l))
             .collect()
     }
 }
@@ -173,7 +187,8 @@ impl Modes {
 /// feature; [`Error::Factor`] when K − σM is not positive definite (σ not below the
 /// spectrum), the iteration does not converge within the restart limit, or ARPACK reports
 /// an error (its `info` code, explained).
-pub fn eigenpairs(model: &Model, req: Request, opts: &EigenOptions) -> Result<Modes> {
+pub fn eigenpairs(body: &Body<'_>, req: Request, opts: &EigenOptions) -> Result<Modes> {
+    let model = body.model();
     #[cfg(not(feature = "arpack"))]
     if opts.backend == EigenBackend::Arpack {
         return Err(Error::InvalidSetting(
@@ -181,7 +196,7 @@ pub fn eigenpairs(model: &Model, req: Request, opts: &EigenOptions) -> Result<Mo
         ));
     }
     let n = model.n();
-    let pencil = Pencil::new(model);
+    let pencil = body.pencil();
     let mut stats = EigenStats {
         backend: opts.backend,
         ..Default::default()
@@ -193,7 +208,7 @@ pub fn eigenpairs(model: &Model, req: Request, opts: &EigenOptions) -> Result<Mo
                 "modes up to {f} Hz: need a finite bound > 0"
             )))
         }
-        Request::Lowest(_) => model.scene.band_hz[1].max(1.0),
+        Request::Lowest(_) => opts.band_end_hz.unwrap_or(1.0).max(1.0),
     };
     let sigma = opts
         .sigma
@@ -201,13 +216,13 @@ pub fn eigenpairs(model: &Model, req: Request, opts: &EigenOptions) -> Result<Mo
     if !(sigma < 0.0 && sigma.is_finite()) {
         return Err(Error::InvalidSetting(format!("shift sigma = {sigma}: must be finite and < 0 so that K - sigma M is positive definite")));
     }
-    let sym = symbolic_cholesky(&pencil)?;
+    let sym = body.symbolic()?;
     let (count, lambda_hi) = match req {
         Request::Lowest(c) => (c, None),
         Request::UpTo(f) => {
             let t = Instant::now();
             let hi = (2.0 * std::f64::consts::PI * f).powi(2);
-            let c = count_eigenvalues_below_with(&sym, &pencil, hi)?;
+            let c = count_eigenvalues_below_with(sym, pencil, hi)?;
             stats.count_s = t.elapsed().as_secs_f64();
             (c, Some(hi))
         }
@@ -232,8 +247,7 @@ pub fn eigenpairs(model: &Model, req: Request, opts: &EigenOptions) -> Result<Mo
         .max(count);
 
     let t = Instant::now();
-    let mut op = ShiftInvert::new(model, &pencil, sym, sigma)?;
-    drop(pencil);
+    let mut op = ShiftInvert::new(model, pencil, sym, sigma)?;
     stats.factor_s = t.elapsed().as_secs_f64();
     stats.factor_nnz = op.sym.len_val();
     stats.sigma = sigma;
@@ -249,13 +263,13 @@ pub fn eigenpairs(model: &Model, req: Request, opts: &EigenOptions) -> Result<Mo
     };
     stats.iterate_s = t.elapsed().as_secs_f64();
     drop(op);
-    finish(model, lambdas, vectors, lambda_hi, sigma, stats)
+    finish(body, lambdas, vectors, lambda_hi, sigma, stats)
 }
 
 /// The shift-invert operator S = (K − σM)⁻¹ M of both backends: one sparse Cholesky of
 /// K − σM (AMD ordering, faer) and the mass matrix.
 pub(crate) struct ShiftInvert<'a> {
-    sym: SymbolicCholesky<usize>,
+    sym: &'a SymbolicCholesky<usize>,
     l: Vec<f64>,
     mass: SparseColMatRef<'a, usize, f64>,
     stack: MemBuffer,
@@ -267,7 +281,7 @@ impl<'a> ShiftInvert<'a> {
     fn new(
         model: &'a Model,
         pencil: &Pencil,
-        sym: SymbolicCholesky<usize>,
+        sym: &'a SymbolicCholesky<usize>,
         sigma: f64,
     ) -> Result<Self> {
         let n = pencil.n();
@@ -325,7 +339,7 @@ impl<'a> ShiftInvert<'a> {
 
     /// x ← (K − σM)⁻¹ x (one column).
     fn solve_in_place(&mut self, x: MatMut<'_, f64>) {
-        let llt = LltRef::new(&self.sym, &self.l);
+        let llt = LltRef::new(self.sym, &self.l);
         llt.solve_in_place_with_conj(Conj::No, x, Par::Seq, MemStack::new(&mut self.stack));
     }
 
@@ -351,13 +365,14 @@ fn random_vector(n: usize, seed: u64) -> Mat<f64> {
 /// The shared post-processing: ascending order, the check against the counted bound,
 /// residuals and the rigid count.
 fn finish(
-    model: &Model,
+    body: &Body<'_>,
     lambdas: Vec<f64>,
     vectors: Mat<f64>,
     lambda_hi: Option<f64>,
     sigma: f64,
     stats: EigenStats,
 ) -> Result<Modes> {
+    let model = body.model();
     let n = model.n();
     let mut order: Vec<usize> = (0..lambdas.len()).collect();
     order.sort_by(|&a, &b| lambdas[a].total_cmp(&lambdas[b]));
@@ -383,7 +398,7 @@ fn finish(
             r.norm_l2() / ((norm_k + lambdas[c].abs() * norm_m) * vectors.col(c).norm_l2())
         })
         .collect();
-    let rigid = match RigidBody::detect(model)? {
+    let rigid = match body.rigid() {
         Some(rb) => {
             // M-norm² of the M-orthogonal projection onto span V0: cᵀ M0⁻¹ c with c = V0ᵀ M φ
             let c = rb.modes().transpose() * &mphi;

@@ -113,11 +113,12 @@ pub(crate) fn toml_error(path: &Path, text: &str, e: &toml::de::Error) -> Error 
     Error::parse(path, line, e.message().to_string())
 }
 
-/// Reads and validates a model directory.
+/// Reads and validates a model directory: the model, its default scene (`[scene]`) and what
+/// the validation measured.
 ///
 /// # Errors
 /// Any file error names the file (and line); validation errors name the field.
-pub fn read(dir: &Path) -> Result<(Model, ValidationReport)> {
+pub fn read(dir: &Path) -> Result<(Model, Scene, ValidationReport)> {
     let man = read_manifest(dir)?;
     let mass = matrix_market::read_sparse(&dir.join(&man.mass))?;
     let stiffness = matrix_market::read_sparse(&dir.join(&man.stiffness))?;
@@ -139,24 +140,31 @@ pub fn read(dir: &Path) -> Result<(Model, ValidationReport)> {
         outputs: man.scene.outputs,
         band_hz: man.scene.band_hz,
     };
-    Model::new(
-        man.name,
-        mass,
-        stiffness,
-        damping,
-        nodes,
-        man.dofs_per_node,
-        scene,
-    )
-    .map_err(|e| match e {
+    let named = |e| match e {
         Error::InvalidModel(m) => {
             Error::InvalidModel(format!("{}: {m}", dir.join(MANIFEST).display()))
         }
         Error::InvalidSetting(m) => {
             Error::InvalidSetting(format!("{}: {m}", dir.join(MANIFEST).display()))
         }
+        Error::DofOutOfRange { what, dof, n } => Error::DofOutOfRange {
+            what: format!("{}: {what}", dir.join(MANIFEST).display()),
+            dof,
+            n,
+        },
         e => e,
-    })
+    };
+    let (model, report) = Model::new(
+        man.name,
+        mass,
+        stiffness,
+        damping,
+        nodes,
+        man.dofs_per_node,
+    )
+    .map_err(named)?;
+    scene.validate(model.n(), "scene").map_err(named)?;
+    Ok((model, scene, report))
 }
 
 /// Reads `nodes.csv`: header `x,y,z`, then one node per line.
@@ -203,12 +211,12 @@ pub fn read_nodes(path: &Path) -> Result<Vec<[f64; 3]>> {
     Ok(nodes)
 }
 
-/// Writes `model` into a new directory `dir` (M.mtx, K.mtx, [D.mtx], [nodes.csv],
-/// model.toml), atomically.
+/// Writes `model` with its default `scene` into a new directory `dir` (M.mtx, K.mtx, [D.mtx],
+/// [nodes.csv], model.toml), atomically.
 ///
 /// # Errors
 /// [`Error::InvalidSetting`] if `dir` exists and is not empty; I/O errors.
-pub fn write(dir: &Path, model: &Model) -> Result<()> {
+pub fn write(dir: &Path, model: &Model, scene: &Scene) -> Result<()> {
     write_atomically(dir, |tmp| {
         matrix_market::write_coordinate(&tmp.join("M.mtx"), model.mass.as_ref(), true)?;
         matrix_market::write_coordinate(&tmp.join("K.mtx"), model.stiffness.as_ref(), true)?;
@@ -244,9 +252,9 @@ pub fn write(dir: &Path, model: &Model) -> Result<()> {
             dofs_per_node: model.dofs_per_node,
             rayleigh,
             scene: SceneToml {
-                inputs: model.scene.inputs.clone(),
-                outputs: model.scene.outputs.clone(),
-                band_hz: model.scene.band_hz,
+                inputs: scene.inputs.clone(),
+                outputs: scene.outputs.clone(),
+                band_hz: scene.band_hz,
             },
         };
         let text = toml::to_string(&man)

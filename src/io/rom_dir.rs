@@ -5,7 +5,7 @@
 
 use crate::io::matrix_market;
 use crate::io::model_dir::{toml_error, write_atomically};
-use crate::reduce::{Definiteness, FitReport, Method, Rom, Timing};
+use crate::reduce::{Definiteness, FitReport, Provenance, Rom, Timing};
 use crate::{Error, Result};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -15,6 +15,9 @@ use std::path::Path;
 struct Manifest {
     sparsemor_version: String,
     method: String,
+    /// N of the full model (absent in ROM directories written before it was recorded).
+    #[serde(default)]
+    full_n: Option<usize>,
     order: usize,
     dofs: Vec<usize>,
     inputs: Vec<usize>,
@@ -58,13 +61,14 @@ pub fn write(dir: &Path, rom: &Rom) -> Result<()> {
         }
         let man = Manifest {
             sparsemor_version: env!("CARGO_PKG_VERSION").into(),
-            method: rom.method.to_string(),
+            method: rom.method().to_string(),
+            full_n: Some(rom.full_n),
             order: rom.order(),
             dofs: rom.dofs.clone(),
             inputs: rom.inputs.clone(),
             outputs: rom.outputs.clone(),
-            ref_freqs_hz: rom.ref_freqs_hz.clone(),
-            modes: rom.modes.clone(),
+            ref_freqs_hz: rom.ref_freqs_hz().to_vec(),
+            modes: rom.modes().to_vec(),
             mass_positive_definite: rom.mass_definiteness.positive_definite,
             stiffness_positive_definite: rom.stiffness_definiteness.positive_definite,
             mass_eig_range: [rom.mass_definiteness.min_eig, rom.mass_definiteness.max_eig],
@@ -72,7 +76,7 @@ pub fn write(dir: &Path, rom: &Rom) -> Result<()> {
                 rom.stiffness_definiteness.min_eig,
                 rom.stiffness_definiteness.max_eig,
             ],
-            fit: rom.fit.clone(),
+            fit: rom.fit().cloned(),
             warnings: rom.warnings.clone(),
             timings_s: rom
                 .timings
@@ -80,7 +84,7 @@ pub fn write(dir: &Path, rom: &Rom) -> Result<()> {
                 .map(|t| (t.phase.clone(), t.seconds))
                 .collect(),
             has_basis: rom.basis.is_some(),
-            serep_cond: rom.serep_cond,
+            serep_cond: rom.serep_cond(),
         };
         let text = toml::to_string(&man)
             .map_err(|e| Error::InvalidSetting(format!("cannot serialize rom.toml: {e}")))?;
@@ -114,14 +118,28 @@ pub fn read(dir: &Path) -> Result<Rom> {
             format!("matrix shapes do not match order = {n} and the input/output lists"),
         ));
     }
-    let method = match man.method.as_str() {
-        "linefit" => Method::LineFit,
-        "serep" => Method::Serep,
-        m => return Err(Error::parse(&path, 0, format!("unknown method '{m}'"))),
+    let provenance = match (man.method.as_str(), man.fit, man.serep_cond) {
+        ("linefit", Some(fit), _) => Provenance::LineFit {
+            ref_freqs_hz: man.ref_freqs_hz,
+            fit,
+            sampling: None,
+        },
+        ("serep", _, Some(cond)) => Provenance::Serep {
+            modes: man.modes,
+            cond,
+        },
+        ("linefit", None, _) => {
+            return Err(Error::parse(&path, 0, "method linefit without a [fit] table"))
+        }
+        ("serep", _, None) => {
+            return Err(Error::parse(&path, 0, "method serep without serep_cond"))
+        }
+        (m, _, _) => return Err(Error::parse(&path, 0, format!("unknown method '{m}'"))),
     };
     let basis = if man.has_basis { Some(rd("V")?) } else { None };
     Ok(Rom {
-        method,
+        provenance,
+        full_n: man.full_n.unwrap_or(0),
         mass_definiteness: Definiteness::of(mr.as_ref()),
         stiffness_definiteness: Definiteness::of(kr.as_ref()),
         mr,
@@ -132,9 +150,6 @@ pub fn read(dir: &Path) -> Result<Rom> {
         dofs: man.dofs,
         inputs: man.inputs,
         outputs: man.outputs,
-        ref_freqs_hz: man.ref_freqs_hz,
-        modes: man.modes,
-        fit: man.fit,
         timings: man
             .timings_s
             .into_iter()
@@ -142,6 +157,5 @@ pub fn read(dir: &Path) -> Result<Rom> {
             .collect(),
         warnings: man.warnings,
         basis,
-        serep_cond: man.serep_cond,
     })
 }

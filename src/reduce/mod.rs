@@ -1,12 +1,15 @@
-//! Reduced models: the [`Rom`] type, the shared Galerkin projection (DESIGN.md §3.4) and
-//! the methods that build V: [`linefit`] (§3.3) and, later, SEREP (§3.6).
+//! Reduced models: the [`Rom`] type with its [`Provenance`], the shared Galerkin projection
+//! (DESIGN.md §3.4) and the methods that build V: [`linefit`] (§3.3, §3.5) and [`serep`]
+//! (§3.6). Every reductor takes a prepared [`Body`] and a [`Scene`] and ends in [`project`].
 
 pub mod linefit;
 pub mod serep;
 
-use crate::model::{Damping, Model};
-use crate::rigid::RigidBody;
+use crate::body::Body;
+use crate::model::Model;
+use crate::scene::Scene;
 use crate::sparse::mul_dense;
+use crate::{Error, Result};
 use faer::linalg::solvers::Solve;
 use faer::{c64, Mat, MatRef};
 
@@ -100,11 +103,36 @@ pub struct FitReport {
     pub rows: usize,
 }
 
+/// Where a ROM came from: the method and what it was built from.
+#[derive(Clone, Debug)]
+pub enum Provenance {
+    /// Line-fitting (DESIGN.md §3.3).
+    LineFit {
+        /// Reference frequencies (Hz) whose snapshots were fitted.
+        ref_freqs_hz: Vec<f64>,
+        /// Least-squares numerics.
+        fit: FitReport,
+        /// The sampling loop's history when the frequencies were chosen for a tolerance
+        /// (DESIGN.md §3.5); `None` for explicit frequencies or a ROM read from disk.
+        sampling: Option<linefit::SamplingReport>,
+    },
+    /// SEREP (DESIGN.md §3.6).
+    Serep {
+        /// Mode numbers (1-based among all modes, rigid included).
+        modes: Vec<usize>,
+        /// cond(U_cr).
+        cond: f64,
+    },
+}
+
 /// A reduced second-order model Mr q̈ + Dr q̇ + Kr q = Br u, y = Cr q (DESIGN.md §3.4).
 #[derive(Clone, Debug)]
 pub struct Rom {
     /// How it was built.
-    pub method: Method,
+    pub provenance: Provenance,
+    /// N of the full model it was built from (0 when unknown: a ROM directory written before
+    /// this was recorded).
+    pub full_n: usize,
     /// Reduced mass (n×n, symmetric).
     pub mr: Mat<f64>,
     /// Reduced damping (n×n, symmetric).
@@ -121,12 +149,6 @@ pub struct Rom {
     pub inputs: Vec<usize>,
     /// Output DoFs (rows of C).
     pub outputs: Vec<usize>,
-    /// Reference frequencies (Hz) of a line-fitting ROM.
-    pub ref_freqs_hz: Vec<f64>,
-    /// SEREP mode numbers (1-based among all modes, rigid included).
-    pub modes: Vec<usize>,
-    /// Least-squares numerics (line-fitting).
-    pub fit: Option<FitReport>,
     /// Definiteness of Mr.
     pub mass_definiteness: Definiteness,
     /// Definiteness of Kr.
@@ -137,8 +159,6 @@ pub struct Rom {
     pub warnings: Vec<String>,
     /// V (N×n) when requested.
     pub basis: Option<Mat<f64>>,
-    /// cond(U_cr) of a SEREP ROM.
-    pub serep_cond: Option<f64>,
 }
 
 impl Rom {
@@ -147,20 +167,104 @@ impl Rom {
         self.mr.nrows()
     }
 
-    /// Hr(iω) = Cr (Kr − ω²Mr + iωDr)⁻¹ Br (outputs × inputs).
-    pub fn transfer(&self, freq_hz: f64) -> Mat<c64> {
-        let w = 2.0 * std::f64::consts::PI * freq_hz;
+    /// The method.
+    pub fn method(&self) -> Method {
+        match self.provenance {
+            Provenance::LineFit { .. } => Method::LineFit,
+            Provenance::Serep { .. } => Method::Serep,
+        }
+    }
+
+    /// Reference frequencies (Hz) of a line-fitting ROM (empty otherwise).
+    pub fn ref_freqs_hz(&self) -> &[f64] {
+        match &self.provenance {
+            Provenance::LineFit { ref_freqs_hz, .. } => ref_freqs_hz,
+            _ => &[],
+        }
+    }
+
+    /// Least-squares numerics of a line-fitting ROM.
+    pub fn fit(&self) -> Option<&FitReport> {
+        match &self.provenance {
+            Provenance::LineFit { fit, .. } => Some(fit),
+            _ => None,
+        }
+    }
+
+    /// The sampling loop's history of a tolerance-driven line-fitting ROM.
+    pub fn sampling(&self) -> Option<&linefit::SamplingReport> {
+        match &self.provenance {
+            Provenance::LineFit { sampling, .. } => sampling.as_ref(),
+            _ => None,
+        }
+    }
+
+    /// SEREP mode numbers (1-based among all modes; empty for other methods).
+    pub fn modes(&self) -> &[usize] {
+        match &self.provenance {
+            Provenance::Serep { modes, .. } => modes,
+            _ => &[],
+        }
+    }
+
+    /// cond(U_cr) of a SEREP ROM.
+    pub fn serep_cond(&self) -> Option<f64> {
+        match self.provenance {
+            Provenance::Serep { cond, .. } => Some(cond),
+            _ => None,
+        }
+    }
+
+    /// Checks that this ROM can belong to `model`: the same N (when recorded) and every DoF
+    /// (coordinates, inputs, outputs) and the basis' row count within it.
+    ///
+    /// # Errors
+    /// [`Error::InvalidSetting`] saying which size or DoF does not fit.
+    pub fn check_model(&self, model: &Model) -> Result<()> {
+        let n = model.n();
+        if self.full_n != 0 && self.full_n != n {
+            return Err(Error::InvalidSetting(format!(
+                "the ROM was built from a model with N = {} but this model has N = {n}",
+                self.full_n
+            )));
+        }
+        if let Some(v) = &self.basis {
+            if v.nrows() != n {
+                return Err(Error::InvalidSetting(format!(
+                    "the ROM's basis V has {} rows but the model has N = {n}",
+                    v.nrows()
+                )));
+            }
+        }
+        for (what, dofs) in [
+            ("coordinate", &self.dofs),
+            ("input", &self.inputs),
+            ("output", &self.outputs),
+        ] {
+            if let Some(d) = dofs.iter().find(|&&d| d >= n) {
+                return Err(Error::InvalidSetting(format!(
+                    "the ROM's {what} DoF {d} is out of range for this model (N = {n}): the ROM does not belong to it"
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// X̃(iω) = (Kr − ω²Mr + iωDr)⁻¹ Br (n × inputs): the reduced state response, `w` = ω.
+    pub fn reduced_response(&self, w: f64) -> Mat<c64> {
         let n = self.order();
         let a = Mat::<c64>::from_fn(n, n, |i, j| {
-            c64::new(
-                self.kr[(i, j)] - w * w * self.mr[(i, j)],
-                w * self.dr[(i, j)],
-            )
+            c64::new(self.kr[(i, j)] - w * w * self.mr[(i, j)], w * self.dr[(i, j)])
         });
         let b = Mat::<c64>::from_fn(n, self.br.ncols(), |i, j| c64::new(self.br[(i, j)], 0.0));
-        let x = a.partial_piv_lu().solve(&b);
-        Mat::from_fn(self.cr.nrows(), b.ncols(), |o, j| {
-            (0..n).map(|i| x[(i, j)] * self.cr[(o, i)]).sum()
+        a.partial_piv_lu().solve(&b)
+    }
+
+    /// Hr(iω) = Cr X̃(iω) (outputs × inputs).
+    pub fn transfer(&self, freq_hz: f64) -> Mat<c64> {
+        let x = self.reduced_response(2.0 * std::f64::consts::PI * freq_hz);
+        Mat::from_fn(self.cr.nrows(), x.ncols(), |o, j| {
+            (0..self.order()).map(|i| x[(i, j)] * self.cr[(o, i)]).sum()
         })
     }
 }
@@ -181,34 +285,20 @@ pub struct Projected {
     pub cr: Mat<f64>,
 }
 
-/// Projects `model` onto V (N×n) for unit loads at `inputs` and outputs `outputs`.
-pub fn project(
-    model: &Model,
-    v: MatRef<'_, f64>,
-    inputs: &[usize],
-    outputs: &[usize],
-    rigid: Option<&RigidBody>,
-) -> Projected {
+/// Projects the body onto V (N×n) for the scene's unit loads and outputs.
+pub fn project(body: &Body<'_>, scene: &Scene, v: MatRef<'_, f64>) -> Projected {
+    let model = body.model();
     let sym =
         |a: Mat<f64>| Mat::from_fn(a.nrows(), a.ncols(), |i, j| 0.5 * (a[(i, j)] + a[(j, i)]));
     let mr = sym(v.transpose() * mul_dense(model.mass.as_ref(), v));
     let kr = sym(v.transpose() * mul_dense(model.stiffness.as_ref(), v));
-    let dr = match &model.damping {
-        Damping::None => Mat::zeros(mr.nrows(), mr.ncols()),
-        Damping::Rayleigh { alpha, beta } => Mat::from_fn(mr.nrows(), mr.ncols(), |i, j| {
-            alpha * mr[(i, j)] + beta * kr[(i, j)]
-        }),
-        Damping::Matrix(d) => sym(v.transpose() * mul_dense(d.as_ref(), v)),
-    };
-    let mut pb = Mat::<c64>::zeros(v.nrows(), inputs.len());
-    for (j, &d) in inputs.iter().enumerate() {
-        pb[(d, j)] = c64::new(1.0, 0.0);
-    }
-    if let Some(rb) = rigid {
-        rb.project_load(pb.as_mut());
-    }
+    let dr = model.damping.combine(&mr, &kr, |d| {
+        sym(v.transpose() * mul_dense(d.as_ref(), v))
+    });
+    let pb = body.elastic_load(&scene.inputs);
     let pb_re = Mat::from_fn(pb.nrows(), pb.ncols(), |i, j| pb[(i, j)].re);
     let br = v.transpose() * pb_re;
+    let outputs = &scene.outputs;
     let cr = Mat::from_fn(outputs.len(), v.ncols(), |o, j| v[(outputs[o], j)]);
     Projected { mr, dr, kr, br, cr }
 }

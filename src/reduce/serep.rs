@@ -16,11 +16,10 @@
 //!
 //! Entry point: [`reduce`].
 
-use super::{project, Definiteness, Method, Projected, Rom, Timing};
-use crate::eigen::{eigenpairs, EigenOptions, Request};
-use crate::model::Model;
-use crate::rigid::RigidBody;
-use crate::scene::check_dofs;
+use super::{project, Definiteness, Projected, Provenance, Rom, Timing};
+use crate::body::Body;
+use crate::eigen::{eigenpairs, EigenOptions, Modes, Request};
+use crate::scene::{check_dofs, Scene};
 use crate::{Error, Result};
 use faer::Mat;
 use std::time::Instant;
@@ -51,25 +50,29 @@ pub struct SerepOptions {
     pub eigen: EigenOptions,
 }
 
-/// Reduces `model` by SEREP for unit loads at `inputs` and outputs `outputs`.
+/// Reduces the body by SEREP for the scene's unit loads and outputs.
+///
+/// `known` are eigenpairs the caller already has (the c lowest modes asked for, or more, in
+/// ascending order as [`eigenpairs`] returns them); when they cover the modes chosen, no
+/// eigensolve is run, otherwise the modes are computed ([`Request::Lowest`]).
 ///
 /// # Errors
 /// [`Error::InvalidSetting`] for c = 0, more modes than DoFs, bad or duplicate DoF lists,
 /// mode numbers out of range or repeated; the eigensolver's errors.
 pub fn reduce(
-    model: &Model,
-    inputs: &[usize],
-    outputs: &[usize],
+    body: &Body<'_>,
+    scene: &Scene,
     opts: &SerepOptions,
+    known: Option<&Modes>,
 ) -> Result<Rom> {
-    let n_full = model.n();
+    let n_full = body.n();
+    let (inputs, outputs) = (&scene.inputs, &scene.outputs);
     check_dofs(inputs, n_full, "inputs")?;
     check_dofs(outputs, n_full, "outputs")?;
     let retain = opts.retain.clone().unwrap_or_else(|| outputs.to_vec());
     check_dofs(&retain, n_full, "retained DoFs")?;
     let t = Instant::now();
-    let rigid = RigidBody::detect(model)?;
-    let n_rigid = if rigid.is_some() { 6 } else { 0 };
+    let n_rigid = if body.rigid().is_some() { 6 } else { 0 };
     let (request, pick): (usize, Box<dyn Fn(usize) -> Vec<usize>>) = match &opts.modes {
         ModeChoice::LowestDeformation(0) => {
             return Err(Error::InvalidSetting(
@@ -108,7 +111,14 @@ pub fn reduce(
             "SEREP needs {request} modes but the model has only N = {n_full} DoFs"
         )));
     }
-    let modes = eigenpairs(model, Request::Lowest(request), &opts.eigen)?;
+    let computed;
+    let modes = match known {
+        Some(m) if m.lambdas.len() >= request => m,
+        _ => {
+            computed = eigenpairs(body, Request::Lowest(request), &opts.eigen)?;
+            &computed
+        }
+    };
     let eigen_s = t.elapsed().as_secs_f64();
     let chosen = pick(modes.rigid);
     if let Some(&k) = chosen.iter().find(|&&k| k >= modes.lambdas.len()) {
@@ -147,7 +157,7 @@ pub fn reduce(
     }
     // V = U_c T with T = U_cr⁺: project on the modes, then apply T by congruence (see the
     // module doc) — the same matrices as projecting on V, without amplifying rounding by cond(T)
-    let modal = project(model, u_c.as_ref(), inputs, outputs, rigid.as_ref());
+    let modal = project(body, scene, u_c.as_ref());
     let congruence = |a: &Mat<f64>| {
         let b = pinv.transpose() * a * &pinv;
         Mat::from_fn(r, r, |i, j| 0.5 * (b[(i, j)] + b[(j, i)]))
@@ -165,7 +175,11 @@ pub fn reduce(
     let (mass_definiteness, stiffness_definiteness) =
         Definiteness::of_projection(&pr, &mut warnings);
     Ok(Rom {
-        method: Method::Serep,
+        provenance: Provenance::Serep {
+            modes: chosen.iter().map(|k| k + 1).collect(),
+            cond,
+        },
+        full_n: n_full,
         mr: pr.mr,
         dr: pr.dr,
         kr: pr.kr,
@@ -174,9 +188,6 @@ pub fn reduce(
         dofs: retain,
         inputs: inputs.to_vec(),
         outputs: outputs.to_vec(),
-        ref_freqs_hz: Vec::new(),
-        modes: chosen.iter().map(|k| k + 1).collect(),
-        fit: None,
         mass_definiteness,
         stiffness_definiteness,
         timings: vec![
@@ -191,6 +202,5 @@ pub fn reduce(
         ],
         warnings,
         basis,
-        serep_cond: Some(cond),
     })
 }

@@ -64,22 +64,18 @@ pub fn random_model(n: usize, bw: usize, seed: u64, damping: Damping) -> Model {
         let off: f64 = (0..n).filter(|&j| j != i).map(|j| m[(i, j)].abs()).sum();
         m[(i, i)] = off + rng.gen_range(0.5..1.5);
     }
-    let scene = Scene {
+    Model::new("random".into(), sparse(&m), sparse(&k), damping, None, 3)
+        .expect("valid model")
+        .0
+}
+
+/// The scene of [`random_model`]: three inputs, three outputs, band [0, 500] Hz.
+pub fn random_scene(n: usize) -> Scene {
+    Scene {
         inputs: vec![0, n / 2, n - 1],
         outputs: vec![1, n / 3, n - 2],
         band_hz: [0.0, 500.0],
-    };
-    Model::new(
-        "random".into(),
-        sparse(&m),
-        sparse(&k),
-        damping,
-        None,
-        3,
-        scene,
-    )
-    .expect("valid model")
-    .0
+    }
 }
 
 /// Dense H(iω) = C (K − ω²M + iωD)⁻¹ B.

@@ -1,0 +1,97 @@
+//! The prepared body (docs/design.md §2): everything that depends on the model alone, built
+//! once and shared by the sweep, the eigensolver, the metrics and every reductor.
+//!
+//! - the pencil A(s) = s²M + sD + K on its union pattern (§3.1, [`Pencil`]);
+//! - the rigid part of a free body: V0, M0 and the inertia-relief projector P (§3.2,
+//!   [`RigidBody`]), detected once;
+//! - the AMD-ordered symbolic Cholesky of the pencil's N×N pattern, computed on first use.
+//!   The real LBLᵀ sweep (D = 0), the interleaved 2N LBLᵀ sweep (its order is this one,
+//!   expanded pairwise), the shift-invert Cholesky of K − σM and the inertia count all factor
+//!   matrices with this pattern, so one analysis serves them all.
+//!
+//! A [`Body`] borrows its [`Model`]; the scene (inputs, outputs, band) is not part of it and is
+//! passed to each computation explicitly.
+
+use crate::model::Model;
+use crate::pencil::Pencil;
+use crate::rigid::RigidBody;
+use crate::Result;
+use faer::sparse::linalg::cholesky::SymbolicCholesky;
+use faer::{c64, Mat};
+use std::sync::OnceLock;
+
+/// A model prepared for computation; see the module doc.
+pub struct Body<'m> {
+    model: &'m Model,
+    pencil: Pencil,
+    rigid: Option<RigidBody>,
+    symbolic: OnceLock<SymbolicCholesky<usize>>,
+}
+
+impl<'m> Body<'m> {
+    /// Builds the pencil and detects the rigid part ([`RigidBody::detect`]). Cost O(nnz + N).
+    ///
+    /// # Errors
+    /// [`crate::Error::InvalidModel`] when the rigid modes' mass V0ᵀMV0 is not positive
+    /// definite (wrong node coordinates).
+    pub fn new(model: &'m Model) -> Result<Self> {
+        Ok(Body {
+            model,
+            pencil: Pencil::new(model),
+            rigid: RigidBody::detect(model)?,
+            symbolic: OnceLock::new(),
+        })
+    }
+
+    /// The model.
+    pub fn model(&self) -> &'m Model {
+        self.model
+    }
+
+    /// Number of DoFs N.
+    pub fn n(&self) -> usize {
+        self.model.n()
+    }
+
+    /// The pencil A(s) = s²M + sD + K.
+    pub fn pencil(&self) -> &Pencil {
+        &self.pencil
+    }
+
+    /// The rigid part, if the body is free.
+    pub fn rigid(&self) -> Option<&RigidBody> {
+        self.rigid.as_ref()
+    }
+
+    /// The AMD-ordered symbolic Cholesky of the pencil's N×N lower pattern, computed on the
+    /// first call and kept.
+    ///
+    /// # Errors
+    /// [`crate::Error::Factor`] when the analysis fails (allocation, index overflow).
+    pub fn symbolic(&self) -> Result<&SymbolicCholesky<usize>> {
+        if let Some(s) = self.symbolic.get() {
+            return Ok(s);
+        }
+        let s = crate::factor::symbolic_cholesky(&self.pencil)?;
+        Ok(self.symbolic.get_or_init(|| s))
+    }
+
+    /// B (N×p): unit forces at `inputs`, as complex columns.
+    pub fn unit_load(&self, inputs: &[usize]) -> Mat<c64> {
+        let mut b = Mat::<c64>::zeros(self.n(), inputs.len());
+        for (j, &d) in inputs.iter().enumerate() {
+            b[(d, j)] = c64::new(1.0, 0.0);
+        }
+        b
+    }
+
+    /// P B: the unit load without its rigid component on a free body (inertia relief,
+    /// §3.2); B itself on a constrained body.
+    pub fn elastic_load(&self, inputs: &[usize]) -> Mat<c64> {
+        let mut b = self.unit_load(inputs);
+        if let Some(rb) = &self.rigid {
+            rb.project_load(b.as_mut());
+        }
+        b
+    }
+}

@@ -1,0 +1,81 @@
+//! The N-independent error indicator of the sampling loop (DESIGN.md §3.5, step 3).
+//!
+//! The residual of the ROM's reduced solution lifted to the full model,
+//! Res(s) = PB − A(s) V X̃(s) with X̃ = Ar(s)⁻¹ Br and A(s) = s²M + sD + K, is
+//! Res(s) = Z c(s) with Z = [PB, MV, DV, KV] (N × (p + 3n)) and c = [I; −s²X̃; −sX̃; −X̃].
+//! With the thin QR Z = Q R (done once per ROM), ‖Res(s)‖_F = ‖R c(s)‖_F — the QR form of
+//! the Gram identity ‖Res‖² = tr(cᴴ ZᵀZ c), without its loss of half the digits. The indicator
+//! is Δ(s) = ‖Res(s)‖_F / ‖PB‖_F; each evaluation costs O((p + 3n)² p), independent of N.
+
+use crate::body::Body;
+use crate::reduce::Rom;
+use crate::sparse::mul_dense;
+use crate::{Error, Result};
+use faer::{c64, Mat};
+
+/// The residual indicator of one ROM; see the module doc.
+pub struct Indicator {
+    r: Mat<f64>,
+    p: usize,
+    norm_pb: f64,
+}
+
+impl Indicator {
+    /// Forms Z = [PB, MV, DV, KV] for the ROM's V (which must be kept) and its thin QR. P is
+    /// the body's inertia-relief projector (identity on a constrained body).
+    ///
+    /// # Errors
+    /// [`Error::InvalidSetting`] when the ROM has no basis.
+    pub fn new(body: &Body<'_>, rom: &Rom) -> Result<Self> {
+        let v = rom
+            .basis
+            .as_ref()
+            .ok_or_else(|| Error::InvalidSetting("the indicator needs the ROM's basis V".into()))?;
+        let model = body.model();
+        let (n_full, n, p) = (body.n(), v.ncols(), rom.inputs.len());
+        let pb = body.elastic_load(&rom.inputs);
+        let mv = mul_dense(model.mass.as_ref(), v.as_ref());
+        let kv = mul_dense(model.stiffness.as_ref(), v.as_ref());
+        let dv = model
+            .damping
+            .combine(&mv, &kv, |d| mul_dense(d.as_ref(), v.as_ref()));
+        let w = p + 3 * n;
+        let z = Mat::<f64>::from_fn(n_full, w, |i, j| {
+            if j < p {
+                pb[(i, j)].re
+            } else if j < p + n {
+                mv[(i, j - p)]
+            } else if j < p + 2 * n {
+                dv[(i, j - p - n)]
+            } else {
+                kv[(i, j - p - 2 * n)]
+            }
+        });
+        let norm_pb = z.as_ref().subcols(0, p).norm_l2();
+        let r = z.qr().thin_R().to_owned();
+        Ok(Indicator { r, p, norm_pb })
+    }
+
+    /// Δ(f) = ‖PB − A(iω) V X̃‖_F / ‖PB‖_F.
+    pub fn eval(&self, rom: &Rom, f_hz: f64) -> f64 {
+        let w = 2.0 * std::f64::consts::PI * f_hz;
+        let n = rom.order();
+        let x = rom.reduced_response(w);
+        // c = [I; −s²X̃; −sX̃; −X̃] with s = iω: −s² = ω², −s = −iω
+        let c = Mat::<c64>::from_fn(self.p + 3 * n, self.p, |i, j| {
+            if i < self.p {
+                c64::new(if i == j { 1.0 } else { 0.0 }, 0.0)
+            } else if i < self.p + n {
+                x[(i - self.p, j)] * (w * w)
+            } else if i < self.p + 2 * n {
+                x[(i - self.p - n, j)] * c64::new(0.0, -w)
+            } else {
+                -x[(i - self.p - 2 * n, j)]
+            }
+        });
+        let rc = Mat::<c64>::from_fn(self.r.nrows(), self.r.ncols(), |i, j| {
+            c64::new(self.r[(i, j)], 0.0)
+        }) * &c;
+        rc.norm_l2() / self.norm_pb
+    }
+}

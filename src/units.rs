@@ -1,0 +1,7 @@
+//! Unit conversions shared by every module (no dependencies, so no import cycles).
+
+/// Frequency (Hz) of an eigenvalue λ = ω² of K φ = λ M φ: sign(λ)·√|λ| / 2π (a slightly
+/// negative λ of a rigid mode gives a slightly negative frequency, not NaN).
+pub fn lambda_to_hz(l: f64) -> f64 {
+    l.signum() * l.abs().sqrt() / (2.0 * std::f64::consts::PI)
+}
