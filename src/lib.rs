@@ -1,10 +1,27 @@
 //! sparsemor: model order reduction of large sparse structural FE models.
 //!
-//! The full model M q'' + D q' + K q = B u, y = C q (DESIGN.md §1) is loaded or generated
-//! ([`model::Model`], [`io`], [`fe`]); its transfer function H(iω) = C (K − ω²M + iωD)⁻¹ B is
-//! computed sparsely and in parallel over frequencies ([`sweep`]) on a pencil with one
-//! symbolic analysis ([`pencil`], [`factor`]), with the rigid-body part of a free body
-//! separated without cancellation ([`rigid`]).
+//! The full model M q'' + D q' + K q = B u, y = C q (docs/design.md §1, eq. 3) is reduced to
+//! Mr q̈ + Dr q̇ + Kr q = Br u, y = Cr q by a projection q ≈ V q̃ that reproduces the
+//! transfer function H(iω) = C (K − ω²M + iωD)⁻¹ B over a band. Nothing of size N × N is
+//! ever formed. Each algorithm has one module; docs/design.md states the math.
+//!
+//! | step | entry point | design |
+//! |---|---|---|
+//! | load a model | [`io::model_dir::read`] (model + its default [`scene::Scene`]), [`io::matrix_market`], built-in [`fe::bar_model`] | §4 |
+//! | validate | [`model::Model::new`] | §1, §4 |
+//! | prepare once | [`body::Body::new`]: pencil ([`pencil`]), rigid part ([`rigid`]), symbolic analysis | §2, §3.1, §3.2 |
+//! | factor A(iω) | [`factor::Analysis`], [`factor::Numeric`] (faer LBLᵀ / LU, UMFPACK) | §3.1 |
+//! | sweep frequencies | [`sweep::transfer_function`], [`sweep::Solver`] | §3.1 |
+//! | streamed least squares | [`lsq::StreamedQr`] | §3.3 |
+//! | line-fitting | [`reduce::linefit::reduce`] with [`reduce::linefit::References`] (explicit, count, tolerance: the adaptive loop) | §3.3–§3.5 |
+//! | eigenpairs | [`eigen::eigenpairs`] (shift-invert Krylov–Schur; ARPACK feature) | §3.6 |
+//! | SEREP | [`reduce::serep::reduce`] | §3.6 |
+//! | projection, the ROM | [`reduce::project`], [`reduce::Rom`] with its [`reduce::Provenance`] | §3.4 |
+//! | metrics | [`metrics::Reference`] (ε(f)), [`metrics::modal_comparison`] (frequency error, MAC) | §3.7 |
+//! | write a ROM | [`io::rom_dir::write`] | §4 |
+//!
+//! Library code never prints: progress goes through a callback ([`sweep::ProgressFn`]),
+//! results and diagnostics are returned, failures are a typed [`Error`].
 #![warn(missing_docs)]
 // `!(x > 0.0)` and friends are deliberate: unlike `x <= 0.0` they also reject NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]

@@ -12,9 +12,9 @@
 use crate::body::Body;
 use crate::eigen::Modes;
 use crate::reduce::Rom;
-use crate::units::lambda_to_hz;
 use crate::scene::Scene;
 use crate::sweep::{transfer_function, Part, ProgressFn, SweepOptions};
+use crate::units::lambda_to_hz;
 use crate::{Error, Result};
 use faer::{c64, Mat, MatRef};
 
@@ -71,15 +71,7 @@ impl Reference {
             return Err(Error::InvalidSetting("error curve: no frequencies".into()));
         }
         let (inputs, outputs) = (&scene.inputs[..], &scene.outputs[..]);
-        let frf = transfer_function(
-            body,
-            scene,
-            freqs_hz,
-            Part::Elastic,
-            false,
-            opts,
-            progress,
-        )?;
+        let frf = transfer_function(body, scene, freqs_hz, Part::Elastic, false, opts, progress)?;
         let h = frf
             .h
             .iter()

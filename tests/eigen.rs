@@ -28,7 +28,8 @@ fn eig(model: &Model, req: Request, opts: &EigenOptions) -> sparsemor::Result<Mo
 fn lowest_modes_of_a_random_model_match_dense() {
     let model = random_model(300, 5, 3, Damping::None);
     let lam = dense_eigenvalues(&model);
-    let modes = eig(&model,
+    let modes = eig(
+        &model,
         Request::Lowest(12),
         &EigenOptions {
             sigma: Some(-1.0),
@@ -149,7 +150,8 @@ fn backends() -> Vec<EigenBackend> {
 fn paper_bar_up_to_1000_hz_matches_dense() {
     let (model, lam) = paper_bar();
     for backend in backends() {
-        let modes = eig(model,
+        let modes = eig(
+            model,
             Request::UpTo(1000.0),
             &EigenOptions {
                 backend,
@@ -170,7 +172,8 @@ fn paper_bar_up_to_1000_hz_matches_dense() {
 fn paper_bar_lowest_20_match_dense() {
     let (model, lam) = paper_bar();
     for backend in backends() {
-        let modes = eig(model,
+        let modes = eig(
+            model,
             Request::Lowest(20),
             &EigenOptions {
                 backend,
@@ -203,7 +206,8 @@ fn bending_frequencies(cross: usize, along: usize, backend: EigenBackend) -> ([f
     };
     let model = bar_model(&spec).unwrap();
     // 6 rigid + 3 bending pairs; torsion (≈ 3.4 kHz) and axial (≈ 6.5 kHz) modes are far above
-    let modes = eig(&model,
+    let modes = eig(
+        &model,
         Request::Lowest(12),
         &EigenOptions {
             backend,
@@ -308,7 +312,8 @@ fn krylov_and_arpack_agree_on_the_paper_bar() {
     let (model, lam) = paper_bar();
     for req in [Request::UpTo(1000.0), Request::Lowest(20)] {
         let run = |backend| {
-            eig(model,
+            eig(
+                model,
                 req,
                 &EigenOptions {
                     backend,
@@ -359,7 +364,8 @@ fn arpack_bending_frequencies_equal_krylov() {
 #[test]
 fn arpack_without_the_feature_is_a_clear_error() {
     let model = random_model(50, 3, 1, Damping::None);
-    match eig(&model,
+    match eig(
+        &model,
         Request::Lowest(3),
         &EigenOptions {
             backend: EigenBackend::Arpack,
@@ -396,17 +402,15 @@ fn bad_settings_are_clear_errors() {
             backend,
             ..Default::default()
         };
-        expect_invalid(
-            eig(&model, Request::Lowest(0), &opts),
-            "at least one mode",
-        );
+        expect_invalid(eig(&model, Request::Lowest(0), &opts), "at least one mode");
         expect_invalid(
             eig(&model, Request::Lowest(n + 1), &opts),
             &format!("only N = {n} DoFs"),
         );
         for sigma in [0.0, 1.0, f64::NAN] {
             expect_invalid(
-                eig(&model,
+                eig(
+                    &model,
                     Request::Lowest(3),
                     &EigenOptions {
                         sigma: Some(sigma),
@@ -443,7 +447,8 @@ fn bad_settings_are_clear_errors() {
     if cfg!(feature = "arpack") {
         // ARPACK needs nev < ncv <= N
         expect_invalid(
-            eig(&model,
+            eig(
+                &model,
                 Request::Lowest(n),
                 &EigenOptions {
                     backend: EigenBackend::Arpack,

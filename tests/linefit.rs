@@ -138,7 +138,12 @@ fn free_bar_matches_dense_reference() {
     assert!(model.n() <= 1000);
     let mut interface = scene.outputs.clone();
     interface.extend(spread_dofs(&model, 4, &interface).unwrap());
-    check_against_dense(&model, &scene, interface, &[50.0, 180.0, 400.0, 700.0, 950.0]);
+    check_against_dense(
+        &model,
+        &scene,
+        interface,
+        &[50.0, 180.0, 400.0, 700.0, 950.0],
+    );
 }
 
 #[test]
@@ -149,7 +154,10 @@ fn exact_fit_interpolates_at_reference_frequencies() {
         let rom = lf(&model, &scene, &opts(Interface::OutputsPlus(9), &freqs, 1)).unwrap();
         let fit = rom.fit().unwrap();
         assert_eq!((fit.rows, rom.order(), fit.rank), (18, 18, 18));
-        let e = reference(&model, &scene, &freqs).error(&rom).unwrap().eps_elastic[0];
+        let e = reference(&model, &scene, &freqs)
+            .error(&rom)
+            .unwrap()
+            .eps_elastic[0];
         println!("exact fit at {} Hz: eps = {e:.2e}", freqs[0]);
         assert!(
             e <= 1e-8,
@@ -251,7 +259,12 @@ fn bad_settings_are_clear_errors() {
         "appears twice",
     );
     // 2pz < n: 9 inputs, 1 frequency, n = 19
-    expect_setting_error(&model, &scene, opts(Interface::OutputsPlus(10), &[300.0], 2), "2pz");
+    expect_setting_error(
+        &model,
+        &scene,
+        opts(Interface::OutputsPlus(10), &[300.0], 2),
+        "2pz",
+    );
     // frequency 0 on a free body
     expect_setting_error(
         &model,

@@ -12,7 +12,13 @@ use sparsemor::scene::Scene;
 use sparsemor::sweep::{no_progress, transfer_function, Frf, Part, SweepOptions};
 use sparsemor::Error;
 
-fn tf(model: &Model, scene: &Scene, freqs: &[f64], part: Part, opts: &SweepOptions) -> sparsemor::Result<Frf> {
+fn tf(
+    model: &Model,
+    scene: &Scene,
+    freqs: &[f64],
+    part: Part,
+    opts: &SweepOptions,
+) -> sparsemor::Result<Frf> {
     let body = Body::new(model)?;
     transfer_function(&body, scene, freqs, part, false, opts, &no_progress)
 }

@@ -7,6 +7,7 @@
 //! message is read back with `sparsemor_last_error_length` and `sparsemor_last_error_message`.
 
 use std::cell::RefCell;
+use std::ffi::c_char;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
 /// Result code of every `sparsemor_*` function that can fail.
@@ -173,10 +174,45 @@ pub unsafe extern "C" fn sparsemor_last_error_message(
             let e = e.borrow();
             let msg = e.as_deref().unwrap_or("").as_bytes();
             // SAFETY: the caller guarantees `buf` points to `buf_len` writable bytes.
-            unsafe { crate::util::write_str(msg, buf, buf_len) }
+            unsafe { write_str(msg, buf, buf_len) }
         })
     });
     r.unwrap_or(SparsemorStatus::Panic)
+}
+
+/// Copies `msg` plus a terminating NUL into `buf[0..buf_len]`. Returns the status without
+/// touching the last error (used by the last-error getter itself). On a short buffer the
+/// longest prefix that fits is written, NUL-terminated (when `buf_len > 0`), cut at a UTF-8
+/// character boundary.
+///
+/// # Safety
+/// `buf` must be NULL or valid for `buf_len` byte writes.
+pub(crate) unsafe fn write_str(msg: &[u8], buf: *mut c_char, buf_len: usize) -> SparsemorStatus {
+    if buf_len == 0 {
+        // not even room for the NUL
+        return SparsemorStatus::BufferTooSmall;
+    }
+    if buf.is_null() {
+        return SparsemorStatus::NullPointer;
+    }
+    let fits = msg.len() < buf_len;
+    let mut n = msg.len().min(buf_len - 1);
+    if !fits {
+        // do not cut a UTF-8 sequence in half
+        while n > 0 && (msg[n] & 0xC0) == 0x80 {
+            n -= 1;
+        }
+    }
+    // SAFETY: buf is valid for buf_len > n bytes (caller contract).
+    unsafe {
+        std::ptr::copy_nonoverlapping(msg.as_ptr(), buf.cast::<u8>(), n);
+        buf.add(n).write(0);
+    }
+    if fits {
+        SparsemorStatus::Ok
+    } else {
+        SparsemorStatus::BufferTooSmall
+    }
 }
 
 #[cfg(test)]
@@ -203,7 +239,7 @@ mod tests {
     #[test]
     fn a_panic_inside_a_call_local_pool_is_caught_too() {
         let st = guard(|| {
-            crate::rom::in_pool(2, || -> usize { panic!("in a worker") })?;
+            crate::pool::in_pool(2, || -> usize { panic!("in a worker") })?;
             Ok(())
         });
         assert_eq!(st, SparsemorStatus::Panic);

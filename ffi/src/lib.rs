@@ -34,6 +34,7 @@
 mod error;
 mod model;
 mod options;
+mod pool;
 mod rom;
 mod util;
 

@@ -3,6 +3,7 @@
 use crate::error::{ffi_body, Failure, SparsemorStatus};
 use crate::model::SparsemorModel;
 use crate::options::SparsemorOptions;
+use crate::pool::in_pool;
 use crate::util::{check_ptr, copy_string, copy_to_buffer, obj, slice_in, write_opt, write_out};
 use faer::MatRef;
 use sparsemor::body::Body;
@@ -80,35 +81,6 @@ impl Callback {
         let _g = self.lock.lock().unwrap_or_else(|p| p.into_inner());
         // SAFETY: the caller supplied a valid function pointer and its user data.
         unsafe { (self.f)(done, total, freq_hz, self.user_data) == 0 }
-    }
-}
-
-/// Runs `f` inside a rayon pool of `threads` threads that lives only for this call: the
-/// library's parallel code (and rayon's `current_num_threads`) then never starts rayon's
-/// global pool, whose threads would outlive every call in the caller's process (and show as
-/// "possibly lost" memory in a leak checker). The pool's threads are joined before
-/// returning. A panic in `f` is resumed after the join (the export's guard catches it).
-pub(crate) fn in_pool<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> Result<T, Failure> {
-    let handles = Mutex::new(Vec::new());
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .spawn_handler(|t| {
-            let h = std::thread::Builder::new()
-                .name("sparsemor".into())
-                .spawn(move || t.run())?;
-            handles.lock().unwrap_or_else(|p| p.into_inner()).push(h);
-            Ok(())
-        })
-        .build()
-        .map_err(|e| Failure::arg(format!("cannot start {threads} threads: {e}")))?;
-    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| pool.install(f)));
-    drop(pool);
-    for h in handles.into_inner().unwrap_or_else(|p| p.into_inner()) {
-        let _ = h.join();
-    }
-    match r {
-        Ok(v) => Ok(v),
-        Err(p) => std::panic::resume_unwind(p),
     }
 }
 

@@ -3,7 +3,7 @@
 //! buffers (possibly uninitialized) are only written through raw pointers. Caller memory is
 //! never taken over (`Vec::from_raw_parts` is never used on it).
 
-use crate::error::{Failure, SparsemorStatus};
+use crate::error::{write_str, Failure, SparsemorStatus};
 use std::ffi::c_char;
 
 /// NULL, alignment and size check of a caller array of `len` values of `T` (no access).
@@ -121,47 +121,12 @@ pub(crate) unsafe fn copy_to_buffer<T: Copy>(
     Ok(())
 }
 
-/// Copies `msg` plus a terminating NUL into `buf[0..buf_len]`. Returns the status without
-/// touching the last error (used by the last-error getter itself). On a short buffer the
-/// longest prefix that fits is written, NUL-terminated (when `buf_len > 0`), cut at a UTF-8
-/// character boundary.
-///
-/// # Safety
-/// `buf` must be NULL or valid for `buf_len` byte writes.
-pub(crate) unsafe fn write_str(msg: &[u8], buf: *mut c_char, buf_len: usize) -> SparsemorStatus {
-    if buf_len == 0 {
-        // not even room for the NUL
-        return SparsemorStatus::BufferTooSmall;
-    }
-    if buf.is_null() {
-        return SparsemorStatus::NullPointer;
-    }
-    let fits = msg.len() < buf_len;
-    let mut n = msg.len().min(buf_len - 1);
-    if !fits {
-        // do not cut a UTF-8 sequence in half
-        while n > 0 && (msg[n] & 0xC0) == 0x80 {
-            n -= 1;
-        }
-    }
-    // SAFETY: buf is valid for buf_len > n bytes (caller contract).
-    unsafe {
-        std::ptr::copy_nonoverlapping(msg.as_ptr(), buf.cast::<u8>(), n);
-        buf.add(n).write(0);
-    }
-    if fits {
-        SparsemorStatus::Ok
-    } else {
-        SparsemorStatus::BufferTooSmall
-    }
-}
-
-/// [`write_str`] for exported string getters: writes `*required` (bytes including the NUL,
+/// [`crate::error::write_str`] for exported string getters: writes `*required` (bytes including the NUL,
 /// when not NULL) and turns a failure into a message. `buf == NULL && buf_len == 0` is a pure
 /// size query and succeeds.
 ///
 /// # Safety
-/// As [`write_str`]; `required` NULL or writable.
+/// As [`crate::error::write_str`]; `required` NULL or writable.
 pub(crate) unsafe fn copy_string(
     s: &str,
     buf: *mut c_char,

@@ -7,8 +7,8 @@
 //! sweep on 1 vs 2 threads. Timings are single runs: quote ratios from one table.
 
 use super::commands::human_bytes;
-use sparsemor::factor::{reference_cholesky, Analysis, Backend};
 use sparsemor::body::Body;
+use sparsemor::factor::{reference_cholesky, Analysis, Backend};
 use sparsemor::fe::{paper_scene, BoxSpec};
 use sparsemor::model::{Damping, Model};
 use sparsemor::pencil::Pencil;

@@ -261,23 +261,9 @@ pub fn sweep(a: &SweepArgs, verbose: bool) -> Result<()> {
         true
     };
     let body = sparsemor::body::Body::new(&model)?;
-    let frf = transfer_function(
-        &body,
-        &scene,
-        &freqs,
-        part,
-        false,
-        &opts,
-        &cb,
-    )?;
+    let frf = transfer_function(&body, &scene, &freqs, part, false, &opts, &cb)?;
     pb.finish_and_clear();
-    write_frf_csv(
-        &a.out,
-        &frf.freqs_hz,
-        &frf.h,
-        &scene.outputs,
-        &scene.inputs,
-    )?;
+    write_frf_csv(&a.out, &frf.freqs_hz, &frf.h, &scene.outputs, &scene.inputs)?;
     eprintln!(
         "{} frequencies in {:.2} s -> {}",
         freqs.len(),

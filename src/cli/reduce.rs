@@ -9,8 +9,8 @@ use sparsemor::metrics::{
     modal_comparison, rom_eigenfrequencies, ErrorCurve, ModalComparison, Reference,
 };
 use sparsemor::reduce::linefit::{
-    self, Growth, Interface, LineFitOptions, Outcome, References, SamplingOptions,
-    SamplingReport, Step,
+    self, Growth, Interface, LineFitOptions, Outcome, References, SamplingOptions, SamplingReport,
+    Step,
 };
 use sparsemor::reduce::serep::{self, ModeChoice, SerepOptions};
 use sparsemor::reduce::Rom;

@@ -154,15 +154,8 @@ pub fn read(dir: &Path) -> Result<(Model, Scene, ValidationReport)> {
         },
         e => e,
     };
-    let (model, report) = Model::new(
-        man.name,
-        mass,
-        stiffness,
-        damping,
-        nodes,
-        man.dofs_per_node,
-    )
-    .map_err(named)?;
+    let (model, report) =
+        Model::new(man.name, mass, stiffness, damping, nodes, man.dofs_per_node).map_err(named)?;
     scene.validate(model.n(), "scene").map_err(named)?;
     Ok((model, scene, report))
 }

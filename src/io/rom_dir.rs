@@ -129,7 +129,11 @@ pub fn read(dir: &Path) -> Result<Rom> {
             cond,
         },
         ("linefit", None, _) => {
-            return Err(Error::parse(&path, 0, "method linefit without a [fit] table"))
+            return Err(Error::parse(
+                &path,
+                0,
+                "method linefit without a [fit] table",
+            ))
         }
         ("serep", _, None) => {
             return Err(Error::parse(&path, 0, "method serep without serep_cond"))

@@ -16,7 +16,8 @@
 //!
 //! Entry point: [`reduce`].
 
-use super::{project, Definiteness, Projected, Provenance, Rom, Timing};
+use super::projection::{project, Definiteness, Projected};
+use super::rom::{Provenance, Rom, Timing};
 use crate::body::Body;
 use crate::eigen::{eigenpairs, EigenOptions, Modes, Request};
 use crate::scene::{check_dofs, Scene};

@@ -4,7 +4,7 @@
 //! 1. Seeds: ⌈n/2p⌉ (at least 2) points spread over the band, both ends included (a band that
 //!    starts at 0 starts at [`crate::scene::positive_band`]'s f_lo > 0), plus user seeds.
 //! 2. ROM from the current set: the streamed QR has absorbed every solved frequency once.
-//! 3. The residual indicator Δ(s) ([`super::Indicator`]) on a fine candidate grid, at a cost
+//! 3. The residual indicator Δ(s) ([`super::indicator::Indicator`]) on a fine candidate grid, at a cost
 //!    independent of N.
 //! 4. The largest local maxima of Δ (as many as there are threads; sampled points and their
 //!    grid neighbours excluded) are factored in parallel; the TRUE elastic error of the
@@ -34,158 +34,18 @@
 //! available memory), else every snapshot is spilled to a temporary file and streamed back.
 
 use super::fit::{check_rows, Partition, Worker};
+use super::indicator::Indicator;
+use super::options::{Growth, LineFitOptions, SamplingOptions};
+use super::report::{Outcome, SamplingReport, Step};
 use super::snapshots::SnapshotStore;
-use super::{Indicator, LineFitOptions};
 use crate::body::Body;
 use crate::lsq::StreamedQr;
-use crate::reduce::{Provenance, Rom, Timing};
+use crate::reduce::rom::{Provenance, Rom, Timing};
 use crate::scene::{positive_band, Scene};
 use crate::sweep::{ProgressFn, Response, Solver};
 use crate::{Error, Result};
 use faer::{c64, Mat};
 use std::time::Instant;
-
-/// How the interface grows when frequencies stop helping.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Growth {
-    /// The non-interface DoF with the largest relative fit residual (eq. 22).
-    Residual,
-    /// Q-DEIM continued from the interface: the DoF whose row of the snapshots' left
-    /// singular vectors adds the most to the span of the interface rows (see
-    /// [`super::snapshots`]).
-    QDeim,
-}
-
-/// Settings of the sampling loop ([`super::References::Tolerance`]).
-#[derive(Clone, Debug)]
-pub struct SamplingOptions {
-    /// Target: max true elastic ε (eq. 23) at the newly picked and the sampled points.
-    pub tol: f64,
-    /// Extra seed frequencies (Hz).
-    pub seeds_hz: Vec<f64>,
-    /// Budget of factorizations (frequencies solved).
-    pub max_points: usize,
-    /// Largest order; > the initial order lets the interface grow.
-    pub max_order: usize,
-    /// Candidate grid size of the indicator.
-    pub candidates: usize,
-    /// Interface growth rule. Default: the largest fit residual — measured on the paper bar
-    /// for tol = 1e-3 it needs order 17 and 21 factorizations where Q-DEIM needs 18 and 22
-    /// (both reach the tolerance; see the README), and it needs no SVD of the snapshots.
-    pub growth: Growth,
-    /// Memory for kept snapshots (bytes); `None` = a quarter of the available memory.
-    pub snapshot_memory: Option<usize>,
-}
-
-impl SamplingOptions {
-    /// Defaults for a tolerance: 60 factorizations, no order growth, 2000 candidates,
-    /// residual growth.
-    pub fn new(tol: f64) -> Self {
-        SamplingOptions {
-            tol,
-            seeds_hz: Vec::new(),
-            max_points: 60,
-            max_order: 0,
-            candidates: 2000,
-            growth: Growth::Residual,
-            snapshot_memory: None,
-        }
-    }
-}
-
-/// One step of the loop.
-#[derive(Clone, Debug)]
-pub struct Step {
-    /// ROM order during this step.
-    pub order: usize,
-    /// Frequencies factored in this step (Hz).
-    pub points_hz: Vec<f64>,
-    /// Max of the indicator Δ over the candidates before picking (NaN for the seed step).
-    pub indicator_max: f64,
-    /// Max true elastic ε of the current ROM at the picked points (NaN for the seed step).
-    pub true_error_max: f64,
-    /// Max true elastic ε of the current ROM at the earlier sampled points.
-    pub sampled_error_max: f64,
-    /// Factorizations so far.
-    pub factorizations: usize,
-    /// Wall time so far (s).
-    pub seconds: f64,
-    /// What happened: "seed", "refine", "grow interface by DoF d", ...
-    pub action: String,
-}
-
-/// How the loop ended.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Outcome {
-    /// The true error at the newly picked and all sampled points is ≤ tol (two steps).
-    Converged,
-    /// The factorization budget ([`SamplingOptions::max_points`]) is spent.
-    Budget,
-    /// More frequencies stopped helping and the order may not grow further
-    /// ([`SamplingOptions::max_order`]).
-    Stagnated,
-}
-
-/// What the sampling loop did: attached to the ROM it returns ([`Rom::sampling`]).
-#[derive(Clone, Debug)]
-pub struct SamplingReport {
-    /// The tolerance asked for.
-    pub tol: f64,
-    /// Every step.
-    pub steps: Vec<Step>,
-    /// How it ended.
-    pub outcome: Outcome,
-    /// The error reached: on convergence the max true error of the last step (new and
-    /// sampled points); otherwise the best such max over all steps.
-    pub error: f64,
-    /// The DoF with the largest fit residual of the returned ROM (the next interface DoF
-    /// that would help).
-    pub suggested_dof: usize,
-    /// Snapshots were spilled to a temporary file.
-    pub spilled: bool,
-}
-
-impl SamplingReport {
-    /// Factorizations spent.
-    pub fn factorizations(&self) -> usize {
-        self.steps.last().map(|s| s.factorizations).unwrap_or(0)
-    }
-
-    /// One line on what was reached and, if the tolerance was not, what would help (named
-    /// by the options' fields; front ends may word them as their flags).
-    pub fn summary(&self, order: usize, sampled_points: usize) -> String {
-        let last = self.steps.last();
-        match self.outcome {
-            Outcome::Converged => format!(
-                "tolerance {:.1e} reached: true error {:.2e} at the last {} indicator maxima and all {} sampled points; order {}, {} factorizations",
-                self.tol,
-                self.error,
-                last.map(|s| s.points_hz.len()).unwrap_or(0),
-                sampled_points,
-                order,
-                self.factorizations()
-            ),
-            _ => format!(
-                "tolerance {:.1e} NOT reached ({}): best true error {:.2e} at order {} after {} factorizations. What would help: {}",
-                self.tol,
-                match self.outcome {
-                    Outcome::Budget => "factorization budget spent",
-                    _ => "more frequencies stopped helping",
-                },
-                self.error,
-                order,
-                self.factorizations(),
-                match self.outcome {
-                    Outcome::Budget => "a larger factorization budget (max_points)".to_string(),
-                    _ => format!(
-                        "a larger interface (max_order above {order}; the DoF with the largest fit residual is {})",
-                        self.suggested_dof
-                    ),
-                }
-            ),
-        }
-    }
-}
 
 /// What [`Loop::refine`] decided.
 enum Next {
@@ -449,11 +309,7 @@ impl<'a> Loop<'a> {
             Error::InvalidSetting("the interface may not grow: no snapshots were kept".into())
         })?;
         let d = match self.sampling.growth {
-            Growth::Residual => self
-                .rom
-                .fit()
-                .map(|f| f.residual_argmax_dof)
-                .unwrap_or(0),
+            Growth::Residual => self.rom.fit().map(|f| f.residual_argmax_dof).unwrap_or(0),
             Growth::QDeim => store.qdeim_next(&self.part.interface)?,
         };
         self.part = self.part.grown(self.body, self.scene, d)?;

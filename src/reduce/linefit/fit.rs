@@ -7,11 +7,12 @@
 //! min_W ‖T_oᵀ Wᵀ − T_nᵀ‖_F,  T_oᵀ = [G_1; …; G_z],  T_nᵀ = [F_1; …; F_z]     (eq. 22)
 //! ```
 
-use super::spread_dofs;
-use super::Interface;
+use super::options::Interface;
+use super::placement::spread_dofs;
 use crate::body::Body;
 use crate::lsq::{LsqOptions, StreamedQr};
-use crate::reduce::{project, Definiteness, FitReport, Provenance, Rom};
+use crate::reduce::projection::{project, Definiteness};
+use crate::reduce::rom::{FitReport, Provenance, Rom};
 use crate::scene::{check_dofs, Scene};
 use crate::{Error, Result};
 use faer::{c64, Mat, MatRef};

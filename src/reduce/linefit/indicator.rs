@@ -8,7 +8,7 @@
 //! is Δ(s) = ‖Res(s)‖_F / ‖PB‖_F; each evaluation costs O((p + 3n)² p), independent of N.
 
 use crate::body::Body;
-use crate::reduce::Rom;
+use crate::reduce::rom::Rom;
 use crate::sparse::mul_dense;
 use crate::{Error, Result};
 use faer::{c64, Mat};

@@ -219,9 +219,7 @@ impl SnapshotStore {
             ));
         }
         // U = S T with T = V_r Σ_r⁻¹ (cols × r)
-        let t = Mat::<f64>::from_fn(cols, keep.len(), |i, k| {
-            svd.V()[(i, keep[k])] / sv[keep[k]]
-        });
+        let t = Mat::<f64>::from_fn(cols, keep.len(), |i, k| svd.V()[(i, keep[k])] / sv[keep[k]]);
         // orthonormal basis of the interface rows' span (r × q), by a QR of U_Iᵀ
         let u_i_t = (&s_i * &t).transpose().to_owned();
         let qr = u_i_t.qr();

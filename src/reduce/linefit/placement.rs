@@ -1,0 +1,134 @@
+//! Where line-fitting's extra interface DoFs and its reference frequencies go when the user
+//! gives only their number (docs/design.md §3.3).
+
+use crate::model::Model;
+use crate::{Error, Result};
+
+/// `k` DoFs spread uniformly along the body, none of them in `exclude`.
+///
+/// Rule (with nodes): the long axis a is the longest side of the nodes' bounding box; the
+/// targets are the points at fractions (j + ½)/k of its length on the line through the
+/// centroid; the node nearest to each target is taken (the lower index on a tie; the next
+/// nearest if its DoF is excluded or taken), and its DoF in a direction cycling through the
+/// two axes perpendicular to a (bending carries most of a slender body's low-frequency
+/// dynamics). Without nodes: DoFs at fractions (j + ½)/k of 0..N.
+///
+/// # Errors
+/// [`Error::InvalidSetting`] when fewer than k DoFs are available.
+pub fn spread_dofs(model: &Model, k: usize, exclude: &[usize]) -> Result<Vec<usize>> {
+    let n = model.n();
+    if k + exclude.len() > n {
+        return Err(Error::InvalidSetting(format!(
+            "cannot spread {k} extra interface DoFs over a model with N = {n}"
+        )));
+    }
+    let mut taken: Vec<bool> = vec![false; n];
+    for &d in exclude {
+        taken[d] = true;
+    }
+    let mut out = Vec::with_capacity(k);
+    let Some(nodes) = &model.nodes else {
+        for j in 0..k {
+            let mut d = ((j as f64 + 0.5) / k as f64 * n as f64) as usize % n;
+            while taken[d] {
+                d = (d + 1) % n;
+            }
+            taken[d] = true;
+            out.push(d);
+        }
+        return Ok(out);
+    };
+    let (mut lo, mut hi, mut c) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3], [0.0; 3]);
+    for p in nodes {
+        for a in 0..3 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+            c[a] += p[a] / nodes.len() as f64;
+        }
+    }
+    let axis = (0..3)
+        .max_by(|&a, &b| (hi[a] - lo[a]).total_cmp(&(hi[b] - lo[b])))
+        .unwrap_or(2);
+    let perp = [(axis + 1) % 3, (axis + 2) % 3];
+    let dpn = model.dofs_per_node;
+    for j in 0..k {
+        let mut target = c;
+        target[axis] = lo[axis] + (j as f64 + 0.5) / k as f64 * (hi[axis] - lo[axis]);
+        let dir = perp[j % 2];
+        let dist = |p: &[f64; 3]| (0..3).map(|a| (p[a] - target[a]).powi(2)).sum::<f64>();
+        let best = (0..nodes.len())
+            .filter(|&i| !taken[i * dpn + dir])
+            .min_by(|&x, &y| dist(&nodes[x]).total_cmp(&dist(&nodes[y])).then(x.cmp(&y)))
+            .ok_or_else(|| {
+                Error::InvalidSetting("no free DoF left to spread the interface over".into())
+            })?;
+        taken[best * dpn + dir] = true;
+        out.push(best * dpn + dir);
+    }
+    Ok(out)
+}
+
+/// Relative offset δ of the reference points placed beside each resonance: f(1 ± δ).
+pub const RESONANCE_OFFSET: f64 = 0.03;
+
+/// `z` reference frequencies for the band from its resonances (the paper's Figure 4 rule,
+/// made explicit): a point on each side of every in-band resonance f_j·(1 ± δ) (δ =
+/// [`RESONANCE_OFFSET`]), the midpoint between consecutive resonances (where the
+/// anti-resonances of driving-point FRFs lie), the midpoints between the band start and the
+/// first resonance and between the last resonance and f_hi, and f_hi itself. Then, while
+/// there are fewer than z points, the midpoint of the widest gap (band start included) is
+/// added; while there are more, the later point of the closest pair is dropped. All points
+/// are in (max(f_lo, 0), f_hi], so f = 0 is never used (a free body's A(0) is singular).
+///
+/// # Errors
+/// [`Error::InvalidSetting`] for z = 0 or an empty band.
+pub fn place_reference_frequencies(
+    resonances_hz: &[f64],
+    band_hz: [f64; 2],
+    z: usize,
+) -> Result<Vec<f64>> {
+    let [lo, hi] = band_hz;
+    if z == 0 || !(hi > lo && lo >= 0.0) {
+        return Err(Error::InvalidSetting(format!(
+            "reference points: need z >= 1 and a band 0 <= f_lo < f_hi (got z = {z}, {band_hz:?})"
+        )));
+    }
+    let res: Vec<f64> = resonances_hz
+        .iter()
+        .copied()
+        .filter(|&f| f > lo && f < hi)
+        .collect();
+    let mut pts = vec![hi];
+    let mut prev = lo;
+    for &f in &res {
+        pts.extend([
+            f * (1.0 - RESONANCE_OFFSET),
+            f * (1.0 + RESONANCE_OFFSET),
+            0.5 * (prev + f),
+        ]);
+        prev = f;
+    }
+    if !res.is_empty() {
+        pts.push(0.5 * (prev + hi));
+    }
+    pts.retain(|&f| f > lo && f <= hi);
+    pts.sort_by(f64::total_cmp);
+    pts.dedup();
+    while pts.len() < z {
+        let mut best = (pts[0] - lo, 0);
+        for k in 1..pts.len() {
+            if pts[k] - pts[k - 1] > best.0 {
+                best = (pts[k] - pts[k - 1], k);
+            }
+        }
+        let left = if best.1 == 0 { lo } else { pts[best.1 - 1] };
+        pts.insert(best.1, 0.5 * (left + pts[best.1]));
+    }
+    while pts.len() > z {
+        let k = (1..pts.len())
+            .min_by(|&a, &b| (pts[a] - pts[a - 1]).total_cmp(&(pts[b] - pts[b - 1])))
+            .unwrap_or(0);
+        pts.remove(k);
+    }
+    Ok(pts)
+}

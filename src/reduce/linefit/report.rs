@@ -1,0 +1,96 @@
+//! What the adaptive sampling loop did (docs/design.md §3.5): its steps, why it stopped,
+//! the error reached. Attached to the ROM it returns ([`crate::reduce::Rom::sampling`]).
+
+/// One step of the loop.
+#[derive(Clone, Debug)]
+pub struct Step {
+    /// ROM order during this step.
+    pub order: usize,
+    /// Frequencies factored in this step (Hz).
+    pub points_hz: Vec<f64>,
+    /// Max of the indicator Δ over the candidates before picking (NaN for the seed step).
+    pub indicator_max: f64,
+    /// Max true elastic ε of the current ROM at the picked points (NaN for the seed step).
+    pub true_error_max: f64,
+    /// Max true elastic ε of the current ROM at the earlier sampled points.
+    pub sampled_error_max: f64,
+    /// Factorizations so far.
+    pub factorizations: usize,
+    /// Wall time so far (s).
+    pub seconds: f64,
+    /// What happened: "seed", "refine", "grow interface by DoF d", ...
+    pub action: String,
+}
+
+/// How the loop ended.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Outcome {
+    /// The true error at the newly picked and all sampled points is ≤ tol (two steps).
+    Converged,
+    /// The factorization budget ([`super::SamplingOptions::max_points`]) is spent.
+    Budget,
+    /// More frequencies stopped helping and the order may not grow further
+    /// ([`super::SamplingOptions::max_order`]).
+    Stagnated,
+}
+
+/// What the sampling loop did: attached to the ROM it returns ([`Rom::sampling`]).
+#[derive(Clone, Debug)]
+pub struct SamplingReport {
+    /// The tolerance asked for.
+    pub tol: f64,
+    /// Every step.
+    pub steps: Vec<Step>,
+    /// How it ended.
+    pub outcome: Outcome,
+    /// The error reached: on convergence the max true error of the last step (new and
+    /// sampled points); otherwise the best such max over all steps.
+    pub error: f64,
+    /// The DoF with the largest fit residual of the returned ROM (the next interface DoF
+    /// that would help).
+    pub suggested_dof: usize,
+    /// Snapshots were spilled to a temporary file.
+    pub spilled: bool,
+}
+
+impl SamplingReport {
+    /// Factorizations spent.
+    pub fn factorizations(&self) -> usize {
+        self.steps.last().map(|s| s.factorizations).unwrap_or(0)
+    }
+
+    /// One line on what was reached and, if the tolerance was not, what would help (named
+    /// by the options' fields; front ends may word them as their flags).
+    pub fn summary(&self, order: usize, sampled_points: usize) -> String {
+        let last = self.steps.last();
+        match self.outcome {
+            Outcome::Converged => format!(
+                "tolerance {:.1e} reached: true error {:.2e} at the last {} indicator maxima and all {} sampled points; order {}, {} factorizations",
+                self.tol,
+                self.error,
+                last.map(|s| s.points_hz.len()).unwrap_or(0),
+                sampled_points,
+                order,
+                self.factorizations()
+            ),
+            _ => format!(
+                "tolerance {:.1e} NOT reached ({}): best true error {:.2e} at order {} after {} factorizations. What would help: {}",
+                self.tol,
+                match self.outcome {
+                    Outcome::Budget => "factorization budget spent",
+                    _ => "more frequencies stopped helping",
+                },
+                self.error,
+                order,
+                self.factorizations(),
+                match self.outcome {
+                    Outcome::Budget => "a larger factorization budget (max_points)".to_string(),
+                    _ => format!(
+                        "a larger interface (max_order above {order}; the DoF with the largest fit residual is {})",
+                        self.suggested_dof
+                    ),
+                }
+            ),
+        }
+    }
+}
