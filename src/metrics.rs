@@ -169,16 +169,24 @@ pub struct ModePair {
 /// Eigenfrequency errors and MAC of a ROM (paper §4.3).
 #[derive(Clone, Debug)]
 pub struct ModalComparison {
-    /// One pair per full deformation mode.
+    /// One pair per full deformation mode that has a ROM partner, by full mode number.
     pub pairs: Vec<ModePair>,
+    /// Full deformation modes without a ROM partner (1-based number, frequency in Hz): the
+    /// ROM has fewer elastic modes than the full model has in the comparison.
+    pub unpaired: Vec<(usize, f64)>,
     /// True when the MAC used expanded ROM modes V φ̃ over all N DoFs; false when it was taken
     /// on the ROM's DoFs only (no V available: ROM coordinates are physical DoF values).
     pub expanded: bool,
 }
 
-/// Pairs every deformation mode of `full` (rigid ones skipped) with the ROM mode of largest
-/// MAC — the documented pairing — and reports the relative frequency error of the pair.
-/// The MAC uses V φ̃ when `basis` (V) is given, else the mode shapes on the ROM's DoFs.
+/// Pairs the deformation modes of `full` (rigid ones skipped) one-to-one with the ROM's
+/// elastic modes and reports the relative frequency error and MAC of each pair.
+///
+/// Pairing rule (one-to-one, by MAC): of all (full, ROM) combinations not yet used, the one
+/// of largest MAC is paired next, until one side runs out — a stable matching, so no full
+/// and ROM mode would both rather be paired with each other than with their partners. Full
+/// modes left over are listed in [`ModalComparison::unpaired`]. The MAC uses V φ̃ when
+/// `basis` (V) is given, else the mode shapes on the ROM's DoFs.
 ///
 /// # Errors
 /// As [`rom_modes`].
@@ -193,37 +201,57 @@ pub fn modal_comparison(
         .filter(|&j| lam_r[j] > 1e-10 * lam_max)
         .collect();
     let expanded_modes = basis.map(|v| v * &phi_r);
-    let mut pairs = Vec::new();
-    for i in full.rigid..full.lambdas.len() {
+    let full_modes: Vec<usize> = (full.rigid..full.lambdas.len()).collect();
+    // MAC of every (full, ROM) combination
+    let mut candidates = Vec::with_capacity(full_modes.len() * rom_elastic.len());
+    for (a_idx, &i) in full_modes.iter().enumerate() {
         let phi_full = full.vectors.as_ref().col(i).as_mat();
         let a = match &expanded_modes {
             Some(_) => phi_full.to_owned(),
             None => Mat::from_fn(rom.dofs.len(), 1, |r, _| phi_full[(rom.dofs[r], 0)]),
         };
-        let best = rom_elastic
-            .iter()
-            .map(|&j| {
-                let b = match &expanded_modes {
-                    Some(e) => e.as_ref().col(j).as_mat().to_owned(),
-                    None => phi_r.as_ref().col(j).as_mat().to_owned(),
-                };
-                (j, mac(a.as_ref(), b.as_ref()))
-            })
-            .max_by(|x, y| x.1.total_cmp(&y.1));
-        if let Some((j, m)) = best {
-            let (f, fr) = (lambda_to_hz(full.lambdas[i]), lambda_to_hz(lam_r[j]));
-            pairs.push(ModePair {
-                full_mode: i + 1,
-                full_hz: f,
-                rom_mode: j + 1,
-                rom_hz: fr,
-                rel_freq_error: (fr - f).abs() / f,
-                mac: m,
-            });
+        for (b_idx, &j) in rom_elastic.iter().enumerate() {
+            let b = match &expanded_modes {
+                Some(e) => e.as_ref().col(j).as_mat().to_owned(),
+                None => phi_r.as_ref().col(j).as_mat().to_owned(),
+            };
+            candidates.push((mac(a.as_ref(), b.as_ref()), a_idx, b_idx));
         }
     }
+    // largest MAC first; ties by full mode, then ROM mode (deterministic)
+    candidates.sort_by(|x, y| y.0.total_cmp(&x.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2)));
+    let (mut full_used, mut rom_used) = (
+        vec![false; full_modes.len()],
+        vec![false; rom_elastic.len()],
+    );
+    let mut pairs = Vec::new();
+    for (m, a_idx, b_idx) in candidates {
+        if full_used[a_idx] || rom_used[b_idx] {
+            continue;
+        }
+        full_used[a_idx] = true;
+        rom_used[b_idx] = true;
+        let (i, j) = (full_modes[a_idx], rom_elastic[b_idx]);
+        let (f, fr) = (lambda_to_hz(full.lambdas[i]), lambda_to_hz(lam_r[j]));
+        pairs.push(ModePair {
+            full_mode: i + 1,
+            full_hz: f,
+            rom_mode: j + 1,
+            rom_hz: fr,
+            rel_freq_error: (fr - f).abs() / f,
+            mac: m,
+        });
+    }
+    pairs.sort_by_key(|p| p.full_mode);
+    let unpaired = full_modes
+        .iter()
+        .zip(&full_used)
+        .filter(|(_, &used)| !used)
+        .map(|(&i, _)| (i + 1, lambda_to_hz(full.lambdas[i])))
+        .collect();
     Ok(ModalComparison {
         pairs,
+        unpaired,
         expanded: expanded_modes.is_some(),
     })
 }

@@ -390,7 +390,7 @@ fn reduce_linefit_then_evaluate() {
 
 #[test]
 fn reduce_bad_settings_fail_cleanly_without_output() {
-    let cases: [(&str, &[&str], &[&str]); 6] = [
+    let cases: [(&str, &[&str], &[&str]); 7] = [
         (
             "interface_without_outputs",
             &[
@@ -457,6 +457,12 @@ fn reduce_bad_settings_fail_cleanly_without_output() {
             &["--method", "linefit", "--extra-interface", "5"],
             &["--ref-freqs"],
         ),
+        // SEREP with fewer modes than its 9 retained DoFs: singular Mr, Kr — refused up front
+        (
+            "serep_fewer_modes_than_masters",
+            &["--method", "serep", "--modes", "3"],
+            &["c = 3 modes < r = 9", "at least 9 modes"],
+        ),
     ];
     for (name, extra, needles) in cases {
         let work = scratch(&format!("reduce_bad_{name}"));
@@ -480,17 +486,42 @@ fn modes_in_band_are_six_rigid_then_six_elastic() {
         &work,
         &["modes", bar_str(), "--band", "0:1000", "--csv", "m.csv"],
     );
-    let rows = csv(&work.join("m.csv"), "index,f_hz,kind");
+    let rows = csv(&work.join("m.csv"), "index,f_hz,kind,lambda");
     assert_eq!(rows.len(), 12, "{rows:?}");
     for (k, r) in rows.iter().enumerate() {
-        assert_eq!(r.len(), 3);
+        assert_eq!(r.len(), 4);
         assert_eq!(r[0], (k + 1).to_string());
         assert_eq!(r[2], if k < 6 { "rigid" } else { "elastic" }, "row {r:?}");
         let f = num(&r[1]);
         if k >= 6 {
             assert!(f > 1.0 && f <= 1000.0, "elastic mode {} at {f} Hz", k + 1);
+        } else {
+            // a rigid mode is 0 Hz, never negative; its computed λ (rounding level) is kept
+            assert_eq!(f, 0.0, "rigid mode {} at {f} Hz", k + 1);
+            let lambda7 = num(&rows[6][3]);
+            assert!(
+                num(&r[3]).abs() <= 1e-9 * lambda7,
+                "rigid lambda {} vs lambda_7 {lambda7}",
+                r[3]
+            );
         }
     }
+    let out = ok(&work, &["modes", bar_str(), "--count", "8"]);
+    assert!(
+        !out.contains(" -0."),
+        "a negative frequency printed:\n{out}"
+    );
     let f: Vec<f64> = rows.iter().map(|r| num(&r[1])).collect();
     assert!(f.windows(2).all(|w| w[0] <= w[1]), "ascending: {f:?}");
+}
+
+#[cfg(not(feature = "umfpack"))]
+#[test]
+fn bench_with_a_backend_this_build_lacks_is_an_error() {
+    let work = scratch("bench_umfpack");
+    fails(
+        &work,
+        &["bench", "sweep", "--backends", "umfpack", "--max-n", "2000"],
+        &["umfpack", "--features umfpack"],
+    );
 }

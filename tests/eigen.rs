@@ -486,3 +486,16 @@ fn no_convergence_within_the_restart_limit_is_a_clear_error() {
         }
     }
 }
+
+#[test]
+fn rigid_modes_are_reported_at_zero_hertz_with_their_computed_lambda() {
+    let (model, _) = paper_bar();
+    let modes = eig(model, Request::Lowest(8), &EigenOptions::default()).unwrap();
+    let f = modes.freqs_hz();
+    assert_eq!(modes.rigid, 6);
+    for (k, (&fk, &lk)) in f.iter().zip(&modes.lambdas).take(6).enumerate() {
+        assert_eq!(fk, 0.0, "rigid mode {k}: {fk} Hz");
+        assert!(lk.abs() <= 1e-9 * modes.lambdas[6], "rigid lambda {lk:.2e}");
+    }
+    assert!(f[6] > 100.0 && f[7] >= f[6], "{f:?}");
+}

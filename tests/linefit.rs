@@ -10,7 +10,7 @@ use sparsemor::body::Body;
 use sparsemor::eigen::{eigenpairs, EigenOptions, Request};
 use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
 use sparsemor::io::rom_dir;
-use sparsemor::metrics::Reference;
+use sparsemor::metrics::{modal_comparison, Reference};
 use sparsemor::model::{Damping, Model};
 use sparsemor::reduce::linefit::{
     place_reference_frequencies, reduce, spread_dofs, Interface, LineFitOptions, References,
@@ -293,4 +293,41 @@ fn bad_settings_are_clear_errors() {
         place_reference_frequencies(&[100.0], [500.0, 500.0], 20),
         Err(Error::InvalidSetting(_))
     ));
+}
+
+/// The modal comparison pairs full and ROM modes one-to-one: over a band far beyond the ROM's
+/// reach (20 kHz, ~50 deformation modes for an order-14 ROM) no ROM mode is used twice, the
+/// modes without a partner are listed, and the in-band modes keep their accurate partners.
+#[test]
+fn modal_pairing_is_one_to_one_and_lists_unpaired_modes() {
+    let (model, scene) = paper_bar();
+    let f20: Vec<f64> = (1..=20).map(|k| 50.0 * k as f64).collect();
+    let rom = lf(&model, &scene, &opts(Interface::OutputsPlus(5), &f20, 2)).unwrap();
+    let body = Body::new(&model).unwrap();
+    let full = eigenpairs(&body, Request::UpTo(20_000.0), &EigenOptions::default()).unwrap();
+    let deformation = full.lambdas.len() - full.rigid;
+    assert!(deformation > rom.order(), "{deformation} modes");
+    let cmp = modal_comparison(&rom, &full, rom.basis.as_ref().map(|v| v.as_ref())).unwrap();
+    let mut used: Vec<usize> = cmp.pairs.iter().map(|p| p.rom_mode).collect();
+    used.sort_unstable();
+    used.dedup();
+    assert_eq!(used.len(), cmp.pairs.len(), "a ROM mode is paired twice");
+    assert!(cmp.pairs.len() <= rom.order());
+    assert_eq!(cmp.pairs.len() + cmp.unpaired.len(), deformation);
+    for p in cmp.pairs.iter().filter(|p| p.full_hz <= 1000.0) {
+        assert!(
+            p.mac > 0.99 && p.rel_freq_error < 1e-3,
+            "in-band mode {} at {:.1} Hz: ROM {:.1} Hz, MAC {:.4}",
+            p.full_mode,
+            p.full_hz,
+            p.rom_hz,
+            p.mac
+        );
+    }
+    println!(
+        "{} full deformation modes up to 20 kHz: {} paired, {} unpaired",
+        deformation,
+        cmp.pairs.len(),
+        cmp.unpaired.len()
+    );
 }

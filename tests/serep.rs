@@ -225,4 +225,13 @@ fn bad_settings_are_clear_errors() {
         serep(ModeChoice::Numbers(vec![7, 8, 7]), io.clone()),
         "mode 7 appears twice",
     );
+    // fewer modes than retained DoFs: Mr, Kr would be singular — refused before any work
+    expect_invalid(
+        serep(ModeChoice::LowestDeformation(3), io.clone()),
+        "c = 3 modes < r = 9 retained DoFs",
+    );
+    expect_invalid(
+        serep(ModeChoice::Numbers(vec![7, 8]), io.clone()),
+        "use at least 9 modes or retain at most 2 DoFs",
+    );
 }

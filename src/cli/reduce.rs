@@ -320,6 +320,12 @@ fn print_evaluation(rom: &Rom, curve: &ErrorCurve, modal: &ModalComparison) -> R
             p.full_mode, p.full_hz, p.rom_mode, p.rom_hz, p.rel_freq_error, p.mac
         );
     }
+    for (k, f) in &modal.unpaired {
+        println!(
+            "  full {k:>3} {f:>9.2} Hz   unpaired: beyond the ROM's {} modes",
+            rom.order()
+        );
+    }
     Ok(())
 }
 
@@ -346,7 +352,7 @@ pub struct ModesArgs {
     /// The C lowest modes, rigid ones included.
     #[arg(long)]
     count: Option<usize>,
-    /// CSV: index,f_hz,kind.
+    /// CSV: index,f_hz,kind,lambda (rigid modes at 0 Hz with their computed lambda).
     #[arg(long)]
     csv: Option<PathBuf>,
 }
@@ -378,13 +384,14 @@ pub fn modes(a: &ModesArgs) -> Result<()> {
         m.stats.krylov_dim
     );
     if let Some(path) = &a.csv {
-        let mut s = String::from("index,f_hz,kind\n");
+        let mut s = String::from("index,f_hz,kind,lambda\n");
         for (k, f) in m.freqs_hz().iter().enumerate() {
             s.push_str(&format!(
-                "{},{:?},{}\n",
+                "{},{:?},{},{:?}\n",
                 k + 1,
                 f,
-                if k < m.rigid { "rigid" } else { "elastic" }
+                if k < m.rigid { "rigid" } else { "elastic" },
+                m.lambdas[k]
             ));
         }
         std::fs::write(path, s).map_err(|e| Error::io(path, e))?;
@@ -396,11 +403,16 @@ fn print_modes(m: &Modes, lo: f64) {
     for (k, f) in m.freqs_hz().iter().enumerate() {
         if *f >= lo || k < m.rigid {
             println!(
-                "{:>4} {:>12.4} Hz  {:<8} backward error {:.1e}",
+                "{:>4} {:>12.4} Hz  {:<8} backward error {:.1e}{}",
                 k + 1,
                 f,
                 if k < m.rigid { "rigid" } else { "elastic" },
-                m.residuals[k]
+                m.residuals[k],
+                if k < m.rigid {
+                    format!("  (computed lambda {:.2e})", m.lambdas[k])
+                } else {
+                    String::new()
+                }
             );
         }
     }
@@ -589,7 +601,7 @@ pub struct TradeoffArgs {
     /// Factorization budget per tolerance.
     #[arg(long, default_value_t = 80)]
     max_points: usize,
-    /// SEREP mode counts to compare (retained DoFs: outputs + spread DoFs up to the count).
+    /// SEREP mode counts c to compare (c retained DoFs: the outputs first, then spread DoFs).
     #[arg(long, default_value = "3,6,9,12,15,20")]
     serep_modes: String,
     /// Verification grid points over the band (full solves).
@@ -662,7 +674,8 @@ pub fn tradeoff(a: &TradeoffArgs) -> Result<()> {
         }
     }
     for &c in &modes {
-        let mut retain = outputs.clone();
+        // r = c retained DoFs (SEREP needs c >= r): the outputs first, then spread DoFs
+        let mut retain: Vec<usize> = outputs.iter().copied().take(c).collect();
         if c > retain.len() {
             retain.extend(linefit::spread_dofs(&model, c - retain.len(), outputs)?);
         }

@@ -170,11 +170,20 @@ pub struct Modes {
 }
 
 impl Modes {
-    /// Frequencies f = sign(λ)·√|λ| / 2π (Hz).
+    /// Frequencies f = √λ / 2π (Hz) of the deformation modes; the [`Self::rigid`] rigid
+    /// modes are reported as 0 Hz (their computed λ, a rounding-level number of either sign,
+    /// stays in [`Self::lambdas`]) — never as a negative frequency.
     pub fn freqs_hz(&self) -> Vec<f64> {
         self.lambdas
             .iter()
-            .map(|&l| crate::units::lambda_to_hz(l))
+            .enumerate()
+            .map(|(k, &l)| {
+                if k < self.rigid {
+                    0.0
+                } else {
+                    crate::units::lambda_to_hz(l)
+                }
+            })
             .collect()
     }
 }

@@ -58,8 +58,9 @@ pub struct SerepOptions {
 /// eigensolve is run, otherwise the modes are computed ([`Request::Lowest`]).
 ///
 /// # Errors
-/// [`Error::InvalidSetting`] for c = 0, more modes than DoFs, bad or duplicate DoF lists,
-/// mode numbers out of range or repeated; the eigensolver's errors.
+/// [`Error::InvalidSetting`] for c = 0, fewer modes than retained DoFs (c < r: Mr, Kr
+/// singular), more modes than DoFs, bad or duplicate DoF lists, mode numbers out of range or
+/// repeated; the eigensolver's errors.
 pub fn reduce(
     body: &Body<'_>,
     scene: &Scene,
@@ -107,6 +108,16 @@ pub fn reduce(
             )
         }
     };
+    let (c, r) = match &opts.modes {
+        ModeChoice::LowestDeformation(c) => (*c, retain.len()),
+        ModeChoice::Numbers(v) => (v.len(), retain.len()),
+    };
+    if c < r {
+        return Err(Error::InvalidSetting(format!(
+            "SEREP with c = {c} modes < r = {r} retained DoFs: V = U_c U_cr⁺ has rank <= {c}, so Mr and Kr \
+             (r×r) would be singular; use at least {r} modes or retain at most {c} DoFs"
+        )));
+    }
     if request > n_full {
         return Err(Error::InvalidSetting(format!(
             "SEREP needs {request} modes but the model has only N = {n_full} DoFs"
@@ -129,8 +140,8 @@ pub fn reduce(
             modes.lambdas.len()
         )));
     }
-    let t = Instant::now();
     let (c, r) = (chosen.len(), retain.len());
+    let t = Instant::now();
     let u_cr = Mat::<f64>::from_fn(r, c, |i, j| modes.vectors[(retain[i], chosen[j])]);
     let svd = u_cr
         .thin_svd()
