@@ -3,8 +3,11 @@
 mod cli;
 
 fn main() {
-    if let Err(e) = cli::run() {
-        eprintln!("error: {e}");
-        std::process::exit(1);
+    match cli::run() {
+        Ok(done) => std::process::exit(done.exit_code()),
+        Err(e) => {
+            eprintln!("error: {e}");
+            std::process::exit(1);
+        }
     }
 }

@@ -525,3 +525,60 @@ fn bench_with_a_backend_this_build_lacks_is_an_error() {
         &["umfpack", "--features umfpack"],
     );
 }
+
+/// A tolerance that cannot be met: the ROM is written, the exit status is 3 (documented in
+/// `--help`), `rom.toml` records the request, the error reached and its kind, and the CLI words
+/// the hint with its own flags.
+#[test]
+fn unmet_tolerance_writes_the_rom_and_exits_with_status_3() {
+    let help = ok(&scratch("help"), &["--help"]);
+    assert!(help.contains("Exit status") && help.contains("3  the ROM was written"));
+    for (name, extra, hint) in [
+        ("stagnated", &[][..], "--max-order"),
+        ("budget", &["--max-points", "5"][..], "--max-points"),
+    ] {
+        let work = scratch(&format!("unmet_{name}"));
+        let mut args = vec![
+            "reduce",
+            bar_str(),
+            "--method",
+            "linefit",
+            "--extra-interface",
+            "5",
+            "--tol",
+            "1e-6",
+            "--threads",
+            "1",
+            "--out",
+            "rom",
+        ];
+        args.extend_from_slice(extra);
+        let out = run(&work, &args);
+        let (stdout, stderr) = (text(&out.stdout), text(&out.stderr));
+        assert_eq!(out.status.code(), Some(3), "{name}: {stdout}\n{stderr}");
+        assert!(
+            stdout.contains("NOT reached") && stdout.contains(hint),
+            "{name}: {stdout}"
+        );
+        assert!(!stdout.contains("max_points") && !stdout.contains("max_order"));
+        let toml = std::fs::read_to_string(work.join("rom").join("rom.toml")).expect("rom.toml");
+        assert!(toml.contains("[sampling]"), "{toml}");
+        assert!(
+            toml.contains("tol = 1e-6") || toml.contains("tol = 0.000001"),
+            "{toml}"
+        );
+        let status = if name == "budget" {
+            "budget spent"
+        } else {
+            "stagnated"
+        };
+        assert!(toml.contains(&format!("status = \"{status}\"")), "{toml}");
+        assert!(toml.contains("error_kind = "), "{toml}");
+        let rom = sparsemor::io::rom_dir::read(&work.join("rom")).expect("read the ROM back");
+        let s = rom.sampling().expect("the [sampling] table is read back");
+        assert!(
+            s.error > 1e-6 && stdout.contains(&format!("{:.2e}", s.error)),
+            "{stdout}"
+        );
+    }
+}

@@ -779,6 +779,22 @@ enum SparsemorStatus sparsemor_rom_transfer_error(const struct SparsemorModel *m
                                                   double *eps_total_out);
 
 /**
+ * The request and result of a tolerance-driven line-fitting ROM: the tolerance asked for
+ * (`*tol_out`), the error reached (`*error_out`: the max true elastic ε of eq. 23 at the
+ * sampled points and the verified indicator maxima — a lower bound of the max over the band;
+ * when the tolerance was not met, the best such value of the loop) and the factorizations
+ * spent (`*factorizations_out`). Any out pointer may be NULL. `SPARSEMOR_STATUS_NOT_AVAILABLE`
+ * for a ROM that did not come from the sampling loop.
+ *
+ * # Safety
+ * `rom` a live handle; each out pointer NULL or writable.
+ */
+enum SparsemorStatus sparsemor_rom_sampling_result(const struct SparsemorRom *rom,
+                                                   double *tol_out,
+                                                   double *error_out,
+                                                   size_t *factorizations_out);
+
+/**
  * Whether the ROM came from the sampling loop (`*is_sampled_out`, 0/1) and, if so, whether
  * it reached the tolerance (`*converged_out`, 0/1; may be NULL).
  *

@@ -680,6 +680,36 @@ pub unsafe extern "C" fn sparsemor_rom_transfer_error(
     })
 }
 
+/// The request and result of a tolerance-driven line-fitting ROM: the tolerance asked for
+/// (`*tol_out`), the error reached (`*error_out`: the max true elastic ε of eq. 23 at the
+/// sampled points and the verified indicator maxima — a lower bound of the max over the band;
+/// when the tolerance was not met, the best such value of the loop) and the factorizations
+/// spent (`*factorizations_out`). Any out pointer may be NULL. `SPARSEMOR_STATUS_NOT_AVAILABLE`
+/// for a ROM that did not come from the sampling loop.
+///
+/// # Safety
+/// `rom` a live handle; each out pointer NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_rom_sampling_result(
+    rom: *const SparsemorRom,
+    tol_out: *mut f64,
+    error_out: *mut f64,
+    factorizations_out: *mut usize,
+) -> SparsemorStatus {
+    ffi_body!({
+        let r = unsafe { obj(rom, "rom")? };
+        let s = r.rom.sampling().ok_or_else(|| {
+            Failure::new(
+                SparsemorStatus::NotAvailable,
+                "the ROM did not come from the sampling loop (no tolerance was set)",
+            )
+        })?;
+        unsafe { write_opt(tol_out, s.tol, "tol_out")? };
+        unsafe { write_opt(error_out, s.error, "error_out")? };
+        unsafe { write_opt(factorizations_out, s.factorizations, "factorizations_out") }
+    })
+}
+
 /// Whether the ROM came from the sampling loop (`*is_sampled_out`, 0/1) and, if so, whether
 /// it reached the tolerance (`*converged_out`, 0/1; may be NULL).
 ///

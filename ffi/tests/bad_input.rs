@@ -450,7 +450,26 @@ fn tolerance_is_validated_and_reserved() {
             null_mut(),
         );
         expect(st, SparsemorStatus::InvalidArgument, "out of range");
+        // the request and what was reached, as rom.toml records them
+        let (mut tol, mut err, mut facts_total) = (0.0, f64::NAN, 0usize);
+        let st = sparsemor_rom_sampling_result(rom, &mut tol, &mut err, &mut facts_total);
+        assert_eq!(st, SparsemorStatus::Ok, "{}", last_error());
+        assert_eq!(tol, 1e-4);
+        assert!(
+            err.is_finite() && err >= 0.0 && facts_total >= 1,
+            "{err} {facts_total}"
+        );
         sparsemor_rom_free(rom);
+        // a ROM from explicit frequencies has no sampling result
+        assert_eq!(sparsemor_options_set_tolerance(o, 0.0), SparsemorStatus::Ok);
+        let f3 = [1.0, 3.0, 5.0];
+        sparsemor_options_set_reference_frequencies(o, f3.as_ptr(), 3);
+        let st = sparsemor_reduce_linefit(h, o, None, null_mut(), &mut rom);
+        assert_eq!(st, SparsemorStatus::Ok, "{}", last_error());
+        let st = sparsemor_rom_sampling_result(rom, &mut tol, null_mut(), null_mut());
+        expect(st, SparsemorStatus::NotAvailable, "sampling loop");
+        sparsemor_rom_free(rom);
+        sparsemor_options_set_reference_frequencies(o, f.as_ptr(), 1);
         assert_eq!(
             sparsemor_options_set_sampling_limits(o, 0, 0),
             SparsemorStatus::InvalidArgument

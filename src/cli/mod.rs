@@ -30,7 +30,33 @@ const EXAMPLES: &str = "Examples:
   sparsemor reduce bar --method linefit --extra-interface 5 --tol 1e-3 --max-order 24 --out rom3
   sparsemor tradeoff bar --tols 1e-1,1e-2,1e-3,1e-4 --csv tradeoff.csv --svg tradeoff.svg
   sparsemor modes bar --band 0:1000
-  sparsemor bench sweep";
+  sparsemor bench sweep
+
+Exit status:
+  0  done (and the requested tolerance, if any, was met)
+  1  error: nothing was written
+  2  bad command line
+  3  the ROM was written but the requested tolerance was NOT met
+     (rom.toml [sampling] records the tolerance, the error reached and why the loop stopped)";
+
+/// How a successful command ended (see the exit-status table in `--help`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Done {
+    /// Everything asked for was delivered: exit status 0.
+    Met,
+    /// The output was written but a requested accuracy was not reached: exit status 3.
+    RequestNotMet,
+}
+
+impl Done {
+    /// The process exit status.
+    pub fn exit_code(self) -> i32 {
+        match self {
+            Done::Met => 0,
+            Done::RequestNotMet => 3,
+        }
+    }
+}
 
 #[derive(Subcommand)]
 enum Command {
@@ -74,22 +100,28 @@ enum Command {
 }
 
 /// Parses the command line and runs the command.
-pub fn run() -> sparsemor::Result<()> {
+pub fn run() -> sparsemor::Result<Done> {
     let cli = Cli::parse();
+    let met = |r: sparsemor::Result<()>| r.map(|()| Done::Met);
     match cli.command {
         Command::Generate {
             kind,
             elements,
             size,
             out,
-        } => commands::generate(&kind, elements.as_deref(), size.as_deref(), &out),
-        Command::Info { model } => commands::info(&model),
-        Command::Sweep(args) => commands::sweep(&args, cli.verbose),
+        } => met(commands::generate(
+            &kind,
+            elements.as_deref(),
+            size.as_deref(),
+            &out,
+        )),
+        Command::Info { model } => met(commands::info(&model)),
+        Command::Sweep(args) => met(commands::sweep(&args, cli.verbose)),
         Command::Reduce(args) => reduce::reduce(&args),
-        Command::Evaluate(args) => reduce::evaluate(&args),
-        Command::Modes(args) => reduce::modes(&args),
-        Command::Demo { threads } => reduce::demo(threads),
-        Command::Tradeoff(args) => reduce::tradeoff(&args),
-        Command::Bench(args) => bench::run(&args),
+        Command::Evaluate(args) => met(reduce::evaluate(&args)),
+        Command::Modes(args) => met(reduce::modes(&args)),
+        Command::Demo { threads } => met(reduce::demo(threads)),
+        Command::Tradeoff(args) => met(reduce::tradeoff(&args)),
+        Command::Bench(args) => met(bench::run(&args)),
     }
 }

@@ -65,7 +65,7 @@ pub struct ReduceArgs {
     out: PathBuf,
 }
 
-pub fn reduce(a: &ReduceArgs) -> Result<()> {
+pub fn reduce(a: &ReduceArgs) -> Result<super::Done> {
     let (model, scene, _) = model_dir::read(&a.model)?;
     let body = Body::new(&model)?;
     let t = Instant::now();
@@ -149,7 +149,16 @@ pub fn reduce(a: &ReduceArgs) -> Result<()> {
     rom_dir::write(&a.out, &rom)?;
     print_rom(&rom);
     eprintln!("reduced in {secs:.2} s -> {}", a.out.display());
-    Ok(())
+    Ok(match rom.sampling() {
+        Some(s) if s.outcome != Outcome::Converged => {
+            eprintln!(
+                "the ROM was written, but the tolerance {:.1e} was NOT met (error reached {:.2e}); exit status 3",
+                s.tol, s.error
+            );
+            super::Done::RequestNotMet
+        }
+        _ => super::Done::Met,
+    })
 }
 
 /// The sampling loop's summary with the options it names worded as this command's flags.
@@ -665,7 +674,7 @@ pub fn tradeoff(a: &TradeoffArgs) -> Result<()> {
             "linefit".into(),
             format!("tol {tol:.0e}"),
             secs,
-            report.factorizations(),
+            report.factorizations,
             rom.order(),
             e,
         ));

@@ -1,10 +1,12 @@
 //! The ROM directory (DESIGN.md §4): `rom.toml` (method, order, DoFs, reference frequencies,
-//! fit numerics, definiteness, timings, version) and `Mr.mtx Dr.mtx Kr.mtx Br.mtx Cr.mtx`
+//! fit numerics, definiteness, timings, version; for a tolerance-driven ROM a `[sampling]`
+//! table with the tolerance, the error reached, its kind and the loop's status) and `Mr.mtx Dr.mtx Kr.mtx Br.mtx Cr.mtx`
 //! (Matrix Market `array real general`, full double precision), optional `V.mtx`.
 //! Written atomically ([`super::model_dir::write_atomically`]).
 
 use crate::io::matrix_market;
 use crate::io::model_dir::{toml_error, write_atomically};
+use crate::reduce::linefit::{Outcome, SamplingReport};
 use crate::reduce::{Definiteness, FitReport, Provenance, Rom, Timing};
 use crate::{Error, Result};
 use serde::{Deserialize, Serialize};
@@ -39,6 +41,29 @@ struct Manifest {
     has_basis: bool,
     #[serde(default)]
     serep_cond: Option<f64>,
+    /// The request of a tolerance-driven line-fitting ROM and what was reached.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    sampling: Option<SamplingToml>,
+}
+
+/// `[sampling]` of `rom.toml`: the tolerance asked for, the error reached (and what kind of
+/// number it is), how the loop ended.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+struct SamplingToml {
+    tol: f64,
+    status: String,
+    error: f64,
+    error_kind: String,
+    factorizations: usize,
+    suggested_dof: usize,
+}
+
+fn outcome_name(o: &Outcome) -> &'static str {
+    match o {
+        Outcome::Converged => "converged",
+        Outcome::Budget => "budget spent",
+        Outcome::Stagnated => "stagnated",
+    }
 }
 
 /// Writes `rom` into a new directory.
@@ -85,11 +110,45 @@ pub fn write(dir: &Path, rom: &Rom) -> Result<()> {
                 .collect(),
             has_basis: rom.basis.is_some(),
             serep_cond: rom.serep_cond(),
+            sampling: rom.sampling().map(|r| SamplingToml {
+                tol: r.tol,
+                status: outcome_name(&r.outcome).into(),
+                error: r.error,
+                error_kind: SamplingReport::ERROR_KIND.into(),
+                factorizations: r.factorizations,
+                suggested_dof: r.suggested_dof,
+            }),
         };
         let text = toml::to_string(&man)
             .map_err(|e| Error::InvalidSetting(format!("cannot serialize rom.toml: {e}")))?;
         let path = tmp.join("rom.toml");
         std::fs::write(&path, text).map_err(|e| Error::io(&path, e))
+    })
+}
+
+/// The sampling report of a `[sampling]` table (the per-step log is not stored).
+fn sampling_report(path: &Path, t: SamplingToml) -> Result<SamplingReport> {
+    let outcome = [Outcome::Converged, Outcome::Budget, Outcome::Stagnated]
+        .into_iter()
+        .find(|o| outcome_name(o) == t.status)
+        .ok_or_else(|| {
+            Error::parse(
+                path,
+                0,
+                format!(
+                    "[sampling] status '{}': expected converged, budget spent or stagnated",
+                    t.status
+                ),
+            )
+        })?;
+    Ok(SamplingReport {
+        tol: t.tol,
+        steps: Vec::new(),
+        outcome,
+        error: t.error,
+        suggested_dof: t.suggested_dof,
+        factorizations: t.factorizations,
+        spilled: false,
     })
 }
 
@@ -122,7 +181,10 @@ pub fn read(dir: &Path) -> Result<Rom> {
         ("linefit", Some(fit), _) => Provenance::LineFit {
             ref_freqs_hz: man.ref_freqs_hz,
             fit,
-            sampling: None,
+            sampling: man
+                .sampling
+                .map(|t| sampling_report(&path, t))
+                .transpose()?,
         },
         ("serep", _, Some(cond)) => Provenance::Serep {
             modes: man.modes,

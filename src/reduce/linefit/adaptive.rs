@@ -351,12 +351,14 @@ impl<'a> Loop<'a> {
                 .fold(f64::INFINITY, f64::min),
         };
         let mut rom = self.rom;
+        let factorizations = self.steps.last().map(|s| s.factorizations).unwrap_or(0);
         let report = SamplingReport {
             tol: self.sampling.tol,
             suggested_dof: rom.fit().map(|f| f.residual_argmax_dof).unwrap_or(0),
             steps: self.steps,
             outcome,
             error,
+            factorizations,
             spilled: self.store.as_ref().is_some_and(|s| s.spilled()),
         };
         if let Provenance::LineFit { sampling, .. } = &mut rom.provenance {

@@ -49,15 +49,15 @@ pub struct SamplingReport {
     /// The DoF with the largest fit residual of the returned ROM (the next interface DoF
     /// that would help).
     pub suggested_dof: usize,
+    /// Factorizations spent.
+    pub factorizations: usize,
     /// Snapshots were spilled to a temporary file.
     pub spilled: bool,
 }
 
 impl SamplingReport {
-    /// Factorizations spent.
-    pub fn factorizations(&self) -> usize {
-        self.steps.last().map(|s| s.factorizations).unwrap_or(0)
-    }
+    /// What kind of number [`Self::error`] is.
+    pub const ERROR_KIND: &'static str = "max true elastic eps (eq. 23) of the loop's ROMs at the sampled points and the verified indicator maxima (a lower bound of the max over the band)";
 
     /// One line on what was reached and, if the tolerance was not, what would help (named
     /// by the options' fields; front ends may word them as their flags).
@@ -71,7 +71,7 @@ impl SamplingReport {
                 last.map(|s| s.points_hz.len()).unwrap_or(0),
                 sampled_points,
                 order,
-                self.factorizations()
+                self.factorizations
             ),
             _ => format!(
                 "tolerance {:.1e} NOT reached ({}): best true error {:.2e} at order {} after {} factorizations. What would help: {}",
@@ -82,7 +82,7 @@ impl SamplingReport {
                 },
                 self.error,
                 order,
-                self.factorizations(),
+                self.factorizations,
                 match self.outcome {
                     Outcome::Budget => "a larger factorization budget (max_points)".to_string(),
                     _ => format!(
