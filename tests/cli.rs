@@ -534,7 +534,7 @@ fn unmet_tolerance_writes_the_rom_and_exits_with_status_3() {
     let help = ok(&scratch("help"), &["--help"]);
     assert!(help.contains("Exit status") && help.contains("3  the ROM was written"));
     for (name, extra, hint) in [
-        ("stagnated", &[][..], "--max-order"),
+        ("stagnated", &["--max-order", "14"][..], "--max-order"),
         ("budget", &["--max-points", "5"][..], "--max-points"),
     ] {
         let work = scratch(&format!("unmet_{name}"));

@@ -70,7 +70,7 @@ fn tolerances_are_met_on_a_fine_grid() {
         (1e-3, Growth::QDeim),
     ] {
         let mut o = SamplingOptions::new(tol);
-        o.max_order = 40;
+        o.max_order = Some(40);
         o.growth = growth;
         let rom = sampled(m, scene, o, 5, 0, &no_progress).unwrap();
         let r = report(&rom);
@@ -91,6 +91,99 @@ fn tolerances_are_met_on_a_fine_grid() {
     }
 }
 
+/// `--tol T` and nothing else: the interface starts at outputs + ⌈q/2⌉, grows up to the
+/// automatic cap, and the returned ROM meets the tolerance on 2000 full solves over the band.
+/// The verification pass reports the max over its points: on the same 2000 points it equals
+/// the independent reference's maximum.
+#[test]
+fn defaults_reach_the_tolerance_and_report_what_was_written() {
+    let (m, scene, reference) = bar();
+    let body = Body::new(m).unwrap();
+    for tol in [1e-2, 1e-3, 1e-4] {
+        let o = LineFitOptions::new(
+            Interface::Auto,
+            References::Tolerance(SamplingOptions::new(tol)),
+        );
+        let rom = linefit::reduce(&body, scene, &o, None, &no_progress).unwrap();
+        let r = report(&rom);
+        let v = verified_max(reference, &rom);
+        let stored = r.verified.expect("verification runs by default");
+        println!(
+            "tol {tol:.0e}, defaults: {:?}, order {}, {} factorizations (+{} verification), loop error {:.3e}, verified {:.3e}, 2000-point max {v:.3e}",
+            r.outcome,
+            rom.order(),
+            r.factorizations,
+            stored.points,
+            r.error,
+            stored.error
+        );
+        assert_eq!(r.outcome, Outcome::Converged);
+        assert!(v <= tol, "tol {tol:.0e}: 2000-point max {v:.3e}");
+        assert!(
+            stored.error <= v * (1.0 + 1e-9),
+            "a subset max cannot exceed the grid max"
+        );
+    }
+    let mut s = SamplingOptions::new(1e-3);
+    s.verify_points = Some(2000);
+    let o = LineFitOptions::new(Interface::Auto, References::Tolerance(s));
+    let rom = linefit::reduce(&body, scene, &o, None, &no_progress).unwrap();
+    let stored = report(&rom).verified.unwrap().error;
+    let v = verified_max(reference, &rom);
+    assert!(
+        (stored - v).abs() <= 0.01 * v,
+        "stored {stored:.4e} vs reference {v:.4e}"
+    );
+}
+
+/// When the tolerance is not reached the ROM returned is the measured one of smallest error,
+/// and that error is what the report states: re-measured at the sampled points it agrees.
+#[test]
+fn an_unmet_tolerance_returns_the_rom_whose_error_is_reported() {
+    let (m, scene, _) = bar();
+    let mut s = SamplingOptions::new(1e-6);
+    s.max_order = Some(14);
+    s.verify_points = Some(0);
+    let rom = sampled(m, scene, s, 5, 1, &no_progress).unwrap();
+    let r = report(&rom);
+    assert_ne!(r.outcome, Outcome::Converged);
+    // the step where that ROM was measured: its error is the report's
+    let best = r
+        .steps
+        .iter()
+        .map(|s| s.true_error_max.max(s.sampled_error_max))
+        .filter(|e| e.is_finite())
+        .fold(f64::INFINITY, f64::min);
+    assert_eq!(r.error, best);
+    // re-measure the returned ROM at every point the loop has H1 for: the sampled points
+    let body = Body::new(m).unwrap();
+    let reference = Reference::compute(
+        &body,
+        scene,
+        rom.ref_freqs_hz(),
+        &SweepOptions::default(),
+        &no_progress,
+    )
+    .unwrap();
+    let at_sampled = reference
+        .error(&rom)
+        .unwrap()
+        .eps_elastic
+        .iter()
+        .copied()
+        .fold(0.0, f64::max);
+    println!(
+        "reported {:.4e}, re-measured at its {} sampled points {at_sampled:.4e}",
+        r.error,
+        rom.ref_freqs_hz().len()
+    );
+    assert!(
+        at_sampled <= r.error * (1.0 + 1e-6),
+        "{at_sampled:.4e} > reported {:.4e}",
+        r.error
+    );
+}
+
 #[test]
 fn automatic_beats_the_hand_placed_demo_points() {
     let (m, scene, reference) = bar();
@@ -104,7 +197,9 @@ fn automatic_beats_the_hand_placed_demo_points() {
         &linefit::reduce(&body, scene, &demo_opts, None, &no_progress).unwrap(),
     );
     // same order 14 as the demo, no growth
-    let rom = sampled(m, scene, SamplingOptions::new(1e-2), 5, 0, &no_progress).unwrap();
+    let mut fixed_order = SamplingOptions::new(1e-2);
+    fixed_order.max_order = Some(14);
+    let rom = sampled(m, scene, fixed_order, 5, 0, &no_progress).unwrap();
     let (auto, facts) = (
         verified_max(reference, &rom),
         report(&rom).steps.last().unwrap().factorizations,
@@ -164,7 +259,9 @@ fn adding_frequencies_never_refactors() {
         true
     };
     let mut o = SamplingOptions::new(1e-3);
-    o.max_order = 24;
+    o.max_order = Some(24);
+    // the loop's factorizations only (no verification pass)
+    o.verify_points = Some(0);
     let rom = sampled(m, scene, o, 5, 0, &cb).unwrap();
     let r = report(&rom);
     let solved: usize = r.steps.iter().map(|s| s.points_hz.len()).sum();
@@ -183,7 +280,7 @@ fn adding_frequencies_never_refactors() {
 fn spilled_snapshots_give_the_same_rom() {
     let (m, scene, _) = bar();
     let mut o = SamplingOptions::new(1e-3);
-    o.max_order = 18;
+    o.max_order = Some(18);
     // one worker: the same absorption order in both runs, so the results are bit-identical
     let a = sampled(m, scene, o.clone(), 5, 1, &no_progress).unwrap();
     o.snapshot_memory = Some(0);
@@ -203,7 +300,9 @@ fn impossible_requests_say_what_was_reached_and_what_would_help() {
         );
     }
     // order 14 cannot reach 1e-6
-    let rom = sampled(m, scene, SamplingOptions::new(1e-6), 5, 0, &no_progress).unwrap();
+    let mut fixed_order = SamplingOptions::new(1e-6);
+    fixed_order.max_order = Some(14);
+    let rom = sampled(m, scene, fixed_order, 5, 0, &no_progress).unwrap();
     let (r, message) = (
         report(&rom),
         report(&rom).summary(rom.order(), rom.ref_freqs_hz().len()),

@@ -23,7 +23,8 @@ pub struct SparsemorOptions {
     pub(crate) tolerance: Option<f64>,
     pub(crate) max_points: usize,
     pub(crate) max_order: usize,
-    pub(crate) interface: Interface,
+    /// `None`: the default, [`Interface::Auto`] with a tolerance, the outputs otherwise.
+    pub(crate) interface: Option<Interface>,
     pub(crate) ref_freqs: RefFreqs,
     pub(crate) serep_modes: Option<ModeChoice>,
     pub(crate) serep_retain: Option<Vec<usize>>,
@@ -37,7 +38,7 @@ impl Default for SparsemorOptions {
             tolerance: None,
             max_points: 60,
             max_order: 0,
-            interface: Interface::OutputsPlus(0),
+            interface: None,
             ref_freqs: RefFreqs::Unset,
             serep_modes: None,
             serep_retain: None,
@@ -57,7 +58,7 @@ impl SparsemorOptions {
                     s.seeds_hz = f.clone();
                 }
                 s.max_points = self.max_points;
-                s.max_order = self.max_order;
+                s.max_order = (self.max_order > 0).then_some(self.max_order);
                 References::Tolerance(s)
             }
             (None, RefFreqs::Explicit(f)) => References::Explicit(f.clone()),
@@ -69,7 +70,11 @@ impl SparsemorOptions {
                 ))
             }
         };
-        let mut o = LineFitOptions::new(self.interface.clone(), references);
+        let interface = self.interface.clone().unwrap_or(match self.tolerance {
+            Some(_) => Interface::Auto,
+            None => Interface::OutputsPlus(0),
+        });
+        let mut o = LineFitOptions::new(interface, references);
         o.keep_basis = self.keep_basis;
         o.sweep.threads = threads;
         Ok(o)
@@ -93,7 +98,9 @@ unsafe fn dof_list(ptr: *const usize, len: usize, what: &str) -> Result<Vec<usiz
 }
 
 /// Creates an options handle with the defaults: threads 0 (all cores), no tolerance,
-/// interface = the outputs (outputs + 0), no reference frequencies (line-fitting needs them),
+/// interface = the outputs (outputs + 0) — with a tolerance the outputs plus ⌈q/2⌉ spread
+/// DoFs for q outputs, growing up to the automatic cap —, no reference frequencies
+/// (line-fitting needs them or a tolerance),
 /// SEREP with c = r modes (as many lowest deformation modes as retained DoFs) retaining the
 /// outputs, V not kept. `*options_out` receives the handle (NULL on failure).
 ///
@@ -187,8 +194,9 @@ pub unsafe extern "C" fn sparsemor_options_set_tolerance(
 }
 
 /// Limits of the sampling loop (with a tolerance): at most `max_points` factorizations
-/// (default 60, ≥ 1) and interface growth up to order `max_order` (default 0 = the interface
-/// never grows).
+/// (default 60, ≥ 1) and interface growth up to order `max_order` (default 0 = the automatic
+/// cap min(max(3·n0, 40), N/2, memory) of the library's `SamplingOptions::auto_max_order`; a
+/// value at most the initial order n0 keeps the order fixed).
 ///
 /// # Safety
 /// `options` a live handle.
@@ -224,7 +232,9 @@ pub unsafe extern "C" fn sparsemor_options_set_interface(
 ) -> SparsemorStatus {
     ffi_body!({
         let o = unsafe { obj_mut(options, "options")? };
-        o.interface = Interface::Explicit(unsafe { dof_list(dofs, n_dofs, "interface")? });
+        o.interface = Some(Interface::Explicit(unsafe {
+            dof_list(dofs, n_dofs, "interface")?
+        }));
         Ok(())
     })
 }
@@ -241,7 +251,7 @@ pub unsafe extern "C" fn sparsemor_options_set_interface_outputs_plus(
 ) -> SparsemorStatus {
     ffi_body!({
         let o = unsafe { obj_mut(options, "options")? };
-        o.interface = Interface::OutputsPlus(k);
+        o.interface = Some(Interface::OutputsPlus(k));
         Ok(())
     })
 }

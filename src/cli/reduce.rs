@@ -30,7 +30,8 @@ pub struct ReduceArgs {
     /// Interface DoFs D1,D2,... (line-fitting; must contain the outputs).
     #[arg(long, conflicts_with = "extra_interface")]
     interface: Option<String>,
-    /// Interface = outputs + K DoFs spread along the body (line-fitting).
+    /// Interface = outputs + K DoFs spread along the body (line-fitting; with --tol the
+    /// default is K = ⌈outputs/2⌉).
     #[arg(long)]
     extra_interface: Option<usize>,
     /// Reference frequencies F1,F2,... in Hz (line-fitting; with --tol they are extra seeds).
@@ -42,9 +43,14 @@ pub struct ReduceArgs {
     /// Factorization budget of --tol.
     #[arg(long, default_value_t = 60)]
     max_points: usize,
-    /// Largest order --tol may grow the interface to (default: no growth).
+    /// Largest order --tol may grow the interface to (default: min(max(3·n0, 40), N/2, memory)
+    /// for the initial order n0; at most n0 keeps the order fixed).
     #[arg(long)]
     max_order: Option<usize>,
+    /// Verification of --tol: full solves at P points spread over the band, their max error
+    /// written to rom.toml (default ⌈F/3⌉ for F factorizations, ≈ 25 % of the run; 0 = none).
+    #[arg(long, value_name = "P")]
+    verify: Option<usize>,
     /// Interface growth rule of --tol: residual or qdeim.
     #[arg(long, default_value = "residual")]
     growth: String,
@@ -71,14 +77,14 @@ pub fn reduce(a: &ReduceArgs) -> Result<super::Done> {
     let t = Instant::now();
     let rom = match a.method.as_str() {
         "linefit" => {
-            let interface = match (&a.interface, a.extra_interface) {
-                (Some(i), _) => Interface::Explicit(parse_list(i, "--interface")?),
-                (None, Some(k)) => Interface::OutputsPlus(k),
-                (None, None) => {
-                    return Err(Error::InvalidSetting(
-                        "linefit needs --interface D1,D2,... or --extra-interface K".into(),
-                    ))
-                }
+            let interface = match (&a.interface, a.extra_interface, a.tol) {
+                (Some(i), _, _) => Interface::Explicit(parse_list(i, "--interface")?),
+                (None, Some(k), _) => Interface::OutputsPlus(k),
+                (None, None, Some(_)) => Interface::Auto,
+                (None, None, None) => return Err(Error::InvalidSetting(
+                    "linefit with --ref-freqs needs --interface D1,D2,... or --extra-interface K"
+                        .into(),
+                )),
             };
             let ref_freqs = a
                 .ref_freqs
@@ -90,7 +96,8 @@ pub fn reduce(a: &ReduceArgs) -> Result<super::Done> {
                     let mut s = SamplingOptions::new(tol);
                     s.seeds_hz = seeds.unwrap_or_default();
                     s.max_points = a.max_points;
-                    s.max_order = a.max_order.unwrap_or(0);
+                    s.max_order = a.max_order;
+                    s.verify_points = a.verify;
                     s.growth = parse_growth(&a.growth)?;
                     References::Tolerance(s)
                 }
@@ -541,7 +548,7 @@ pub fn demo(threads: usize) -> Result<()> {
     }
     println!();
     println!(
-        "eps = elastic transfer-function error (eq. 23) on 500 points in [1, {}] Hz; eigenfrequency error and MAC over the {} deformation modes in the band (expanded modes, best-MAC pairing)",
+        "eps = elastic transfer-function error (eq. 23) on 500 points in [1, {}] Hz; eigenfrequency error and MAC over the {} deformation modes in the band (expanded modes, one-to-one MAC pairing)",
         band[1],
         res.len()
     );
@@ -552,6 +559,36 @@ pub fn demo(threads: usize) -> Result<()> {
         );
     }
     let eval_s = t.elapsed().as_secs_f64();
+    println!();
+    println!("The automatic path: `reduce --method linefit --tol T` and nothing else (interface = outputs + 5, growing as needed; reference frequencies chosen by the sampling loop):");
+    println!();
+    println!("| tol | order | factorizations (+ verification) | reduce s | loop error | verified max eps (its points) | max eps, 500-point grid | met |");
+    println!("|---|---|---|---|---|---|---|---|");
+    for tol in [1e-2, 1e-3] {
+        let mut o = LineFitOptions::new(
+            Interface::Auto,
+            References::Tolerance(SamplingOptions::new(tol)),
+        );
+        o.sweep.threads = threads;
+        let t = Instant::now();
+        let rom = linefit::reduce(&body, &scene, &o, None, &no_progress)?;
+        let secs = t.elapsed().as_secs_f64();
+        let grid_max = ErrorCurve::max_mean(&reference.error(&rom)?.eps_elastic).0;
+        if let Some(r) = rom.sampling() {
+            let (v, p) = r.verified.map_or((f64::NAN, 0), |v| (v.error, v.points));
+            println!(
+                "| {tol:.0e} | {} | {} (+ {p}) | {secs:.3} | {:.2e} | {v:.2e} ({p}) | {grid_max:.2e} | {} |",
+                rom.order(),
+                r.factorizations,
+                r.error,
+                if r.outcome == Outcome::Converged && grid_max <= tol {
+                    "yes"
+                } else {
+                    "NO"
+                }
+            );
+        }
+    }
     println!(
         "compute: line-fitting {lf_s:.3} s, SEREP {:.3} s + {:.3} s (+ {serep_eig_s:.3} s for their {} modes), full eigenpairs {eig_s:.3} s, evaluation sweeps {eval_s:.2} s, total {:.2} s",
         s9_s,
@@ -656,8 +693,10 @@ pub fn tradeoff(a: &TradeoffArgs) -> Result<()> {
     let mut rows: Vec<(String, String, f64, usize, usize, f64)> = Vec::new();
     for &tol in &tols {
         let mut s = SamplingOptions::new(tol);
-        s.max_order = a.max_order;
+        s.max_order = Some(a.max_order);
         s.max_points = a.max_points;
+        // verified below on the common grid
+        s.verify_points = Some(0);
         let mut o = LineFitOptions::new(
             Interface::OutputsPlus(a.extra_interface),
             References::Tolerance(s),

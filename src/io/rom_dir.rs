@@ -6,7 +6,7 @@
 
 use crate::io::matrix_market;
 use crate::io::model_dir::{toml_error, write_atomically};
-use crate::reduce::linefit::{Outcome, SamplingReport};
+use crate::reduce::linefit::{Outcome, SamplingReport, Verified};
 use crate::reduce::{Definiteness, FitReport, Provenance, Rom, Timing};
 use crate::{Error, Result};
 use serde::{Deserialize, Serialize};
@@ -56,6 +56,11 @@ struct SamplingToml {
     error_kind: String,
     factorizations: usize,
     suggested_dof: usize,
+    /// Max ε of the ROM over `verified_points` full solves spread over the band.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    verified_error: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    verified_points: Option<usize>,
 }
 
 fn outcome_name(o: &Outcome) -> &'static str {
@@ -117,6 +122,8 @@ pub fn write(dir: &Path, rom: &Rom) -> Result<()> {
                 error_kind: SamplingReport::ERROR_KIND.into(),
                 factorizations: r.factorizations,
                 suggested_dof: r.suggested_dof,
+                verified_error: r.verified.map(|v| v.error),
+                verified_points: r.verified.map(|v| v.points),
             }),
         };
         let text = toml::to_string(&man)
@@ -147,6 +154,10 @@ fn sampling_report(path: &Path, t: SamplingToml) -> Result<SamplingReport> {
         outcome,
         error: t.error,
         suggested_dof: t.suggested_dof,
+        verified: t
+            .verified_points
+            .zip(t.verified_error)
+            .map(|(points, error)| Verified { points, error }),
         factorizations: t.factorizations,
         spilled: false,
     })

@@ -36,7 +36,7 @@
 use super::fit::{check_rows, Partition, Worker};
 use super::indicator::Indicator;
 use super::options::{Growth, LineFitOptions, SamplingOptions};
-use super::report::{Outcome, SamplingReport, Step};
+use super::report::{Outcome, SamplingReport, Step, Verified};
 use super::snapshots::SnapshotStore;
 use crate::body::Body;
 use crate::lsq::StreamedQr;
@@ -78,6 +78,9 @@ struct Loop<'a> {
     rom: Rom,
     steps: Vec<Step>,
     ok_steps: usize,
+    /// The measured ROM of smallest error so far and that error (max true ε at its step's
+    /// new and sampled points); returned when the tolerance is not reached.
+    best: Option<(f64, Rom)>,
     /// Indicator max and factorizations before the last refine step (for a grow step).
     last_delta_max: f64,
     last_used: usize,
@@ -107,7 +110,7 @@ pub(super) fn reduce(
             Next::Stop(outcome) => break outcome,
         }
     };
-    Ok(state.report(outcome))
+    state.report(outcome)
 }
 
 /// A merged QR state and the snapshots (frequency, X) it absorbed.
@@ -133,9 +136,15 @@ impl<'a> Loop<'a> {
         let band = positive_band(scene.band_hz);
         let part = Partition::new(body, scene, &opts.interface)?;
         let p = scene.inputs.len();
-        let max_order = sampling.max_order.max(part.order());
         let solver = Solver::new(body, &scene.inputs, Response::Elastic, &opts.sweep)?;
         let threads = opts.sweep.resolved_threads();
+        let max_order = sampling
+            .max_order
+            .unwrap_or_else(|| {
+                let memory = crate::memory::available_bytes().unwrap_or(8 << 30);
+                SamplingOptions::auto_max_order(part.order(), body.n(), threads, memory)
+            })
+            .max(part.order());
         let z0 = part.order().div_ceil(2 * p).max(2);
         let mut sampled: Vec<f64> = (0..z0)
             .map(|k| band[0] + (band[1] - band[0]) * k as f64 / (z0 - 1) as f64)
@@ -202,6 +211,7 @@ impl<'a> Loop<'a> {
             rom,
             steps,
             ok_steps: 0,
+            best: None,
             last_delta_max: f64::NAN,
             last_used: 0,
             start,
@@ -263,7 +273,18 @@ impl<'a> Loop<'a> {
             seconds: self.start.elapsed().as_secs_f64(),
             action: "refine".into(),
         });
-        self.ok_steps = if true_error.max(sampled_error) <= self.sampling.tol {
+        let error = true_error.max(sampled_error);
+        if self.best.as_ref().is_none_or(|b| error < b.0) {
+            // V is needed only while the ROM is the loop's current one (indicator, growth)
+            let basis = self.rom.basis.take();
+            let mut copy = self.rom.clone();
+            if self.opts.keep_basis {
+                copy.basis = basis.clone();
+            }
+            self.rom.basis = basis;
+            self.best = Some((error, copy));
+        }
+        self.ok_steps = if error <= self.sampling.tol {
             self.ok_steps + 1
         } else {
             0
@@ -335,29 +356,60 @@ impl<'a> Loop<'a> {
         Ok(())
     }
 
-    /// The ROM with its sampling history.
-    fn report(self, outcome: Outcome) -> Rom {
-        let error = match outcome {
-            Outcome::Converged => self
-                .steps
-                .last()
-                .map(|s| s.true_error_max.max(s.sampled_error_max))
-                .unwrap_or(f64::NAN),
-            _ => self
-                .steps
-                .iter()
-                .map(|s| s.true_error_max.max(s.sampled_error_max))
-                .filter(|e| e.is_finite())
-                .fold(f64::INFINITY, f64::min),
-        };
-        let mut rom = self.rom;
+    /// The ROM to return — on convergence the current one (verified at the last step's
+    /// points), otherwise the measured ROM of smallest error — verified on
+    /// [`SamplingOptions::verify_points`] full solves, with its sampling history.
+    fn report(self, outcome: Outcome) -> Result<Rom> {
         let factorizations = self.steps.last().map(|s| s.factorizations).unwrap_or(0);
+        let (error, mut rom) = match (outcome == Outcome::Converged, self.best) {
+            (true, _) => {
+                let last = self
+                    .steps
+                    .last()
+                    .map(|s| s.true_error_max.max(s.sampled_error_max));
+                (last.unwrap_or(f64::NAN), self.rom)
+            }
+            (false, Some(best)) => best,
+            // stopped before any ROM was measured: the current one, error unknown
+            (false, None) => (f64::NAN, self.rom),
+        };
+        let points = self
+            .sampling
+            .verify_points
+            .unwrap_or(factorizations.div_ceil(3));
+        let verified = if points > 0 {
+            let band = positive_band(self.scene.band_hz);
+            let freqs: Vec<f64> = (0..points)
+                .map(|k| match points {
+                    1 => band[1],
+                    _ => band[0] + (band[1] - band[0]) * k as f64 / (points - 1) as f64,
+                })
+                .collect();
+            let outputs = &self.scene.outputs;
+            let (errors, _) = self.solver.run(
+                &freqs,
+                || 0.0f64,
+                |worst: &mut f64, snap| {
+                    let h1 = h1_at(outputs, &snap.x.to_owned());
+                    *worst = worst.max(rel_err(&rom, snap.freq_hz, &h1));
+                    Ok(())
+                },
+                self.progress,
+            )?;
+            Some(Verified {
+                points,
+                error: errors.into_iter().fold(0.0, f64::max),
+            })
+        } else {
+            None
+        };
         let report = SamplingReport {
             tol: self.sampling.tol,
             suggested_dof: rom.fit().map(|f| f.residual_argmax_dof).unwrap_or(0),
             steps: self.steps,
             outcome,
             error,
+            verified,
             factorizations,
             spilled: self.store.as_ref().is_some_and(|s| s.spilled()),
         };
@@ -368,10 +420,10 @@ impl<'a> Loop<'a> {
             rom.basis = None;
         }
         rom.timings = vec![Timing {
-            phase: "sampling loop".into(),
+            phase: "sampling loop (+ verification)".into(),
             seconds: self.start.elapsed().as_secs_f64(),
         }];
-        rom
+        Ok(rom)
     }
 }
 

@@ -39,11 +39,16 @@ impl Partition {
     pub fn new(body: &Body<'_>, scene: &Scene, interface: &Interface) -> Result<Self> {
         let n_full = body.n();
         let outputs = &scene.outputs;
+        let extra = match interface {
+            Interface::Explicit(_) => 0,
+            Interface::OutputsPlus(k) => *k,
+            Interface::Auto => Interface::auto_extra(outputs.len()),
+        };
         let interface = match interface {
             Interface::Explicit(i) => i.clone(),
-            Interface::OutputsPlus(k) => {
+            Interface::OutputsPlus(_) | Interface::Auto => {
                 let mut i = outputs.to_vec();
-                i.extend(spread_dofs(body.model(), *k, outputs)?);
+                i.extend(spread_dofs(body.model(), extra, outputs)?);
                 i
             }
         };

@@ -28,7 +28,7 @@ mod snapshots;
 pub use indicator::Indicator;
 pub use options::{Growth, Interface, LineFitOptions, References, SamplingOptions};
 pub use placement::{place_reference_frequencies, spread_dofs, RESONANCE_OFFSET};
-pub use report::{Outcome, SamplingReport, Step};
+pub use report::{Outcome, SamplingReport, Step, Verified};
 
 use crate::body::Body;
 use crate::eigen::{eigenpairs, EigenOptions, Modes, Request};

@@ -12,6 +12,16 @@ pub enum Interface {
     Explicit(Vec<usize>),
     /// The outputs plus k DoFs spread along the body by [`super::spread_dofs`].
     OutputsPlus(usize),
+    /// The default: the outputs plus ⌈q/2⌉ spread DoFs for q outputs ([`Self::auto_extra`]) —
+    /// on the paper bar 9 + 5 = 14, the order of the paper's example.
+    Auto,
+}
+
+impl Interface {
+    /// The number of spread DoFs [`Interface::Auto`] adds to q outputs: ⌈q/2⌉.
+    pub fn auto_extra(outputs: usize) -> usize {
+        outputs.div_ceil(2)
+    }
 }
 
 /// How the reference frequencies are chosen.
@@ -75,8 +85,13 @@ pub struct SamplingOptions {
     pub seeds_hz: Vec<f64>,
     /// Budget of factorizations (frequencies solved).
     pub max_points: usize,
-    /// Largest order; > the initial order lets the interface grow.
-    pub max_order: usize,
+    /// Largest order the interface may grow to; `None` = [`SamplingOptions::auto_max_order`].
+    /// At most the initial order keeps the order fixed.
+    pub max_order: Option<usize>,
+    /// Verification: full solves at this many points spread evenly over the band after the
+    /// loop, whose max ε is reported as the verified error of the returned ROM; `None` =
+    /// ⌈F/3⌉ for F factorizations of the loop (≈ 25 % of the run), `Some(0)` = none.
+    pub verify_points: Option<usize>,
     /// Candidate grid size of the indicator.
     pub candidates: usize,
     /// Interface growth rule. Default: the largest fit residual — measured on the paper bar
@@ -88,17 +103,30 @@ pub struct SamplingOptions {
 }
 
 impl SamplingOptions {
-    /// Defaults for a tolerance: 60 factorizations, no order growth, 2000 candidates,
-    /// residual growth.
+    /// Defaults for a tolerance: 60 factorizations, growth up to
+    /// [`Self::auto_max_order`], 2000 candidates, residual growth, automatic verification.
     pub fn new(tol: f64) -> Self {
         SamplingOptions {
             tol,
             seeds_hz: Vec::new(),
             max_points: 60,
-            max_order: 0,
+            max_order: None,
+            verify_points: None,
             candidates: 2000,
             growth: Growth::Residual,
             snapshot_memory: None,
         }
+    }
+}
+
+impl SamplingOptions {
+    /// The default cap of the order for an initial order n0, N DoFs, `threads` workers and
+    /// `memory` bytes available: min(max(3·n0, 40), N/2, M/(32·threads·N)) — three times the
+    /// initial order (at least 40: the paper bar reaches 1e-4 at order 22 from 14), never more
+    /// than half the DoFs, and the workers' streamed-QR states (n·N doubles each) within a
+    /// quarter of the memory. Never below n0.
+    pub fn auto_max_order(n0: usize, n: usize, threads: usize, memory: usize) -> usize {
+        let by_memory = memory / (32 * threads.max(1) * n.max(1));
+        (3 * n0).max(40).min(n / 2).min(by_memory).max(n0)
     }
 }

@@ -34,7 +34,16 @@ pub enum Outcome {
     Stagnated,
 }
 
-/// What the sampling loop did: attached to the ROM it returns ([`Rom::sampling`]).
+/// The verification pass of a sampled ROM.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Verified {
+    /// Full solves, at points spread evenly over the band (ends included).
+    pub points: usize,
+    /// Max true elastic ε (eq. 23) of the returned ROM over them.
+    pub error: f64,
+}
+
+/// What the sampling loop did: attached to the ROM it returns ([`crate::reduce::Rom::sampling`]).
 #[derive(Clone, Debug)]
 pub struct SamplingReport {
     /// The tolerance asked for.
@@ -43,13 +52,18 @@ pub struct SamplingReport {
     pub steps: Vec<Step>,
     /// How it ended.
     pub outcome: Outcome,
-    /// The error reached: on convergence the max true error of the last step (new and
-    /// sampled points); otherwise the best such max over all steps.
+    /// The error of the returned ROM as the loop measured it: the max true ε at its step's
+    /// new and sampled points ([`Self::ERROR_KIND`]). On convergence the returned ROM is the
+    /// last one measured; otherwise it is the measured ROM of smallest error (NaN when none
+    /// was measured).
     pub error: f64,
     /// The DoF with the largest fit residual of the returned ROM (the next interface DoF
     /// that would help).
     pub suggested_dof: usize,
-    /// Factorizations spent.
+    /// The verification pass: max ε of the returned ROM over full solves at points spread
+    /// evenly over the band ([`super::SamplingOptions::verify_points`]).
+    pub verified: Option<Verified>,
+    /// Factorizations spent by the loop (the verification's come on top).
     pub factorizations: usize,
     /// Snapshots were spilled to a temporary file.
     pub spilled: bool,
@@ -63,9 +77,16 @@ impl SamplingReport {
     /// by the options' fields; front ends may word them as their flags).
     pub fn summary(&self, order: usize, sampled_points: usize) -> String {
         let last = self.steps.last();
+        let verified = match &self.verified {
+            Some(v) => format!(
+                "; verified max eps {:.2e} over {} full solves spread over the band",
+                v.error, v.points
+            ),
+            None => String::new(),
+        };
         match self.outcome {
             Outcome::Converged => format!(
-                "tolerance {:.1e} reached: true error {:.2e} at the last {} indicator maxima and all {} sampled points; order {}, {} factorizations",
+                "tolerance {:.1e} reached: true error {:.2e} at the last {} indicator maxima and all {} sampled points; order {}, {} factorizations{verified}",
                 self.tol,
                 self.error,
                 last.map(|s| s.points_hz.len()).unwrap_or(0),
@@ -74,14 +95,13 @@ impl SamplingReport {
                 self.factorizations
             ),
             _ => format!(
-                "tolerance {:.1e} NOT reached ({}): best true error {:.2e} at order {} after {} factorizations. What would help: {}",
+                "tolerance {:.1e} NOT reached ({}): the ROM returned (order {order}) has true error {:.2e} at its sampled points after {} factorizations{verified}. What would help: {}",
                 self.tol,
                 match self.outcome {
                     Outcome::Budget => "factorization budget spent",
                     _ => "more frequencies stopped helping",
                 },
                 self.error,
-                order,
                 self.factorizations,
                 match self.outcome {
                     Outcome::Budget => "a larger factorization budget (max_points)".to_string(),
