@@ -22,6 +22,30 @@
 //!
 //! Library code never prints: progress goes through a callback ([`sweep::ProgressFn`]),
 //! results and diagnostics are returned, failures are a typed [`Error`].
+//!
+//! ```
+//! use sparsemor::body::Body;
+//! use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
+//! use sparsemor::metrics::{ErrorCurve, Reference};
+//! use sparsemor::reduce::linefit::{self, Interface, LineFitOptions, References, SamplingOptions};
+//! use sparsemor::sweep::{no_progress, SweepOptions};
+//!
+//! // the paper's bar (N = 1656) and its scene: 9 inputs = outputs, band [0, 1000] Hz
+//! let spec = BoxSpec::paper_bar();
+//! let (model, scene) = (bar_model(&spec)?, paper_scene(&spec));
+//! let body = Body::new(&model)?;
+//! // ask for an accuracy; the reference frequencies are chosen by the sampling loop
+//! let opts = LineFitOptions::new(Interface::Auto, References::Tolerance(SamplingOptions::new(1e-2)));
+//! let rom = linefit::reduce(&body, &scene, &opts, None, &no_progress)?;
+//! let report = rom.sampling().expect("a tolerance-driven ROM");
+//! assert!(report.error <= 1e-2);
+//! // check it independently on 200 points: eq. 23 against full solves
+//! let grid: Vec<f64> = (0..200).map(|k| 1.0 + 999.0 * k as f64 / 199.0).collect();
+//! let reference = Reference::compute(&body, &scene, &grid, &SweepOptions::default(), &no_progress)?;
+//! let (max_eps, _) = ErrorCurve::max_mean(&reference.error(&rom)?.eps_elastic);
+//! assert!(max_eps <= 1e-2, "order {}: {max_eps:.2e}", rom.order());
+//! # Ok::<(), sparsemor::Error>(())
+//! ```
 #![warn(missing_docs)]
 // `!(x > 0.0)` and friends are deliberate: unlike `x <= 0.0` they also reject NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]

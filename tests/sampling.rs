@@ -324,3 +324,36 @@ fn impossible_requests_say_what_was_reached_and_what_would_help() {
     assert!(message.contains("max_points"));
     let _ = random_freqs; // shared fixtures
 }
+
+/// The same on a body that is not a bar: the built-in L-shaped steel bracket (N = 1836, six
+/// deformation modes in [0, 6000] Hz). `--tol T` alone meets T on 2000 full solves, and the
+/// stored verification (its default ⌈F/3⌉ points) stays within that maximum.
+#[test]
+fn defaults_reach_the_tolerance_on_the_bracket() {
+    use sparsemor::fe::bracket::{bracket_model, BracketSpec};
+    let (model, scene) = bracket_model(&BracketSpec::steel()).unwrap();
+    let body = Body::new(&model).unwrap();
+    let band = sparsemor::scene::positive_band(scene.band_hz);
+    let grid: Vec<f64> = (0..2000)
+        .map(|k| band[0] + (band[1] - band[0]) * k as f64 / 1999.0)
+        .collect();
+    let reference =
+        Reference::compute(&body, &scene, &grid, &SweepOptions::default(), &no_progress).unwrap();
+    for tol in [1e-2, 1e-3, 1e-4] {
+        let s = SamplingOptions::new(tol);
+        let o = LineFitOptions::new(Interface::Auto, References::Tolerance(s));
+        let rom = linefit::reduce(&body, &scene, &o, None, &no_progress).unwrap();
+        let r = report(&rom);
+        let v = verified_max(&reference, &rom);
+        let stored = r.verified.unwrap().error;
+        println!(
+            "bracket tol {tol:.0e}: {:?}, order {}, {} factorizations, stored verified {stored:.3e}, 2000-point max {v:.3e}",
+            r.outcome,
+            rom.order(),
+            r.factorizations
+        );
+        assert_eq!(r.outcome, Outcome::Converged);
+        assert!(v <= tol, "tol {tol:.0e}: {v:.3e}");
+        assert!(stored <= v * (1.0 + 1e-9), "stored {stored:.4e} vs {v:.4e}");
+    }
+}

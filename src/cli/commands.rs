@@ -2,6 +2,7 @@
 
 use indicatif::{ProgressBar, ProgressStyle};
 use sparsemor::factor::{Analysis, Backend};
+use sparsemor::fe::bracket::{bracket_model, BracketSpec};
 use sparsemor::fe::BoxSpec;
 use sparsemor::io::model_dir;
 use sparsemor::pencil::Pencil;
@@ -80,24 +81,44 @@ pub fn progress_bar(total: usize, msg: &str) -> ProgressBar {
     pb
 }
 
-pub fn generate(kind: &str, elements: Option<&str>, size: Option<&str>, out: &Path) -> Result<()> {
-    if kind != "bar" {
-        return Err(Error::InvalidSetting(format!(
-            "generate '{kind}': the built-in model is `bar`"
-        )));
-    }
-    let mut spec = BoxSpec::paper_bar();
-    if let Some(e) = elements {
-        spec.elements = parse_triple(e, "--elements")?;
-    }
-    if let Some(s) = size {
-        spec.size_m = parse_triple(s, "--size")?;
-    }
+pub fn generate(
+    kind: &str,
+    elements: Option<&str>,
+    size: Option<&str>,
+    cell: Option<f64>,
+    out: &Path,
+) -> Result<()> {
     let t = Instant::now();
-    let model = sparsemor::fe::bar_model(&spec)?;
+    let (model, scene) = match kind {
+        "bar" => {
+            let mut spec = BoxSpec::paper_bar();
+            if let Some(e) = elements {
+                spec.elements = parse_triple(e, "--elements")?;
+            }
+            if let Some(s) = size {
+                spec.size_m = parse_triple(s, "--size")?;
+            }
+            (
+                sparsemor::fe::bar_model(&spec)?,
+                sparsemor::fe::paper_scene(&spec),
+            )
+        }
+        "bracket" => {
+            let mut spec = BracketSpec::steel();
+            if let Some(h) = cell {
+                spec.cell_m = h;
+            }
+            bracket_model(&spec)?
+        }
+        _ => {
+            return Err(Error::InvalidSetting(format!(
+                "generate '{kind}': the built-in models are `bar` and `bracket`"
+            )))
+        }
+    };
     let t_asm = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    model_dir::write(out, &model, &sparsemor::fe::paper_scene(&spec))?;
+    model_dir::write(out, &model, &scene)?;
     eprintln!(
         "wrote {} (N = {}, nnz(M)+nnz(K) = {}; assembled in {:.2} s, written in {:.2} s)",
         out.display(),

@@ -22,6 +22,7 @@ pub struct Cli {
 const EXAMPLES: &str = "Examples:
   sparsemor demo
   sparsemor generate bar --out bar
+  sparsemor generate bracket --out bracket
   sparsemor info bar
   sparsemor sweep bar --band 1:1000 --points 500 --part elastic --out frf.csv
   sparsemor reduce bar --method linefit --extra-interface 5 --ref-freqs 50,100,200,400,800 --out rom
@@ -60,9 +61,10 @@ impl Done {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Write a built-in FE model (hex8 elasticity box) as a model directory.
+    /// Write a built-in FE model (hex8 elasticity) as a model directory.
     Generate {
-        /// Which model: `bar` (the paper's bar; other sizes with --elements/--size).
+        /// Which model: `bar` (the paper's bar; other sizes with --elements/--size) or
+        /// `bracket` (an L-shaped steel bracket; finer with --cell).
         kind: String,
         /// Elements NXxNYxNZ (default 2x3x45).
         #[arg(long)]
@@ -70,6 +72,10 @@ enum Command {
         /// Box size XxYxZ in metres (default 0.006x0.008x0.3).
         #[arg(long)]
         size: Option<String>,
+        /// Bracket cell size in metres (default 0.01; the legs, 20 mm thickness and 50 mm
+        /// width must be whole numbers of cells).
+        #[arg(long)]
+        cell: Option<f64>,
         /// Output directory (must not exist or be empty).
         #[arg(long)]
         out: PathBuf,
@@ -108,11 +114,13 @@ pub fn run() -> sparsemor::Result<Done> {
             kind,
             elements,
             size,
+            cell,
             out,
         } => met(commands::generate(
             &kind,
             elements.as_deref(),
             size.as_deref(),
+            cell,
             &out,
         )),
         Command::Info { model } => met(commands::info(&model)),

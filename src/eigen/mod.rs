@@ -190,6 +190,19 @@ impl Modes {
 
 /// The eigenpairs of (K, M) asked for.
 ///
+/// ```
+/// use sparsemor::body::Body;
+/// use sparsemor::eigen::{eigenpairs, EigenOptions, Request};
+/// use sparsemor::fe::{bar_model, BoxSpec};
+///
+/// let model = bar_model(&BoxSpec::paper_bar())?;
+/// // every mode up to 1000 Hz, counted exactly by the inertia of K − (2π·1000)²M
+/// let modes = eigenpairs(&Body::new(&model)?, Request::UpTo(1000.0), &EigenOptions::default())?;
+/// assert_eq!((modes.lambdas.len(), modes.rigid), (12, 6)); // 6 rigid + 6 elastic
+/// assert_eq!(modes.freqs_hz()[0], 0.0); // rigid modes are reported at 0 Hz
+/// # Ok::<(), sparsemor::Error>(())
+/// ```
+///
 /// # Errors
 /// [`Error::InvalidSetting`] for c = 0, c > N (ARPACK: c ≥ N), σ ≥ 0, f ≤ 0 or not finite,
 /// no mode at or below f, and [`EigenBackend::Arpack`] in a build without the `arpack`

@@ -53,6 +53,29 @@ pub struct SerepOptions {
 
 /// Reduces the body by SEREP for the scene's unit loads and outputs.
 ///
+/// ```
+/// use sparsemor::body::Body;
+/// use sparsemor::eigen::EigenOptions;
+/// use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
+/// use sparsemor::metrics::rom_eigenfrequencies;
+/// use sparsemor::reduce::serep::{reduce, ModeChoice, SerepOptions};
+///
+/// let spec = BoxSpec::paper_bar();
+/// let (model, scene) = (bar_model(&spec)?, paper_scene(&spec));
+/// // c = r = 9: the 9 lowest deformation modes on the 9 output DoFs
+/// let opts = SerepOptions {
+///     modes: ModeChoice::LowestDeformation(9),
+///     retain: None,
+///     keep_basis: false,
+///     eigen: EigenOptions::for_band(scene.band_hz[1]),
+/// };
+/// let rom = reduce(&Body::new(&model)?, &scene, &opts, None)?;
+/// assert_eq!((rom.order(), rom.modes()), (9, &(7..=15).collect::<Vec<_>>()[..]));
+/// let f = rom_eigenfrequencies(&rom)?; // the kept modes' frequencies, reproduced
+/// assert!((f[0] - 142.9).abs() < 0.1, "{f:?}");
+/// # Ok::<(), sparsemor::Error>(())
+/// ```
+///
 /// `known` are eigenpairs the caller already has (the c lowest modes asked for, or more, in
 /// ascending order as [`eigenpairs`] returns them); when they cover the modes chosen, no
 /// eigensolve is run, otherwise the modes are computed ([`Request::Lowest`]).

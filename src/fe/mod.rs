@@ -1,5 +1,6 @@
 //! Built-in FE generator: a free-free 3-D linear-elastic box (bar) meshed with 8-node
-//! trilinear hexahedra — the embedded default model of sparsemor.
+//! trilinear hexahedra — the embedded default model of sparsemor — and an L-shaped bracket
+//! of the same elements ([`bracket`]).
 //!
 //! Entry points: [`BoxSpec`] (what to mesh; [`BoxSpec::paper_bar`] is the paper's bar),
 //! [`assemble`] (consistent mass `M` and stiffness `K` as full symmetric CSC matrices),
@@ -59,6 +60,8 @@
 //! column). The mass matrix is $M_{\text{scalar}}\otimes I_3$, so it is stored with its own
 //! pattern, only the $x$–$x$, $y$–$y$, $z$–$z$ couplings (a third of the stiffness
 //! pattern, no stored zeros); its pattern is a subset of the stiffness pattern.
+
+pub mod bracket;
 
 use crate::{Error, Result};
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
