@@ -66,7 +66,7 @@ impl BracketSpec {
         let h = self.cell_m;
         let count = |len: f64, what: &str| -> Result<usize> {
             let c = len / h;
-            if !(h > 0.0 && c >= 1.0 && c <= 1e5 && (c - c.round()).abs() <= 1e-9 * c) {
+            if !(h > 0.0 && (1.0..=1e5).contains(&c) && (c - c.round()).abs() <= 1e-9 * c) {
                 return Err(Error::InvalidSetting(format!(
                     "bracket {what} = {len} m is not a whole number (1..1e5) of {h} m cells"
                 )));
