@@ -3,7 +3,7 @@
 use indicatif::{ProgressBar, ProgressStyle};
 use sparsemor::factor::{Analysis, Backend};
 use sparsemor::fe::BoxSpec;
-use sparsemor::io::model_dir;
+use sparsemor::io::{atomic, model_dir};
 use sparsemor::pencil::Pencil;
 use sparsemor::rigid::RigidBody;
 use sparsemor::sweep::{transfer_function, Part, Progress, SweepOptions};
@@ -305,7 +305,7 @@ pub fn sweep(a: &SweepArgs, verbose: bool) -> Result<()> {
 }
 
 /// Writes `f_hz,output,input,re,im`, one row per frequency × output × input (DoF indices),
-/// full precision, atomically (temporary file + rename).
+/// full precision, atomically ([`atomic::write_file`]).
 pub fn write_frf_csv(
     path: &Path,
     freqs: &[f64],
@@ -313,10 +313,7 @@ pub fn write_frf_csv(
     outputs: &[usize],
     inputs: &[usize],
 ) -> Result<()> {
-    let tmp: PathBuf = path.with_extension("csv.tmp");
-    let file = std::fs::File::create(&tmp).map_err(|e| Error::io(&tmp, e))?;
-    let mut w = std::io::BufWriter::new(file);
-    let mut go = || -> std::io::Result<()> {
+    atomic::write_file(path, |w| {
         writeln!(w, "f_hz,output,input,re,im")?;
         for (f, hk) in freqs.iter().zip(h) {
             for (o, &od) in outputs.iter().enumerate() {
@@ -326,11 +323,6 @@ pub fn write_frf_csv(
                 }
             }
         }
-        w.flush()
-    };
-    if let Err(e) = go() {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(Error::io(&tmp, e));
-    }
-    std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e))
+        Ok(())
+    })
 }

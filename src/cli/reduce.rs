@@ -3,7 +3,7 @@
 use super::commands::{linspace, parse_band, parse_list, progress_bar};
 use sparsemor::eigen::{eigenpairs, EigenOptions, Modes, Request};
 use sparsemor::fe::{bar_model, BoxSpec};
-use sparsemor::io::{model_dir, rom_dir};
+use sparsemor::io::{atomic, model_dir, rom_dir};
 use sparsemor::metrics::{
     modal_comparison, positive_band, rom_eigenfrequencies, ErrorCurve, ModalComparison, Reference,
 };
@@ -329,9 +329,7 @@ fn write_eps_csv(path: &Path, c: &ErrorCurve) -> Result<()> {
             c.freqs_hz[k], c.eps_elastic[k], c.eps_total[k]
         ));
     }
-    let tmp = path.with_extension("csv.tmp");
-    std::fs::write(&tmp, s).map_err(|e| Error::io(&tmp, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e))
+    atomic::write_bytes(path, s)
 }
 
 #[derive(clap::Args)]
@@ -384,7 +382,7 @@ pub fn modes(a: &ModesArgs) -> Result<()> {
                 if k < m.rigid { "rigid" } else { "elastic" }
             ));
         }
-        std::fs::write(path, s).map_err(|e| Error::io(path, e))?;
+        atomic::write_bytes(path, s)?;
     }
     Ok(())
 }
@@ -701,7 +699,7 @@ pub fn tradeoff(a: &TradeoffArgs) -> Result<()> {
                 r.0, r.1, r.2, r.3, r.4, r.5
             ));
         }
-        std::fs::write(path, s).map_err(|e| Error::io(path, e))?;
+        atomic::write_bytes(path, s)?;
     }
     if let Some(path) = &a.svg {
         let series: Vec<(String, Vec<sparsemor::report::Point>)> = ["linefit", "serep"]
@@ -723,7 +721,7 @@ pub fn tradeoff(a: &TradeoffArgs) -> Result<()> {
             .collect();
         let svg =
             sparsemor::report::tradeoff_svg(&format!("{}: time vs accuracy", model.name), &series);
-        std::fs::write(path, svg).map_err(|e| Error::io(path, e))?;
+        atomic::write_bytes(path, svg)?;
     }
     Ok(())
 }

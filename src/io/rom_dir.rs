@@ -1,10 +1,10 @@
 //! The ROM directory (DESIGN.md §4): `rom.toml` (method, order, DoFs, reference frequencies,
 //! fit numerics, definiteness, timings, version) and `Mr.mtx Dr.mtx Kr.mtx Br.mtx Cr.mtx`
 //! (Matrix Market `array real general`, full double precision), optional `V.mtx`.
-//! Written atomically ([`super::model_dir::write_atomically`]).
+//! Written atomically ([`atomic::write_dir`]).
 
-use crate::io::matrix_market;
-use crate::io::model_dir::{toml_error, write_atomically};
+use crate::io::model_dir::toml_error;
+use crate::io::{atomic, matrix_market};
 use crate::reduce::{Definiteness, FitReport, Method, Rom, Timing};
 use crate::{Error, Result};
 use serde::{Deserialize, Serialize};
@@ -43,7 +43,7 @@ struct Manifest {
 /// # Errors
 /// [`Error::InvalidSetting`] if `dir` exists and is not empty; I/O errors.
 pub fn write(dir: &Path, rom: &Rom) -> Result<()> {
-    write_atomically(dir, |tmp| {
+    atomic::write_dir(dir, |tmp| {
         for (name, m) in [
             ("Mr", &rom.mr),
             ("Dr", &rom.dr),
@@ -84,8 +84,7 @@ pub fn write(dir: &Path, rom: &Rom) -> Result<()> {
         };
         let text = toml::to_string(&man)
             .map_err(|e| Error::InvalidSetting(format!("cannot serialize rom.toml: {e}")))?;
-        let path = tmp.join("rom.toml");
-        std::fs::write(&path, text).map_err(|e| Error::io(&path, e))
+        atomic::write_bytes(&tmp.join("rom.toml"), text)
     })
 }
 
