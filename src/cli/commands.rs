@@ -1,12 +1,12 @@
 //! `generate`, `info`, `sweep`.
 
-use indicatif::{ProgressBar, ProgressStyle};
+use super::progress::with_progress;
 use sparsemor::factor::{Analysis, Backend};
 use sparsemor::fe::BoxSpec;
 use sparsemor::io::{atomic, model_dir};
 use sparsemor::pencil::Pencil;
 use sparsemor::rigid::RigidBody;
-use sparsemor::sweep::{transfer_function, Part, Progress, SweepOptions};
+use sparsemor::sweep::{transfer_function, Part, SweepOptions};
 use sparsemor::{Error, Result};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -66,18 +66,6 @@ pub fn linspace(band: [f64; 2], points: usize) -> Vec<f64> {
     (0..points)
         .map(|k| band[0] + (band[1] - band[0]) * k as f64 / (points - 1) as f64)
         .collect()
-}
-
-/// A progress bar on stderr and the library callback that drives it.
-pub fn progress_bar(total: usize, msg: &str) -> ProgressBar {
-    let pb = ProgressBar::new(total as u64);
-    pb.set_style(
-        ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} {elapsed_precise} (eta {eta})")
-            .unwrap_or_else(|_| ProgressStyle::default_bar())
-            .progress_chars("=> "),
-    );
-    pb.set_message(msg.to_string());
-    pb
 }
 
 pub fn generate(kind: &str, elements: Option<&str>, size: Option<&str>, out: &Path) -> Result<()> {
@@ -255,22 +243,18 @@ pub fn sweep(a: &SweepArgs, verbose: bool) -> Result<()> {
         memory_budget: a.memory_gb.map(|g| (g * 1e9) as usize),
         ..Default::default()
     };
-    let pb = progress_bar(freqs.len(), "sweep");
-    let cb = |p: Progress| {
-        pb.set_position(p.done as u64);
-        true
-    };
-    let frf = transfer_function(
-        &model,
-        &model.scene.inputs,
-        &model.scene.outputs,
-        &freqs,
-        part,
-        false,
-        &opts,
-        &cb,
-    )?;
-    pb.finish_and_clear();
+    let frf = with_progress(freqs.len(), "sweep", |cb| {
+        transfer_function(
+            &model,
+            &model.scene.inputs,
+            &model.scene.outputs,
+            &freqs,
+            part,
+            false,
+            &opts,
+            cb,
+        )
+    })?;
     write_frf_csv(
         &a.out,
         &frf.freqs_hz,

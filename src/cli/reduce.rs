@@ -1,6 +1,7 @@
 //! `reduce`, `evaluate`, `modes`, `demo`.
 
-use super::commands::{linspace, parse_band, parse_list, progress_bar};
+use super::commands::{linspace, parse_band, parse_list};
+use super::progress::with_progress;
 use sparsemor::eigen::{eigenpairs, EigenOptions, Modes, Request};
 use sparsemor::fe::{bar_model, BoxSpec};
 use sparsemor::io::{atomic, model_dir, rom_dir};
@@ -12,7 +13,7 @@ use sparsemor::reduce::linefit::{self, place_reference_frequencies, Interface, L
 use sparsemor::reduce::serep::{self, ModeChoice, SerepOptions};
 use sparsemor::reduce::Rom;
 use sparsemor::sampling::{self, Growth, SamplingOptions, Step};
-use sparsemor::sweep::{no_progress, Progress, SweepOptions};
+use sparsemor::sweep::{no_progress, SweepOptions};
 use sparsemor::{Error, Result};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -116,14 +117,9 @@ pub fn reduce(a: &ReduceArgs) -> Result<()> {
                     },
                     lsq: Default::default(),
                 };
-                let pb = progress_bar(opts.ref_freqs_hz.len(), "reference frequencies");
-                let cb = |p: Progress| {
-                    pb.set_position(p.done as u64);
-                    true
-                };
-                let rom = linefit::reduce(&model, inputs, outputs, &opts, &cb)?;
-                pb.finish_and_clear();
-                rom
+                with_progress(opts.ref_freqs_hz.len(), "reference frequencies", |cb| {
+                    linefit::reduce(&model, inputs, outputs, &opts, cb)
+                })?
             }
         }
         "serep" => {
@@ -249,14 +245,9 @@ pub fn evaluate(a: &EvaluateArgs) -> Result<()> {
         threads: a.threads,
         ..Default::default()
     };
-    let pb = progress_bar(freqs.len(), "evaluate");
-    let cb = |p: Progress| {
-        pb.set_position(p.done as u64);
-        true
-    };
-    let curve =
-        Reference::compute(&model, &rom.inputs, &rom.outputs, &freqs, &opts, &cb)?.error(&rom)?;
-    pb.finish_and_clear();
+    let curve = with_progress(freqs.len(), "evaluate", |cb| {
+        Reference::compute(&model, &rom.inputs, &rom.outputs, &freqs, &opts, cb)?.error(&rom)
+    })?;
     let full = eigenpairs(&model, Request::UpTo(band[1]), &EigenOptions::default())?;
     let modal = modal_comparison(&rom, &full, rom.basis.as_ref().map(|v| v.as_ref()))?;
     print_evaluation(&rom, &curve, &modal)?;
@@ -620,14 +611,10 @@ pub fn tradeoff(a: &TradeoffArgs) -> Result<()> {
         ..Default::default()
     };
     let grid = linspace(positive_band(model.scene.band_hz), a.points.max(2));
-    let pb = progress_bar(grid.len(), "verification grid");
-    let cb = |p: Progress| {
-        pb.set_position(p.done as u64);
-        true
-    };
     let t = Instant::now();
-    let reference = Reference::compute(&model, inputs, outputs, &grid, &sweep, &cb)?;
-    pb.finish_and_clear();
+    let reference = with_progress(grid.len(), "verification grid", |cb| {
+        Reference::compute(&model, inputs, outputs, &grid, &sweep, cb)
+    })?;
     eprintln!(
         "verification grid: {} full solves in {:.1} s",
         grid.len(),
