@@ -1044,6 +1044,12 @@ fn try_filled<T: Clone>(n: usize, value: T, path: &Path, h: &Header, what: &str)
 
 /// Assembles the canonical CSC matrix from the entries (in file order), mirroring off-diagonal
 /// entries of a symmetric file and summing duplicates.
+///
+/// This mirrors while it scatters instead of using [`crate::sparse::mirror_lower`]: the
+/// entries come as unsorted chunks (either triangle, duplicates, 32-bit indices) that are freed
+/// one by one as they are scattered, and every allocation is fallible (a too-large declared
+/// size is an error, not an abort); building the triangle first and mirroring it afterwards
+/// would hold a second copy of the matrix.
 fn build_csc<I: Ix>(
     h: &Header,
     chunks: Vec<Vec<Entry<I>>>,
