@@ -1,5 +1,6 @@
 //! Small CSC helpers shared by the model, pencil and reduction code: symmetry check, lower
-//! triangle extraction, products with full-storage symmetric matrices.
+//! triangle extraction and its inverse (mirroring a lower triangle to full storage), products
+//! with full-storage symmetric matrices.
 //!
 //! Matrices are faer [`SparseColMat<usize, f64>`] in full storage (both triangles) with sorted
 //! row indices per column, as produced by `io::matrix_market::read_sparse` and `fe`.
@@ -69,6 +70,48 @@ pub fn lower_triangle(a: SparseColMatRef<'_, usize, f64>) -> (Vec<usize>, Vec<us
     (col_ptr, row_idx, val)
 }
 
+/// Full storage (both triangles) of the symmetric matrix whose lower triangle (row ≥ column)
+/// is the n×n CSC pattern `col_ptr`, `row_idx` (rows strictly increasing within each column),
+/// as (col_ptr, row_idx, src): full entry `q` holds the value of lower entry `src[q]`.
+///
+/// Rows stay sorted within each column: column j gets the mirrored entries (j, i) of the
+/// earlier columns i < j, in increasing i, then its own lower entries.
+pub fn mirror_lower(
+    n: usize,
+    col_ptr: &[usize],
+    row_idx: &[usize],
+) -> (Vec<usize>, Vec<usize>, Vec<usize>) {
+    let mut full_ptr = vec![0usize; n + 1];
+    for j in 0..n {
+        for &i in &row_idx[col_ptr[j]..col_ptr[j + 1]] {
+            full_ptr[j + 1] += 1;
+            if i != j {
+                full_ptr[i + 1] += 1;
+            }
+        }
+    }
+    for j in 0..n {
+        full_ptr[j + 1] += full_ptr[j];
+    }
+    let mut next = full_ptr[..n].to_vec();
+    let mut full_row = vec![0usize; full_ptr[n]];
+    let mut src = vec![0usize; full_ptr[n]];
+    for j in 0..n {
+        for p in col_ptr[j]..col_ptr[j + 1] {
+            let i = row_idx[p];
+            full_row[next[j]] = i;
+            src[next[j]] = p;
+            next[j] += 1;
+            if i != j {
+                full_row[next[i]] = j;
+                src[next[i]] = p;
+                next[i] += 1;
+            }
+        }
+    }
+    (full_ptr, full_row, src)
+}
+
 /// y = A x for a full-storage sparse A and a dense real block x (faer's sparse × dense).
 pub fn mul_dense(a: SparseColMatRef<'_, usize, f64>, x: MatRef<'_, f64>) -> Mat<f64> {
     let mut y = Mat::<f64>::zeros(a.nrows(), x.ncols());
@@ -98,4 +141,42 @@ pub fn from_parts(
         SymbolicSparseColMat::new_checked(n_rows, n_cols, col_ptr, None, row_idx),
         val,
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mirror_lower_inverts_lower_triangle() {
+        // Symmetric 4x4 with an empty column 2 and a zero-free diagonal elsewhere.
+        let entries = [
+            (0, 0, 4.0),
+            (1, 0, -1.0),
+            (3, 0, 0.5),
+            (1, 1, 3.0),
+            (3, 1, 2.0),
+            (3, 3, 1.0),
+        ];
+        let mut dense = Mat::<f64>::zeros(4, 4);
+        for &(i, j, v) in &entries {
+            dense[(i, j)] = v;
+            dense[(j, i)] = v;
+        }
+        let mut col_ptr = vec![0usize; 5];
+        for &(_, j, _) in &entries {
+            col_ptr[j + 1] += 1;
+        }
+        for j in 0..4 {
+            col_ptr[j + 1] += col_ptr[j];
+        }
+        let row_idx: Vec<usize> = entries.iter().map(|e| e.0).collect();
+        let val: Vec<f64> = entries.iter().map(|e| e.2).collect();
+        let (cp, ri, src) = mirror_lower(4, &col_ptr, &row_idx);
+        let full = from_parts(4, 4, cp, ri, src.iter().map(|&p| val[p]).collect());
+        assert_eq!(full.compute_nnz(), 9);
+        assert_eq!(full.to_dense(), dense);
+        let (lcp, lri, lval) = lower_triangle(full.as_ref());
+        assert_eq!((lcp, lri, lval), (col_ptr, row_idx, val));
+    }
 }

@@ -6,7 +6,7 @@ mod common;
 use common::{dense_h, random_model, random_scene, rel_err, sparse};
 use faer::Mat;
 use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
-use sparsemor::io::model_dir;
+use sparsemor::io::{atomic, model_dir};
 use sparsemor::model::{Damping, Model};
 use sparsemor::scene::Scene;
 use sparsemor::sparse::Csc;
@@ -173,7 +173,7 @@ fn round_trip(name: &str, model: &Model, scene: &Scene) {
     assert_eq!(scene, &back_scene);
 }
 
-/// Names in `parent` that start with `.{name}.tmp-` (leftovers of [`model_dir::write_atomically`]).
+/// Names in `parent` that start with `.{name}.tmp-` (leftovers of [`atomic::write_dir`]).
 fn tmp_siblings(parent: &Path, name: &str) -> Vec<String> {
     let prefix = format!(".{name}.tmp-");
     std::fs::read_dir(parent)
@@ -631,10 +631,10 @@ fn failed_write_leaves_no_directory_behind() {
 }
 
 #[test]
-fn write_atomically_removes_the_temporary_directory_on_error() {
+fn atomic_write_dir_removes_the_temporary_directory_on_error() {
     let parent = scratch("write_atomically");
     let dir = parent.join("rom");
-    let e = model_dir::write_atomically(&dir, |tmp| {
+    let e = atomic::write_dir(&dir, |tmp| {
         std::fs::write(tmp.join("half.mtx"), "%%MatrixMarket").expect("write into tmp");
         std::fs::create_dir(tmp.join("sub")).expect("mkdir in tmp");
         Err(Error::InvalidSetting("injected failure".into()))
@@ -648,12 +648,12 @@ fn write_atomically_removes_the_temporary_directory_on_error() {
     );
     // The same for an existing empty target: it stays, empty.
     std::fs::create_dir(&dir).expect("mkdir");
-    let _ = model_dir::write_atomically(&dir, |_| Err(Error::InvalidSetting("again".into())));
+    let _ = atomic::write_dir(&dir, |_| Err(Error::InvalidSetting("again".into())));
     assert!(dir.is_dir() && std::fs::read_dir(&dir).expect("list").next().is_none());
     assert!(tmp_siblings(&parent, "rom").is_empty());
     // And success renames the temporary directory to the final name.
     std::fs::remove_dir(&dir).expect("rmdir");
-    model_dir::write_atomically(&dir, |tmp| {
+    atomic::write_dir(&dir, |tmp| {
         std::fs::write(tmp.join("a"), "1").map_err(|e| Error::io(tmp, e))
     })
     .expect("ok");

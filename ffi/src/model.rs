@@ -4,7 +4,7 @@ use crate::error::{ffi_body, Failure, SparsemorStatus};
 use crate::util::{obj, obj_mut, slice_in, write_out};
 use sparsemor::model::{Damping, Model};
 use sparsemor::scene::Scene;
-use sparsemor::sparse::{from_parts, Csc};
+use sparsemor::sparse::{from_parts, mirror_lower, Csc};
 
 /// `SparsemorCsc::storage`: both triangles are stored (full symmetric storage).
 pub const SPARSEMOR_STORAGE_FULL: u32 = 0;
@@ -147,39 +147,8 @@ unsafe fn csc_from_c(c: &SparsemorCsc, what: &str) -> Result<Csc, Failure> {
             values.to_vec(),
         ));
     }
-    // Mirror the lower triangle. Processing columns in order places the mirrored entries
-    // (rows j < i of column i) before column i's own entries (rows >= i), so every column
-    // stays sorted.
-    let mut count = vec![0usize; n];
-    for j in 0..n {
-        for &i in &row_idx[col_ptr[j]..col_ptr[j + 1]] {
-            count[j] += 1;
-            if i != j {
-                count[i] += 1;
-            }
-        }
-    }
-    let mut cp = vec![0usize; n + 1];
-    for j in 0..n {
-        cp[j + 1] = cp[j] + count[j];
-    }
-    let total = cp[n];
-    let mut next = cp[..n].to_vec();
-    let mut ri = vec![0usize; total];
-    let mut v = vec![0.0f64; total];
-    for j in 0..n {
-        for p in col_ptr[j]..col_ptr[j + 1] {
-            let i = row_idx[p];
-            ri[next[j]] = i;
-            v[next[j]] = values[p];
-            next[j] += 1;
-            if i != j {
-                ri[next[i]] = j;
-                v[next[i]] = values[p];
-                next[i] += 1;
-            }
-        }
-    }
+    let (cp, ri, src) = mirror_lower(n, col_ptr, row_idx);
+    let v = src.iter().map(|&p| values[p]).collect();
     Ok(from_parts(n, n, cp, ri, v))
 }
 

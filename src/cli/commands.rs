@@ -1,13 +1,13 @@
 //! `generate`, `info`, `sweep`.
 
-use indicatif::{ProgressBar, ProgressStyle};
+use super::progress::with_progress;
 use sparsemor::factor::{Analysis, Backend};
 use sparsemor::fe::bracket::{bracket_model, BracketSpec};
 use sparsemor::fe::BoxSpec;
-use sparsemor::io::model_dir;
+use sparsemor::io::{atomic, model_dir};
 use sparsemor::pencil::Pencil;
 use sparsemor::rigid::RigidBody;
-use sparsemor::sweep::{transfer_function, Part, Progress, SweepOptions};
+use sparsemor::sweep::{transfer_function, Part, SweepOptions};
 use sparsemor::{Error, Result};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -67,18 +67,6 @@ pub fn linspace(band: [f64; 2], points: usize) -> Vec<f64> {
     (0..points)
         .map(|k| band[0] + (band[1] - band[0]) * k as f64 / (points - 1) as f64)
         .collect()
-}
-
-/// A progress bar on stderr and the library callback that drives it.
-pub fn progress_bar(total: usize, msg: &str) -> ProgressBar {
-    let pb = ProgressBar::new(total as u64);
-    pb.set_style(
-        ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} {elapsed_precise} (eta {eta})")
-            .unwrap_or_else(|_| ProgressStyle::default_bar())
-            .progress_chars("=> "),
-    );
-    pb.set_message(msg.to_string());
-    pb
 }
 
 pub fn generate(
@@ -276,14 +264,10 @@ pub fn sweep(a: &SweepArgs, verbose: bool) -> Result<()> {
         memory_budget: a.memory_gb.map(|g| (g * 1e9) as usize),
         ..Default::default()
     };
-    let pb = progress_bar(freqs.len(), "sweep");
-    let cb = |p: Progress| {
-        pb.set_position(p.done as u64);
-        true
-    };
     let body = sparsemor::body::Body::new(&model)?;
-    let frf = transfer_function(&body, &scene, &freqs, part, false, &opts, &cb)?;
-    pb.finish_and_clear();
+    let frf = with_progress(freqs.len(), "sweep", |cb| {
+        transfer_function(&body, &scene, &freqs, part, false, &opts, cb)
+    })?;
     write_frf_csv(&a.out, &frf.freqs_hz, &frf.h, &scene.outputs, &scene.inputs)?;
     eprintln!(
         "{} frequencies in {:.2} s -> {}",
@@ -312,7 +296,7 @@ pub fn sweep(a: &SweepArgs, verbose: bool) -> Result<()> {
 }
 
 /// Writes `f_hz,output,input,re,im`, one row per frequency × output × input (DoF indices),
-/// full precision, atomically (temporary file + rename).
+/// full precision, atomically ([`atomic::write_file`]).
 pub fn write_frf_csv(
     path: &Path,
     freqs: &[f64],
@@ -320,10 +304,7 @@ pub fn write_frf_csv(
     outputs: &[usize],
     inputs: &[usize],
 ) -> Result<()> {
-    let tmp: PathBuf = path.with_extension("csv.tmp");
-    let file = std::fs::File::create(&tmp).map_err(|e| Error::io(&tmp, e))?;
-    let mut w = std::io::BufWriter::new(file);
-    let mut go = || -> std::io::Result<()> {
+    atomic::write_file(path, |w| {
         writeln!(w, "f_hz,output,input,re,im")?;
         for (f, hk) in freqs.iter().zip(h) {
             for (o, &od) in outputs.iter().enumerate() {
@@ -333,11 +314,6 @@ pub fn write_frf_csv(
                 }
             }
         }
-        w.flush()
-    };
-    if let Err(e) = go() {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(Error::io(&tmp, e));
-    }
-    std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e))
+        Ok(())
+    })
 }

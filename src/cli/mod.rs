@@ -3,6 +3,7 @@
 
 mod bench;
 mod commands;
+mod progress;
 mod reduce;
 
 use clap::{Parser, Subcommand};

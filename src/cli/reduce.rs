@@ -1,10 +1,11 @@
 //! `reduce`, `evaluate`, `modes`, `demo`.
 
-use super::commands::{linspace, parse_band, parse_list, progress_bar};
+use super::commands::{linspace, parse_band, parse_list};
+use super::progress::with_progress;
 use sparsemor::body::Body;
 use sparsemor::eigen::{eigenpairs, EigenOptions, Modes, Request};
 use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
-use sparsemor::io::{model_dir, rom_dir};
+use sparsemor::io::{atomic, model_dir, rom_dir};
 use sparsemor::metrics::{
     modal_comparison, rom_eigenfrequencies, ErrorCurve, ModalComparison, Reference,
 };
@@ -15,7 +16,7 @@ use sparsemor::reduce::linefit::{
 use sparsemor::reduce::serep::{self, ModeChoice, SerepOptions};
 use sparsemor::reduce::Rom;
 use sparsemor::scene::{positive_band, Scene};
-use sparsemor::sweep::{no_progress, Progress, SweepOptions};
+use sparsemor::sweep::{no_progress, SweepOptions};
 use sparsemor::{Error, Result};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -112,16 +113,9 @@ pub fn reduce(a: &ReduceArgs) -> Result<super::Done> {
             opts.keep_basis = a.keep_basis;
             opts.sweep.threads = a.threads;
             let rom = match &opts.references {
-                References::Explicit(f) => {
-                    let pb = progress_bar(f.len(), "reference frequencies");
-                    let cb = |p: Progress| {
-                        pb.set_position(p.done as u64);
-                        true
-                    };
-                    let rom = linefit::reduce(&body, &scene, &opts, None, &cb)?;
-                    pb.finish_and_clear();
-                    rom
-                }
+                References::Explicit(f) => with_progress(f.len(), "reference frequencies", |cb| {
+                    linefit::reduce(&body, &scene, &opts, None, cb)
+                })?,
                 _ => linefit::reduce(&body, &scene, &opts, None, &no_progress)?,
             };
             if let Some(s) = rom.sampling() {
@@ -268,13 +262,9 @@ pub fn evaluate(a: &EvaluateArgs) -> Result<()> {
         threads: a.threads,
         ..Default::default()
     };
-    let pb = progress_bar(freqs.len(), "evaluate");
-    let cb = |p: Progress| {
-        pb.set_position(p.done as u64);
-        true
-    };
-    let curve = Reference::compute(&body, &rom_scene, &freqs, &opts, &cb)?.error(&rom)?;
-    pb.finish_and_clear();
+    let curve = with_progress(freqs.len(), "evaluate", |cb| {
+        Reference::compute(&body, &rom_scene, &freqs, &opts, cb)?.error(&rom)
+    })?;
     let full = eigenpairs(&body, Request::UpTo(band[1]), &EigenOptions::default())?;
     let modal = modal_comparison(&rom, &full, rom.basis.as_ref().map(|v| v.as_ref()))?;
     print_evaluation(&rom, &curve, &modal)?;
@@ -353,9 +343,7 @@ fn write_eps_csv(path: &Path, c: &ErrorCurve) -> Result<()> {
             c.freqs_hz[k], c.eps_elastic[k], c.eps_total[k]
         ));
     }
-    let tmp = path.with_extension("csv.tmp");
-    std::fs::write(&tmp, s).map_err(|e| Error::io(&tmp, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e))
+    atomic::write_bytes(path, s)
 }
 
 #[derive(clap::Args)]
@@ -410,7 +398,7 @@ pub fn modes(a: &ModesArgs) -> Result<()> {
                 m.lambdas[k]
             ));
         }
-        std::fs::write(path, s).map_err(|e| Error::io(path, e))?;
+        atomic::write_bytes(path, s)?;
     }
     Ok(())
 }
@@ -677,14 +665,10 @@ pub fn tradeoff(a: &TradeoffArgs) -> Result<()> {
         ..Default::default()
     };
     let grid = linspace(positive_band(scene.band_hz), a.points.max(2));
-    let pb = progress_bar(grid.len(), "verification grid");
-    let cb = |p: Progress| {
-        pb.set_position(p.done as u64);
-        true
-    };
     let t = Instant::now();
-    let reference = Reference::compute(&body, &scene, &grid, &sweep, &cb)?;
-    pb.finish_and_clear();
+    let reference = with_progress(grid.len(), "verification grid", |cb| {
+        Reference::compute(&body, &scene, &grid, &sweep, cb)
+    })?;
     eprintln!(
         "verification grid: {} full solves in {:.1} s",
         grid.len(),
@@ -765,7 +749,7 @@ pub fn tradeoff(a: &TradeoffArgs) -> Result<()> {
                 r.0, r.1, r.2, r.3, r.4, r.5
             ));
         }
-        std::fs::write(path, s).map_err(|e| Error::io(path, e))?;
+        atomic::write_bytes(path, s)?;
     }
     if let Some(path) = &a.svg {
         let series: Vec<(String, Vec<sparsemor::report::Point>)> = ["linefit", "serep"]
@@ -787,7 +771,7 @@ pub fn tradeoff(a: &TradeoffArgs) -> Result<()> {
             .collect();
         let svg =
             sparsemor::report::tradeoff_svg(&format!("{}: time vs accuracy", model.name), &series);
-        std::fs::write(path, svg).map_err(|e| Error::io(path, e))?;
+        atomic::write_bytes(path, svg)?;
     }
     Ok(())
 }

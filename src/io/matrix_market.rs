@@ -54,11 +54,10 @@
 //! [`write_coordinate`] and [`write_array`] write `real` files with 1-based indices and each
 //! value in its shortest round-trip form (the `zmij` formatter, successor of `ryu`: `-0.0`,
 //! `1e-300`, `3027152.8056777236`, `1.2345678901234568e+17`), so that a written matrix reads
-//! back bit-exactly (including `-0.0`, subnormals and extreme exponents). The file is written to
-//! `<path>.tmp` and renamed to `<path>` only when it is complete; on error the temporary file
-//! is removed and `<path>` is untouched. (No `fsync`: the rename protects against a half file
-//! from a failed or interrupted write, not against a power loss.) Non-finite values are
-//! refused with [`Error::InvalidModel`] before anything is written.
+//! back bit-exactly (including `-0.0`, subnormals and extreme exponents). The file is written
+//! atomically ([`super::atomic::write_file`]: `<path>.tmp`, renamed to `<path>` only when it is
+//! complete; on error the temporary file is removed and `<path>` is untouched). Non-finite
+//! values are refused with [`Error::InvalidModel`] before anything is written.
 //!
 //! # Performance
 //!
@@ -75,16 +74,16 @@
 //! 32-bit-indexable sizes (e.g. 480 MB for a 314 MB file of 9.8e6 entries).
 //! Array files are parsed on one thread (dense matrices are small in this crate's use).
 
-use std::fs::File;
-use std::io::{BufWriter, Read, Write};
+use std::io::{Read, Write};
 use std::ops::Range;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use faer::sparse::{SparseColMat, SparseColMatRef, SymbolicSparseColMat};
 use faer::{Mat, MatRef};
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
+use crate::io::atomic;
 
 /// The symmetry declared in a Matrix Market banner.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -224,7 +223,7 @@ pub fn write_coordinate(
         }
     }
     let kind = if symmetric { "symmetric" } else { "general" };
-    write_atomic(path, |w| {
+    atomic::write_file(path, |w| {
         writeln!(w, "%%MatrixMarket matrix coordinate real {kind}")?;
         writeln!(w, "{m} {n} {nnz}")?;
         let mut line = Vec::with_capacity(64);
@@ -260,7 +259,7 @@ pub fn write_array(path: &Path, a: MatRef<'_, f64>) -> Result<()> {
             }
         }
     }
-    write_atomic(path, |w| {
+    atomic::write_file(path, |w| {
         writeln!(w, "%%MatrixMarket matrix array real general")?;
         writeln!(w, "{m} {n}")?;
         let mut line = Vec::with_capacity(32);
@@ -286,42 +285,6 @@ fn non_finite_write(path: &Path, i: usize, j: usize, v: f64) -> Error {
         i + 1,
         j + 1
     ))
-}
-
-/// `<path>.tmp`, next to `path`.
-fn tmp_path(path: &Path) -> PathBuf {
-    let mut s = path.as_os_str().to_owned();
-    s.push(".tmp");
-    PathBuf::from(s)
-}
-
-/// Writes through `body` into `<path>.tmp`, then renames it to `path`. On error the temporary
-/// file is removed and `path` is left as it was.
-fn write_atomic(
-    path: &Path,
-    body: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
-) -> Result<()> {
-    let tmp = tmp_path(path);
-    let file = File::create(&tmp).map_err(|e| Error::io(&tmp, e))?;
-    let mut w = BufWriter::with_capacity(1 << 20, file);
-    let written = body(&mut w).and_then(|()| w.flush());
-    let result = match written {
-        Ok(()) => match w.into_inner() {
-            Ok(file) => {
-                drop(file);
-                std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e))
-            }
-            Err(e) => Err(Error::io(&tmp, e.into_error())),
-        },
-        Err(e) => {
-            drop(w);
-            Err(Error::io(&tmp, e))
-        }
-    };
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
 }
 
 /// Appends the decimal digits of `x`.
@@ -1081,6 +1044,12 @@ fn try_filled<T: Clone>(n: usize, value: T, path: &Path, h: &Header, what: &str)
 
 /// Assembles the canonical CSC matrix from the entries (in file order), mirroring off-diagonal
 /// entries of a symmetric file and summing duplicates.
+///
+/// This mirrors while it scatters instead of using [`crate::sparse::mirror_lower`]: the
+/// entries come as unsorted chunks (either triangle, duplicates, 32-bit indices) that are freed
+/// one by one as they are scattered, and every allocation is fallible (a too-large declared
+/// size is an error, not an abort); building the triangle first and mirroring it afterwards
+/// would hold a second copy of the matrix.
 fn build_csc<I: Ix>(
     h: &Header,
     chunks: Vec<Vec<Entry<I>>>,

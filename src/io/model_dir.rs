@@ -18,16 +18,16 @@
 //!
 //! Paths are relative to the directory. Unknown keys are errors (a typo must not silently
 //! drop a setting). [`read`] validates the whole model ([`Model::new`]); [`write`] writes a
-//! directory atomically (a temporary sibling renamed at the end), so an interrupted write
-//! never leaves a directory that looks complete.
+//! directory atomically ([`atomic::write_dir`]: a temporary sibling renamed at the end), so an
+//! interrupted write never leaves a directory that looks complete.
 
-use crate::io::matrix_market;
+use crate::io::{atomic, matrix_market};
 use crate::model::{Damping, Model, ValidationReport};
 use crate::scene::Scene;
 use crate::{Error, Result};
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// The manifest file name.
 pub const MANIFEST: &str = "model.toml";
@@ -210,7 +210,7 @@ pub fn read_nodes(path: &Path) -> Result<Vec<[f64; 3]>> {
 /// # Errors
 /// [`Error::InvalidSetting`] if `dir` exists and is not empty; I/O errors.
 pub fn write(dir: &Path, model: &Model, scene: &Scene) -> Result<()> {
-    write_atomically(dir, |tmp| {
+    atomic::write_dir(dir, |tmp| {
         matrix_market::write_coordinate(&tmp.join("M.mtx"), model.mass.as_ref(), true)?;
         matrix_market::write_coordinate(&tmp.join("K.mtx"), model.stiffness.as_ref(), true)?;
         let (damping, rayleigh) = match &model.damping {
@@ -233,8 +233,7 @@ pub fn write(dir: &Path, model: &Model, scene: &Scene) -> Result<()> {
             for p in nodes {
                 let _ = writeln!(s, "{:?},{:?},{:?}", p[0], p[1], p[2]);
             }
-            let path = tmp.join("nodes.csv");
-            std::fs::write(&path, s).map_err(|e| Error::io(&path, e))?;
+            atomic::write_bytes(&tmp.join("nodes.csv"), s)?;
         }
         let man = Manifest {
             name: model.name.clone(),
@@ -252,40 +251,6 @@ pub fn write(dir: &Path, model: &Model, scene: &Scene) -> Result<()> {
         };
         let text = toml::to_string(&man)
             .map_err(|e| Error::InvalidModel(format!("cannot serialize manifest: {e}")))?;
-        let path = tmp.join(MANIFEST);
-        std::fs::write(&path, text).map_err(|e| Error::io(&path, e))
+        atomic::write_bytes(&tmp.join(MANIFEST), text)
     })
-}
-
-/// Creates `dir` by filling a temporary sibling with `fill` and renaming it; on any error the
-/// temporary directory is removed and `dir` is left as it was.
-///
-/// # Errors
-/// [`Error::InvalidSetting`] if `dir` exists and is not empty; `fill`'s errors; I/O errors.
-pub fn write_atomically(dir: &Path, fill: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
-    if let Ok(mut it) = std::fs::read_dir(dir) {
-        if it.next().is_some() {
-            return Err(Error::InvalidSetting(format!(
-                "{} exists and is not empty: remove it or choose another output directory",
-                dir.display()
-            )));
-        }
-    }
-    let name = dir
-        .file_name()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "out".into());
-    let tmp: PathBuf = dir.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&tmp);
-    std::fs::create_dir_all(&tmp).map_err(|e| Error::io(&tmp, e))?;
-    let result = fill(&tmp).and_then(|_| {
-        if dir.exists() {
-            std::fs::remove_dir(dir).map_err(|e| Error::io(dir, e))?;
-        }
-        std::fs::rename(&tmp, dir).map_err(|e| Error::io(dir, e))
-    });
-    if result.is_err() {
-        let _ = std::fs::remove_dir_all(&tmp);
-    }
-    result
 }

@@ -2,10 +2,10 @@
 //! fit numerics, definiteness, timings, version; for a tolerance-driven ROM a `[sampling]`
 //! table with the tolerance, the error reached, its kind and the loop's status) and `Mr.mtx Dr.mtx Kr.mtx Br.mtx Cr.mtx`
 //! (Matrix Market `array real general`, full double precision), optional `V.mtx`.
-//! Written atomically ([`super::model_dir::write_atomically`]).
+//! Written atomically ([`atomic::write_dir`]).
 
-use crate::io::matrix_market;
-use crate::io::model_dir::{toml_error, write_atomically};
+use crate::io::model_dir::toml_error;
+use crate::io::{atomic, matrix_market};
 use crate::reduce::linefit::{Outcome, SamplingReport, Verified};
 use crate::reduce::{Definiteness, FitReport, Provenance, Rom, Timing};
 use crate::{Error, Result};
@@ -76,7 +76,7 @@ fn outcome_name(o: &Outcome) -> &'static str {
 /// # Errors
 /// [`Error::InvalidSetting`] if `dir` exists and is not empty; I/O errors.
 pub fn write(dir: &Path, rom: &Rom) -> Result<()> {
-    write_atomically(dir, |tmp| {
+    atomic::write_dir(dir, |tmp| {
         for (name, m) in [
             ("Mr", &rom.mr),
             ("Dr", &rom.dr),
@@ -128,8 +128,7 @@ pub fn write(dir: &Path, rom: &Rom) -> Result<()> {
         };
         let text = toml::to_string(&man)
             .map_err(|e| Error::InvalidSetting(format!("cannot serialize rom.toml: {e}")))?;
-        let path = tmp.join("rom.toml");
-        std::fs::write(&path, text).map_err(|e| Error::io(&path, e))
+        atomic::write_bytes(&tmp.join("rom.toml"), text)
     })
 }
 
