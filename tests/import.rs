@@ -517,3 +517,132 @@ proptest! {
         let _ = import::read(std::slice::from_ref(&p));
     }
 }
+
+// ---------------------------------------------------------------------------------------------
+// End to end: line-fitting and SEREP on the Abaqus blocks (outputs named node:dir), and the
+// CLI (`import`, `modes`) on both rotors
+
+#[test]
+fn abaqus_blocks_reduce_end_to_end() {
+    use sparsemor::reduce::linefit::{self, Interface, LineFitOptions, References};
+    use sparsemor::reduce::serep::{self, ModeChoice, SerepOptions};
+    use sparsemor::scene::Scene;
+    for job in ["blockC3D8", "blockC3D10", "blockC3D20R"] {
+        let Some(files) = abaqus_set(job, "_") else {
+            return;
+        };
+        let imp = import::read(&files).unwrap();
+        let io: Vec<usize> = ["1:x", "1:y", "1:z"]
+            .iter()
+            .map(|s| imp.index_of(s.parse().unwrap()).unwrap())
+            .collect();
+        let scene = Scene {
+            inputs: io.clone(),
+            outputs: io.clone(),
+            band_hz: [0.0, 2000.0],
+        };
+        let (model, _) = imp.into_model(job.into()).unwrap();
+        let body = Body::new(&model).unwrap();
+        let opts = LineFitOptions::new(
+            Interface::OutputsPlus(6),
+            References::Explicit(vec![100.0, 400.0, 800.0, 1200.0, 1600.0]),
+        );
+        let rom =
+            linefit::reduce(&body, &scene, &opts, None, &sparsemor::sweep::no_progress).unwrap();
+        assert_eq!(rom.order(), 9, "{job}");
+        let opts = SerepOptions {
+            modes: ModeChoice::LowestDeformation(3),
+            retain: Some(io),
+            keep_basis: false,
+            eigen: EigenOptions::for_band(2000.0),
+        };
+        let rom = serep::reduce(&body, &scene, &opts, None).unwrap();
+        assert_eq!(rom.order(), 3, "{job}");
+    }
+}
+
+fn cli(args: &[&str]) -> String {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_sparsemor"))
+        .args(args)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "sparsemor {args:?} failed:\n{text}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    text
+}
+
+/// `sparsemor modes --csv` frequencies and the rigid count.
+fn cli_modes(dir: &Path, csv: &Path) -> (Vec<f64>, usize) {
+    let d = dir.to_str().unwrap();
+    cli(&[
+        "modes",
+        d,
+        "--band",
+        "0:420",
+        "--csv",
+        csv.to_str().unwrap(),
+    ]);
+    let text = std::fs::read_to_string(csv).unwrap();
+    let rows: Vec<Vec<String>> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(str::to_string).collect())
+        .collect();
+    let f = rows.iter().map(|r| r[1].parse().unwrap()).collect();
+    (f, rows.iter().filter(|r| r[2] == "rigid").count())
+}
+
+#[test]
+fn cli_import_and_modes_on_both_rotors() {
+    let (Some(a), Some(b)) = (ansys_rotor(), abaqus_set("rotorDiscTest", "")) else {
+        return;
+    };
+    let tmp = scratch();
+    let (da, db) = (tmp.path().join("ansys"), tmp.path().join("abaqus"));
+    let mut args: Vec<&str> = vec!["import"];
+    args.extend(a.iter().map(|p| p.to_str().unwrap()));
+    args.extend(["--out", da.to_str().unwrap()]);
+    cli(&args);
+    let mut args: Vec<&str> = vec!["import"];
+    args.extend(b.iter().map(|p| p.to_str().unwrap()));
+    args.extend([
+        "--scale-stiffness",
+        "1e-2",
+        "--inputs",
+        "111:x,111:y",
+        "--outputs",
+        "111:y",
+    ]);
+    args.extend(["--out", db.to_str().unwrap()]);
+    let printed = cli(&args);
+    assert!(
+        printed.contains("inputs 111:x,111:y, outputs 111:y"),
+        "{printed}"
+    );
+    // The written directory reads back with its DoF map.
+    let map = sparsemor::io::model_dir::read_dof_map(&db)
+        .unwrap()
+        .unwrap();
+    assert_eq!(map.len(), 345);
+    let (_, scene, _) = sparsemor::io::model_dir::read(&db).unwrap();
+    assert_eq!(map[scene.outputs[0]], "111:y".parse().unwrap());
+    let (fa, ra) = cli_modes(&da, &tmp.path().join("a.csv"));
+    let (fb, rb) = cli_modes(&db, &tmp.path().join("b.csv"));
+    assert_eq!((ra, rb), (6, 6));
+    assert!(fa.len() >= 18 && fb.len() >= 18);
+    for f in [fa[6], fb[6]] {
+        assert!((f - 104.63701).abs() < 1e-5, "{f}");
+    }
+    for k in 6..18 {
+        assert!(
+            ((fa[k] - fb[k]) / fa[k]).abs() <= 1e-6,
+            "mode {k}: {} vs {}",
+            fa[k],
+            fb[k]
+        );
+    }
+}

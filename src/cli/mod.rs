@@ -3,6 +3,7 @@
 
 mod bench;
 mod commands;
+mod import;
 mod reduce;
 
 use clap::{Parser, Subcommand};
@@ -23,6 +24,7 @@ const EXAMPLES: &str = "Examples:
   sparsemor demo
   sparsemor generate bar --out bar
   sparsemor info bar
+  sparsemor import job_STIF1.mtx job_MASS1.mtx job.inp --inputs 17:x,17:y --out job
   sparsemor sweep bar --band 1:1000 --points 500 --part elastic --out frf.csv
   sparsemor reduce bar --method linefit --extra-interface 5 --ref-freqs 50,100,200,400,800 --out rom
   sparsemor reduce bar --method serep --modes 9 --out rom9
@@ -69,6 +71,8 @@ enum Command {
     },
     /// Speed vs accuracy: the sampling loop per tolerance and SEREP per mode count.
     Tradeoff(reduce::TradeoffArgs),
+    /// A model directory from the files ANSYS or Abaqus wrote (.full, APDL Math, *MATRIX OUTPUT).
+    Import(import::ImportArgs),
     /// Performance tables (markdown): `bench sweep`.
     Bench(bench::BenchArgs),
 }
@@ -90,6 +94,7 @@ pub fn run() -> sparsemor::Result<()> {
         Command::Modes(args) => reduce::modes(&args),
         Command::Demo { threads } => reduce::demo(threads),
         Command::Tradeoff(args) => reduce::tradeoff(&args),
+        Command::Import(args) => import::import(&args),
         Command::Bench(args) => bench::run(&args),
     }
 }
