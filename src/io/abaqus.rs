@@ -39,20 +39,36 @@ enum Layout {
     NodeDof,
 }
 
-/// The DoFs met in node–DoF files, numbered in order of appearance.
+/// The DoFs met in node–DoF files, numbered in order of appearance. A node's six slots are
+/// found by one hash lookup, skipped when the node repeats (consecutive lines mostly share it).
 #[derive(Default)]
 struct Keys {
-    index: HashMap<Dof, usize>,
+    slot: HashMap<u64, usize>,
+    ids: Vec<[usize; 6]>,
     dofs: Vec<Dof>,
+    last: Option<(u64, usize)>,
 }
 
 impl Keys {
     fn id(&mut self, dof: Dof) -> usize {
-        let next = self.dofs.len();
-        *self.index.entry(dof).or_insert_with(|| {
+        let slot = match self.last {
+            Some((node, slot)) if node == dof.node => slot,
+            _ => {
+                let next = self.ids.len();
+                let slot = *self.slot.entry(dof.node).or_insert(next);
+                if slot == next {
+                    self.ids.push([usize::MAX; 6]);
+                }
+                self.last = Some((dof.node, slot));
+                slot
+            }
+        };
+        let id = &mut self.ids[slot][dof.dir as usize];
+        if *id == usize::MAX {
+            *id = self.dofs.len();
             self.dofs.push(dof);
-            next
-        })
+        }
+        *id
     }
 }
 
