@@ -24,7 +24,7 @@
 //! ```
 //!
 //! Paths are relative to the directory. Unknown keys are errors (a typo must not silently
-//! drop a setting). [`read`] validates the whole model ([`Model::new`]); [`write`] writes a
+//! drop a setting). [`read`] validates the whole model ([`Model::new`]); [`write()`] writes a
 //! directory atomically (a temporary sibling renamed at the end), so an interrupted write
 //! never leaves a directory that looks complete.
 
@@ -288,11 +288,11 @@ pub fn write(dir: &Path, model: &Model, scene: &Scene) -> Result<()> {
     write_with_source(dir, model, scene, None)
 }
 
-/// [`write`] plus, for an imported model, the `[source]` table with `dofs.csv` (and
+/// [`write()`] plus, for an imported model, the `[source]` table with `dofs.csv` (and
 /// `removed.csv` when DoFs were removed).
 ///
 /// # Errors
-/// As [`write`].
+/// As [`write()`].
 pub fn write_with_source(
     dir: &Path,
     model: &Model,
