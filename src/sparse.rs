@@ -143,6 +143,129 @@ pub fn from_parts(
     )
 }
 
+/// Coordinate entries (0-based row, column, value) collected by the importers before the
+/// CSC matrix is assembled ([`Triplets::into_csc`]).
+#[derive(Clone, Debug, Default)]
+pub struct Triplets {
+    rows: Vec<usize>,
+    cols: Vec<usize>,
+    vals: Vec<f64>,
+}
+
+impl Triplets {
+    /// Appends one entry; the caller has checked the indices against the final size.
+    pub fn push(&mut self, row: usize, col: usize, val: f64) {
+        self.rows.push(row);
+        self.cols.push(col);
+        self.vals.push(val);
+    }
+
+    /// Number of entries pushed.
+    pub fn len(&self) -> usize {
+        self.vals.len()
+    }
+
+    /// True when no entry was pushed.
+    pub fn is_empty(&self) -> bool {
+        self.vals.is_empty()
+    }
+
+    /// Largest row and column index + 1 (0 when empty): the smallest size that holds them.
+    pub fn extent(&self) -> usize {
+        let m = |v: &[usize]| v.iter().max().map_or(0, |&x| x + 1);
+        m(&self.rows).max(m(&self.cols))
+    }
+
+    /// Counts of strictly lower (row > column) and strictly upper (row < column) entries.
+    pub fn triangles(&self) -> (usize, usize) {
+        let lower = self
+            .rows
+            .iter()
+            .zip(&self.cols)
+            .filter(|(r, c)| r > c)
+            .count();
+        let upper = self
+            .rows
+            .iter()
+            .zip(&self.cols)
+            .filter(|(r, c)| r < c)
+            .count();
+        (lower, upper)
+    }
+
+    /// Renumbers rows and columns through `f` (a permutation or an injection into 0..n).
+    pub fn map_indices(&mut self, f: impl Fn(usize) -> usize) {
+        self.rows
+            .iter_mut()
+            .chain(&mut self.cols)
+            .for_each(|i| *i = f(*i));
+    }
+
+    /// True when every entry is on the diagonal (a lumped matrix).
+    pub fn is_diagonal(&self) -> bool {
+        self.rows.iter().zip(&self.cols).all(|(r, c)| r == c)
+    }
+
+    /// Canonical `n × n` CSC (rows sorted, duplicates summed in push order). With `mirror`,
+    /// every off-diagonal entry is stored a second time transposed: one stored triangle
+    /// becomes full storage. Indices must be < n (checked by the caller while parsing).
+    pub fn into_csc(self, n: usize, mirror: bool) -> Csc {
+        let Triplets { rows, cols, vals } = self;
+        let mut count = vec![0usize; n + 1];
+        for (&r, &c) in rows.iter().zip(&cols) {
+            count[c + 1] += 1;
+            if mirror && r != c {
+                count[r + 1] += 1;
+            }
+        }
+        for j in 0..n {
+            count[j + 1] += count[j];
+        }
+        let total = count[n];
+        let mut next = count.clone();
+        let mut row_idx = vec![0usize; total];
+        let mut val = vec![0f64; total];
+        let mut put = |r: usize, c: usize, v: f64| {
+            row_idx[next[c]] = r;
+            val[next[c]] = v;
+            next[c] += 1;
+        };
+        for ((&r, &c), &v) in rows.iter().zip(&cols).zip(&vals) {
+            put(r, c, v);
+            if mirror && r != c {
+                put(c, r, v);
+            }
+        }
+        drop((rows, cols, vals));
+        // Sort each column by row (stable: duplicates keep push order) and sum duplicates.
+        let mut col_ptr = Vec::with_capacity(n + 1);
+        col_ptr.push(0);
+        let mut out = 0;
+        let mut pairs: Vec<(usize, f64)> = Vec::new();
+        for j in 0..n {
+            let (a, b) = (count[j], count[j + 1]);
+            pairs.clear();
+            pairs.extend(row_idx[a..b].iter().copied().zip(val[a..b].iter().copied()));
+            if !pairs.windows(2).all(|w| w[0].0 < w[1].0) {
+                pairs.sort_by_key(|p| p.0);
+            }
+            for &(r, v) in &pairs {
+                if out > col_ptr[j] && row_idx[out - 1] == r {
+                    val[out - 1] += v;
+                } else {
+                    row_idx[out] = r;
+                    val[out] = v;
+                    out += 1;
+                }
+            }
+            col_ptr.push(out);
+        }
+        row_idx.truncate(out);
+        val.truncate(out);
+        from_parts(n, n, col_ptr, row_idx, val)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

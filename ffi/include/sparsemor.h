@@ -400,7 +400,9 @@ enum SparsemorStatus sparsemor_model_set_scene(struct SparsemorModel *model,
 
 /**
  * Creates an options handle with the defaults: threads 0 (all cores), no tolerance,
- * interface = the outputs (outputs + 0), no reference frequencies (line-fitting needs them),
+ * interface = the outputs (outputs + 0) — with a tolerance the outputs plus ⌈q/2⌉ spread
+ * DoFs for q outputs, growing up to the automatic cap —, no reference frequencies
+ * (line-fitting needs them or a tolerance),
  * SEREP with c = r modes (as many lowest deformation modes as retained DoFs) retaining the
  * outputs, V not kept. `*options_out` receives the handle (NULL on failure).
  *
@@ -448,8 +450,9 @@ enum SparsemorStatus sparsemor_options_set_tolerance(struct SparsemorOptions *op
 
 /**
  * Limits of the sampling loop (with a tolerance): at most `max_points` factorizations
- * (default 60, ≥ 1) and interface growth up to order `max_order` (default 0 = the interface
- * never grows).
+ * (default 60, ≥ 1) and interface growth up to order `max_order` (default 0 = the automatic
+ * cap min(max(3·n0, 40), N/2, memory) of the library's `SamplingOptions::auto_max_order`; a
+ * value at most the initial order n0 keeps the order fixed).
  *
  * # Safety
  * `options` a live handle.

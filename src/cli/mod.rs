@@ -3,6 +3,7 @@
 
 mod bench;
 mod commands;
+mod import;
 mod progress;
 mod reduce;
 
@@ -25,6 +26,7 @@ const EXAMPLES: &str = "Examples:
   sparsemor generate bar --out bar
   sparsemor generate bracket --out bracket
   sparsemor info bar
+  sparsemor import job_STIF1.mtx job_MASS1.mtx job.inp --inputs 17:x,17:y --out job
   sparsemor sweep bar --band 1:1000 --points 500 --part elastic --out frf.csv
   sparsemor reduce bar --method linefit --extra-interface 5 --ref-freqs 50,100,200,400,800 --out rom
   sparsemor reduce bar --method serep --modes 9 --out rom9
@@ -102,6 +104,8 @@ enum Command {
     },
     /// Speed vs accuracy: the sampling loop per tolerance and SEREP per mode count.
     Tradeoff(reduce::TradeoffArgs),
+    /// A model directory from the files ANSYS or Abaqus wrote (.full, APDL Math, *MATRIX OUTPUT).
+    Import(import::ImportArgs),
     /// Performance tables (markdown): `bench sweep`.
     Bench(bench::BenchArgs),
 }
@@ -131,6 +135,7 @@ pub fn run() -> sparsemor::Result<Done> {
         Command::Modes(args) => met(reduce::modes(&args)),
         Command::Demo { threads } => met(reduce::demo(threads)),
         Command::Tradeoff(args) => met(reduce::tradeoff(&args)),
+        Command::Import(args) => met(import::import(&args)),
         Command::Bench(args) => met(bench::run(&args)),
     }
 }

@@ -1,7 +1,11 @@
-//! File formats (DESIGN.md §4): Matrix Market, the model directory, the ROM directory; and
-//! the atomic writes all of them (and the CLI's outputs) go through.
+//! File formats (DESIGN.md §4): Matrix Market, the model directory, the ROM directory, the
+//! importers of FE codes' files ([`import`]: ANSYS, Abaqus); and the atomic writes all
+//! writers (and the CLI's outputs) go through.
 
+pub mod abaqus;
+pub mod ansys;
 pub mod atomic;
+pub mod import;
 pub mod matrix_market;
 pub mod model_dir;
 pub mod rom_dir;

@@ -14,13 +14,21 @@
 //! inputs = [0, 1, 2]
 //! outputs = [0, 1, 2]
 //! band_hz = [0.0, 1000.0]
+//! [source]                  # optional: written by `sparsemor import`
+//! format = "ansys-full"     # io::import::Format::name
+//! producer = "ANSYS 15.0 (LINUX x64), jobname file"
+//! units = "..."             # as the source records them
+//! files = ["file.full"]
+//! dof_map = "dofs.csv"      # header node,dir; one row per DoF (node number, x..rz)
+//! removed = "removed.csv"   # optional: the constrained DoFs the import removed
 //! ```
 //!
 //! Paths are relative to the directory. Unknown keys are errors (a typo must not silently
-//! drop a setting). [`read`] validates the whole model ([`Model::new`]); [`write`] writes a
+//! drop a setting). [`read`] validates the whole model ([`Model::new`]); [`write()`] writes a
 //! directory atomically ([`atomic::write_dir`]: a temporary sibling renamed at the end), so an
 //! interrupted write never leaves a directory that looks complete.
 
+use crate::io::import::Dof;
 use crate::io::{atomic, matrix_market};
 use crate::model::{Damping, Model, ValidationReport};
 use crate::scene::Scene;
@@ -56,6 +64,9 @@ pub struct Manifest {
     pub rayleigh: Option<Rayleigh>,
     /// The default scene.
     pub scene: SceneToml,
+    /// Where an imported model came from.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub source: Option<SourceToml>,
 }
 
 fn three() -> usize {
@@ -84,6 +95,70 @@ pub struct SceneToml {
     pub outputs: Vec<usize>,
     /// Band [f_lo, f_hi] in Hz.
     pub band_hz: [f64; 2],
+}
+
+/// `[source]`: the provenance of an imported model ([`crate::io::import`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SourceToml {
+    /// The format read (`ansys-full`, `ansys-apdl-math`, `abaqus-coordinate`, ...).
+    pub format: String,
+    /// Who wrote the files, as they say.
+    pub producer: String,
+    /// The units as the source records them.
+    pub units: String,
+    /// The files read.
+    pub files: Vec<String>,
+    /// CSV file (`node,dir`) naming every DoF in matrix order.
+    pub dof_map: String,
+    /// CSV file (`node,dir`) of the constrained DoFs that were removed, if any.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub removed: Option<String>,
+}
+
+/// An imported model's provenance for [`write_with_source`]: the `[source]` table (its
+/// `dof_map` and `removed` names are set by the writer) and the DoF lists written next to it.
+#[derive(Clone, Debug)]
+pub struct Source<'a> {
+    /// The table.
+    pub toml: SourceToml,
+    /// The DoF of every row/column, written to `dofs.csv`.
+    pub dofs: &'a [Dof],
+    /// The constrained DoFs removed, written to `removed.csv` when not empty.
+    pub removed: &'a [Dof],
+}
+
+/// The DoF map of an imported model directory (`[source] dof_map`), `None` for a directory
+/// without `[source]`.
+///
+/// # Errors
+/// [`Error::Io`]; [`Error::Parse`] with the line of a row that is not `node,dir`.
+pub fn read_dof_map(dir: &Path) -> Result<Option<Vec<Dof>>> {
+    let Some(src) = read_manifest(dir)?.source else {
+        return Ok(None);
+    };
+    let path = dir.join(&src.dof_map);
+    let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
+    text.lines()
+        .enumerate()
+        .skip(1)
+        .filter(|(_, l)| !l.trim().is_empty())
+        .map(|(i, l)| {
+            l.replacen(',', ":", 1)
+                .parse::<Dof>()
+                .map_err(|e| Error::parse(&path, i + 1, e.to_string()))
+        })
+        .collect::<Result<Vec<_>>>()
+        .map(Some)
+}
+
+fn write_dofs(path: &Path, dofs: &[Dof]) -> Result<()> {
+    let mut s = String::with_capacity(16 * dofs.len() + 9);
+    s.push_str("node,dir\n");
+    for d in dofs {
+        let _ = writeln!(s, "{},{}", d.node, d.dir);
+    }
+    std::fs::write(path, s).map_err(|e| Error::io(path, e))
 }
 
 /// Reads only the manifest.
@@ -210,6 +285,20 @@ pub fn read_nodes(path: &Path) -> Result<Vec<[f64; 3]>> {
 /// # Errors
 /// [`Error::InvalidSetting`] if `dir` exists and is not empty; I/O errors.
 pub fn write(dir: &Path, model: &Model, scene: &Scene) -> Result<()> {
+    write_with_source(dir, model, scene, None)
+}
+
+/// [`write()`] plus, for an imported model, the `[source]` table with `dofs.csv` (and
+/// `removed.csv` when DoFs were removed).
+///
+/// # Errors
+/// As [`write()`].
+pub fn write_with_source(
+    dir: &Path,
+    model: &Model,
+    scene: &Scene,
+    source: Option<&Source<'_>>,
+) -> Result<()> {
     atomic::write_dir(dir, |tmp| {
         matrix_market::write_coordinate(&tmp.join("M.mtx"), model.mass.as_ref(), true)?;
         matrix_market::write_coordinate(&tmp.join("K.mtx"), model.stiffness.as_ref(), true)?;
@@ -248,6 +337,22 @@ pub fn write(dir: &Path, model: &Model, scene: &Scene) -> Result<()> {
                 outputs: scene.outputs.clone(),
                 band_hz: scene.band_hz,
             },
+            source: source
+                .map(|src| -> Result<SourceToml> {
+                    write_dofs(&tmp.join("dofs.csv"), src.dofs)?;
+                    let removed = if src.removed.is_empty() {
+                        None
+                    } else {
+                        write_dofs(&tmp.join("removed.csv"), src.removed)?;
+                        Some("removed.csv".to_string())
+                    };
+                    Ok(SourceToml {
+                        dof_map: "dofs.csv".into(),
+                        removed,
+                        ..src.toml.clone()
+                    })
+                })
+                .transpose()?,
         };
         let text = toml::to_string(&man)
             .map_err(|e| Error::InvalidModel(format!("cannot serialize manifest: {e}")))?;

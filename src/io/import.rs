@@ -1,0 +1,767 @@
+//! Reading models written by FE codes (DESIGN.md §4, "Importers"): one entry, [`read`], that
+//! tells the format of each file and hands the set to the reader of that format.
+//!
+//! | what | files | reader |
+//! |---|---|---|
+//! | ANSYS binary full file | `Jobname.full` (+ optional node table) | [`crate::io::ansys::read_full`] |
+//! | ANSYS APDL Math export | K, M (`*EXPORT,…,MMF`), the DoF mapping vector, a node table | [`crate::io::ansys::read_apdl_math`] |
+//! | Abaqus `*MATRIX OUTPUT` | `*_STIF*.mtx`, `*_MASS*.mtx` (+ the `.inp` deck) | [`crate::io::abaqus::read`] |
+//!
+//! # How a file is recognized
+//! From its first bytes, never from its name alone:
+//! * the 32-bit word 100 at byte 0, in either byte order: an ANSYS binary file (its standard
+//!   header is a 100-word record; ANSYS Programmer's Reference, "Standard ANSYS file header");
+//! * `%%MatrixMarket`: a Matrix Market file — `array integer` is the DoF mapping vector,
+//!   `coordinate` a matrix;
+//! * a first non-blank line starting with `*` (`*Heading`, `*Node`): an Abaqus input deck;
+//! * a first line of 3 numbers `row col value` or 5 comma-separated `node, dof, node, dof,
+//!   value`: an Abaqus matrix;
+//! * anything else with a first data row `node x y z`: a node coordinate table
+//!   ([`read_node_table`]).
+//!
+//! Which matrix is the stiffness and which the mass comes from the file name (`STIF`/`stiff`/`K`
+//! vs `MASS`/`mass`/`M`, case-insensitive, as ANSYS's and Abaqus's own names have it) or from
+//! an explicit `K=path` / `M=path` prefix.
+//!
+//! # What comes back
+//! [`Imported`]: full-storage M and K in the order of the DoF map, the DoF map itself (node
+//! number and direction per DoF, written `17:x`), node coordinates when every node carries the
+//! same DoFs, the producer and the units as the files record them (nothing is guessed), and the
+//! constrained DoFs that were removed. [`Imported::into_model`] validates it as a
+//! [`Model`].
+
+use crate::io::{abaqus, ansys};
+use crate::model::{Damping, Model, ValidationReport};
+use crate::scene::Scene;
+use crate::sparse::Csc;
+use crate::{Error, Result};
+use std::fmt;
+use std::io::Read;
+use std::path::{Path, PathBuf};
+use std::str::FromStr;
+
+/// A nodal degree-of-freedom direction: translations x, y, z and rotations rx, ry, rz.
+///
+/// ANSYS numbers them UX=1, UY=2, UZ=3, ROTX=4, ROTY=5, ROTZ=6 (the DoF keys of the full file's
+/// DoF set); Abaqus uses the same numbers 1–6 for its DoFs (Abaqus Analysis User's Guide,
+/// "Conventions": 1–3 displacements, 4–6 rotations).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Direction {
+    /// Translation along x (key 1).
+    X,
+    /// Translation along y (key 2).
+    Y,
+    /// Translation along z (key 3).
+    Z,
+    /// Rotation about x (key 4).
+    Rx,
+    /// Rotation about y (key 5).
+    Ry,
+    /// Rotation about z (key 6).
+    Rz,
+}
+
+impl Direction {
+    /// All six, in key order.
+    pub const ALL: [Direction; 6] = [
+        Direction::X,
+        Direction::Y,
+        Direction::Z,
+        Direction::Rx,
+        Direction::Ry,
+        Direction::Rz,
+    ];
+
+    /// The direction of the ANSYS/Abaqus DoF key 1–6; `None` for any other key (temperature,
+    /// pressure, warping, ...), which sparsemor does not model.
+    pub fn from_key(key: i64) -> Option<Direction> {
+        usize::try_from(key - 1)
+            .ok()
+            .and_then(|k| Self::ALL.get(k).copied())
+    }
+
+    /// The label used in DoF names: `x`, `y`, `z`, `rx`, `ry`, `rz`.
+    pub fn label(self) -> &'static str {
+        ["x", "y", "z", "rx", "ry", "rz"][self as usize]
+    }
+}
+
+impl fmt::Display for Direction {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.label())
+    }
+}
+
+impl FromStr for Direction {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        Self::ALL
+            .into_iter()
+            .find(|d| d.label().eq_ignore_ascii_case(s.trim()))
+            .ok_or_else(|| {
+                Error::InvalidSetting(format!(
+                    "unknown DoF direction '{s}': use x, y, z, rx, ry or rz"
+                ))
+            })
+    }
+}
+
+/// One DoF of an imported model: the FE code's node number and the direction, `17:x`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct Dof {
+    /// Node number as the FE code numbers it.
+    pub node: u64,
+    /// Direction.
+    pub dir: Direction,
+}
+
+impl fmt::Display for Dof {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}:{}", self.node, self.dir)
+    }
+}
+
+impl FromStr for Dof {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        let (n, d) = s.split_once(':').ok_or_else(|| {
+            Error::InvalidSetting(format!("DoF '{s}': expected NODE:DIR, e.g. 17:x"))
+        })?;
+        let node = n
+            .trim()
+            .parse()
+            .map_err(|_| Error::InvalidSetting(format!("DoF '{s}': '{n}' is not a node number")))?;
+        Ok(Dof {
+            node,
+            dir: d.parse()?,
+        })
+    }
+}
+
+/// The source format of an import.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    /// ANSYS binary `.full` file.
+    AnsysFull,
+    /// ANSYS APDL Math Matrix Market export with its DoF mapping vector.
+    AnsysApdlMath,
+    /// Abaqus `*MATRIX OUTPUT, FORMAT=COORDINATE` (`row col value`).
+    AbaqusCoordinate,
+    /// Abaqus `*MATRIX OUTPUT` default format (`node, dof, node, dof, value`).
+    AbaqusNodeDof,
+}
+
+impl Format {
+    /// The name written to `model.toml` (`[source] format`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Format::AnsysFull => "ansys-full",
+            Format::AnsysApdlMath => "ansys-apdl-math",
+            Format::AbaqusCoordinate => "abaqus-coordinate",
+            Format::AbaqusNodeDof => "abaqus-node-dof",
+        }
+    }
+}
+
+/// A model as an FE code wrote it, in sparsemor's storage.
+#[derive(Clone, Debug)]
+pub struct Imported {
+    /// The format read.
+    pub format: Format,
+    /// The files read, in the order given.
+    pub files: Vec<PathBuf>,
+    /// Who wrote the files, as they say (e.g. `ANSYS 15.0, LINUX x64, jobname file`).
+    pub producer: String,
+    /// The units as the files record them (nothing is guessed).
+    pub units: String,
+    /// Mass matrix, full storage, in DoF-map order.
+    pub mass: Csc,
+    /// Stiffness matrix, full storage, in DoF-map order.
+    pub stiffness: Csc,
+    /// Node and direction of every DoF (row/column order of M and K).
+    pub dofs: Vec<Dof>,
+    /// Node coordinates in DoF-map node order, when a node table was read and every node
+    /// carries the same `dofs_per_node` DoFs in the same directions.
+    pub nodes: Option<Vec<[f64; 3]>>,
+    /// 3 or 6: DoFs per node.
+    pub dofs_per_node: usize,
+    /// Constrained DoFs that the source stored and the import removed.
+    pub removed: Vec<Dof>,
+    /// What the reader noticed (lumped mass, nodes without coordinates, ...), for the user.
+    pub notes: Vec<String>,
+}
+
+impl Imported {
+    /// Number of DoFs N.
+    pub fn n(&self) -> usize {
+        self.dofs.len()
+    }
+
+    /// The index of a DoF, if the model has it.
+    pub fn index_of(&self, dof: Dof) -> Option<usize> {
+        self.dofs.iter().position(|&d| d == dof)
+    }
+
+    /// Multiplies K by `s` (e.g. EXUDYN's 1e-2 for the Abaqus rotor, see the data README).
+    ///
+    /// # Errors
+    /// [`Error::InvalidSetting`] unless `s` is finite and > 0.
+    pub fn scale_stiffness(&mut self, s: f64) -> Result<()> {
+        if !(s.is_finite() && s > 0.0) {
+            return Err(Error::InvalidSetting(format!(
+                "stiffness scale {s}: need a finite value > 0"
+            )));
+        }
+        self.stiffness.val_mut().iter_mut().for_each(|v| *v *= s);
+        self.units.push_str(&format!("; stiffness scaled by {s}"));
+        Ok(())
+    }
+
+    /// Converts a model in the consistent mm–t–s–N system to m–kg–s–N: coordinates × 1e-3,
+    /// M × 1e3 (t → kg), K × 1e3 (N/mm → N/m). Eigenfrequencies are unchanged (K/M is).
+    pub fn mm_to_m(&mut self) {
+        self.mass.val_mut().iter_mut().for_each(|v| *v *= 1e3);
+        self.stiffness.val_mut().iter_mut().for_each(|v| *v *= 1e3);
+        if let Some(nodes) = &mut self.nodes {
+            nodes.iter_mut().flatten().for_each(|c| *c *= 1e-3);
+        }
+        self.units
+            .push_str("; converted from mm-t-s-N to m-kg-s-N (K, M x 1e3, coordinates x 1e-3)");
+    }
+
+    /// The default scene of an imported model: inputs = outputs = the three translations of
+    /// the first node that has all three (else DoF 0), band `band_hz`. The band cannot come
+    /// from the files (no eigenfrequency is known at import time), so the caller chooses it.
+    pub fn default_scene(&self, band_hz: [f64; 2]) -> Scene {
+        let first = self.dofs.first().map(|d| d.node);
+        let dofs: Vec<usize> = self
+            .dofs
+            .iter()
+            .enumerate()
+            .filter(|(_, d)| Some(d.node) == first && d.dir <= Direction::Z)
+            .map(|(i, _)| i)
+            .collect();
+        let dofs = if dofs.len() == 3 { dofs } else { vec![0] };
+        Scene {
+            inputs: dofs.clone(),
+            outputs: dofs,
+            band_hz,
+        }
+    }
+
+    /// Validates the import as an undamped [`Model`] named `name`.
+    ///
+    /// # Errors
+    /// [`Model::new`]'s errors (asymmetric, non-positive mass diagonal, ...).
+    pub fn into_model(self, name: String) -> Result<(Model, ValidationReport)> {
+        Model::new(
+            name,
+            self.mass,
+            self.stiffness,
+            Damping::None,
+            self.nodes,
+            self.dofs_per_node,
+        )
+    }
+}
+
+/// What a file is, from its first bytes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    AnsysBinary,
+    MatrixMarketMatrix,
+    MatrixMarketMapping,
+    AbaqusMatrix,
+    AbaqusDeck,
+    NodeTable,
+}
+
+/// The role a matrix plays.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Role {
+    Stiffness,
+    Mass,
+}
+
+/// Reads a model from the files an FE code wrote (see the [module documentation](self)).
+///
+/// # Errors
+/// [`Error::Io`]; [`Error::Parse`] naming the file and the line or byte offset; an
+/// [`Error::InvalidSetting`] when the set of files is incomplete or ambiguous (which file is
+/// missing, how to name it).
+pub fn read(paths: &[PathBuf]) -> Result<Imported> {
+    let mut files = Vec::new();
+    for p in paths {
+        let (role, path) = explicit_role(p);
+        files.push((sniff(&path)?, role, path));
+    }
+    let of = |k: Kind| -> Vec<&(Kind, Option<Role>, PathBuf)> {
+        files.iter().filter(|f| f.0 == k).collect()
+    };
+    let one = |k: Kind, what: &str| -> Result<Option<PathBuf>> {
+        match of(k).as_slice() {
+            [] => Ok(None),
+            [f] => Ok(Some(f.2.clone())),
+            many => Err(Error::InvalidSetting(format!(
+                "{} files look like {what}: {}; give one",
+                many.len(),
+                list(many.iter().map(|f| &f.2))
+            ))),
+        }
+    };
+    let table = one(Kind::NodeTable, "a node coordinate table")?;
+    if let Some(full) = one(Kind::AnsysBinary, "an ANSYS binary file")? {
+        only(
+            &files,
+            &[Kind::AnsysBinary, Kind::NodeTable],
+            "an ANSYS .full file",
+        )?;
+        return ansys::read_full(&full, table.as_deref());
+    }
+    let deck = one(Kind::AbaqusDeck, "an Abaqus input deck")?;
+    let abq = of(Kind::AbaqusMatrix);
+    if !abq.is_empty() {
+        only(
+            &files,
+            &[Kind::AbaqusMatrix, Kind::AbaqusDeck],
+            "Abaqus matrices",
+        )?;
+        let (k, m) = stiffness_and_mass(&abq)?;
+        return abaqus::read(&k, &m, deck.as_deref());
+    }
+    let mm = of(Kind::MatrixMarketMatrix);
+    if !mm.is_empty() {
+        only(
+            &files,
+            &[
+                Kind::MatrixMarketMatrix,
+                Kind::MatrixMarketMapping,
+                Kind::NodeTable,
+            ],
+            "an APDL Math export",
+        )?;
+        let (k, m) = stiffness_and_mass(&mm)?;
+        let map = one(Kind::MatrixMarketMapping, "a DoF mapping vector")?.ok_or_else(|| {
+            Error::InvalidSetting(
+                "an APDL Math export needs its DoF mapping vector (a Matrix Market `array \
+                 integer` file with the node number of each equation block) besides K and M"
+                    .into(),
+            )
+        })?;
+        return ansys::read_apdl_math(&k, &m, &map, table.as_deref());
+    }
+    Err(Error::InvalidSetting(format!(
+        "no stiffness or mass matrix among {}: give an ANSYS .full file, an APDL Math export \
+         (K, M, mapping vector, node table) or Abaqus *MATRIX OUTPUT files",
+        list(paths)
+    )))
+}
+
+fn list<'a>(paths: impl IntoIterator<Item = &'a PathBuf>) -> String {
+    paths
+        .into_iter()
+        .map(|p| p.display().to_string())
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Rejects files that do not belong with the detected format.
+fn only(files: &[(Kind, Option<Role>, PathBuf)], allowed: &[Kind], what: &str) -> Result<()> {
+    match files.iter().find(|f| !allowed.contains(&f.0)) {
+        Some(f) => Err(Error::InvalidSetting(format!(
+            "{} ({:?}) does not belong with {what}",
+            f.2.display(),
+            f.0
+        ))),
+        None => Ok(()),
+    }
+}
+
+/// `K=path` / `M=path` (when no file of that literal name exists).
+fn explicit_role(p: &Path) -> (Option<Role>, PathBuf) {
+    let s = p.to_string_lossy();
+    for (prefix, role) in [("K=", Role::Stiffness), ("M=", Role::Mass)] {
+        if let Some(rest) = s.strip_prefix(prefix) {
+            if !p.exists() {
+                return (Some(role), PathBuf::from(rest));
+            }
+        }
+    }
+    (None, p.to_path_buf())
+}
+
+/// The role of a matrix file from its name: `STIF`/`stiff`/`K` or `MASS`/`M`.
+fn role_from_name(path: &Path) -> Option<Role> {
+    let stem = path.file_stem()?.to_string_lossy().to_ascii_lowercase();
+    if stem.contains("stif") || stem == "k" {
+        Some(Role::Stiffness)
+    } else if stem.contains("mass") || stem == "m" {
+        Some(Role::Mass)
+    } else {
+        None
+    }
+}
+
+/// Exactly one stiffness and one mass file among `files`.
+fn stiffness_and_mass(files: &[&(Kind, Option<Role>, PathBuf)]) -> Result<(PathBuf, PathBuf)> {
+    let pick = |role: Role, name: &str| -> Result<PathBuf> {
+        let hits: Vec<&PathBuf> = files
+            .iter()
+            .filter(|f| f.1.or_else(|| role_from_name(&f.2)) == Some(role))
+            .map(|f| &f.2)
+            .collect();
+        match hits.as_slice() {
+            [p] => Ok((*p).clone()),
+            _ => Err(Error::InvalidSetting(format!(
+                "cannot tell the {name} matrix among {} ({} candidates): name it with `STIF`/`MASS` \
+                 in the file name or prefix it, e.g. K=stiffness.mtx M=mass.mtx",
+                list(files.iter().map(|f| &f.2)),
+                hits.len()
+            ))),
+        }
+    };
+    Ok((
+        pick(Role::Stiffness, "stiffness")?,
+        pick(Role::Mass, "mass")?,
+    ))
+}
+
+/// The first 4 KiB of a file (all of a shorter one).
+pub(crate) fn head(path: &Path) -> Result<Vec<u8>> {
+    let mut head = Vec::with_capacity(4096);
+    std::fs::File::open(path)
+        .and_then(|f| f.take(4096).read_to_end(&mut head))
+        .map_err(|e| Error::io(path, e))?;
+    Ok(head)
+}
+
+/// Tells what a file is from its first 4 KiB.
+fn sniff(path: &Path) -> Result<Kind> {
+    let head = head(path)?;
+    if head.len() >= 4 {
+        let w = [head[0], head[1], head[2], head[3]];
+        if u32::from_le_bytes(w) == 100 || u32::from_be_bytes(w) == 100 {
+            return Ok(Kind::AnsysBinary);
+        }
+    }
+    if head.starts_with(b"%%MatrixMarket") {
+        let banner = String::from_utf8_lossy(head.split(|&b| b == b'\n').next().unwrap_or(&[]))
+            .to_ascii_lowercase();
+        return Ok(if banner.contains("array") && banner.contains("integer") {
+            Kind::MatrixMarketMapping
+        } else {
+            Kind::MatrixMarketMatrix
+        });
+    }
+    let text = String::from_utf8_lossy(&head);
+    let first = text
+        .lines()
+        .map(str::trim)
+        .find(|l| !l.is_empty())
+        .unwrap_or("");
+    if first.starts_with('*') {
+        return Ok(Kind::AbaqusDeck);
+    }
+    let numbers = |sep: &dyn Fn(char) -> bool| -> Option<usize> {
+        let t: Vec<&str> = first.split(sep).filter(|t| !t.is_empty()).collect();
+        t.iter()
+            .all(|t| t.parse::<f64>().is_ok())
+            .then_some(t.len())
+    };
+    let by_comma = numbers(&|c: char| c == ',' || c.is_whitespace());
+    let by_space = numbers(&|c: char| c.is_whitespace());
+    if by_space == Some(3) || (first.contains(',') && by_comma == Some(5)) {
+        return Ok(Kind::AbaqusMatrix);
+    }
+    if !first.is_empty() {
+        return Ok(Kind::NodeTable);
+    }
+    Err(Error::parse(
+        path,
+        1,
+        "cannot tell the format: expected an ANSYS .full file, a Matrix Market file, an Abaqus \
+         matrix or input deck, or a node coordinate table",
+    ))
+}
+
+/// Calls `f(line_number, line)` for every line of a text file (1-based numbers, `\r\n` and
+/// `\n` endings, the line without its ending), reading 1 MiB blocks: the file is never held
+/// whole in memory.
+///
+/// # Errors
+/// [`Error::Io`], or the first error `f` returns.
+pub fn for_each_line(path: &Path, mut f: impl FnMut(usize, &[u8]) -> Result<()>) -> Result<()> {
+    let mut file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let mut buf = vec![0u8; 1 << 20];
+    let (mut start, mut end, mut line) = (0usize, 0usize, 0usize);
+    let trim = |l: &[u8]| -> usize { l.len() - usize::from(l.last() == Some(&b'\r')) };
+    loop {
+        if start > 0 {
+            buf.copy_within(start..end, 0);
+            end -= start;
+            start = 0;
+        }
+        if end == buf.len() {
+            buf.resize(2 * buf.len(), 0);
+        }
+        let got = file.read(&mut buf[end..]).map_err(|e| Error::io(path, e))?;
+        if got == 0 {
+            if end > start {
+                let l = &buf[start..end];
+                f(line + 1, &l[..trim(l)])?;
+            }
+            return Ok(());
+        }
+        end += got;
+        let mut pos = start;
+        for nl in memchr::memchr_iter(b'\n', &buf[start..end]) {
+            let l = &buf[pos..start + nl];
+            pos = start + nl + 1;
+            line += 1;
+            f(line, &l[..trim(l)])?;
+        }
+        start = pos;
+    }
+}
+
+/// Splits a text line into tokens at spaces, tabs and commas.
+pub(crate) fn tokens(line: &[u8]) -> impl Iterator<Item = &[u8]> {
+    line.split(|&b| b == b' ' || b == b'\t' || b == b',')
+        .filter(|t| !t.is_empty())
+}
+
+/// A finite `f64` token; `what` names it in the error.
+pub(crate) fn parse_f64(tok: &[u8], path: &Path, line: usize, what: &str) -> Result<f64> {
+    match fast_float2::parse::<f64, _>(tok) {
+        Ok(v) if v.is_finite() => Ok(v),
+        Ok(_) => Err(Error::parse(
+            path,
+            line,
+            format!("{what} '{}' is not finite", show(tok)),
+        )),
+        Err(_) => Err(Error::parse(
+            path,
+            line,
+            format!("{what} '{}' is not a number", show(tok)),
+        )),
+    }
+}
+
+/// A positive integer token (an index or a node number); `what` names it in the error.
+pub(crate) fn parse_u64(tok: &[u8], path: &Path, line: usize, what: &str) -> Result<u64> {
+    let digits = tok.strip_prefix(b"+").unwrap_or(tok);
+    // 19 digits always fit in a u64.
+    let ok = !digits.is_empty() && digits.len() <= 19 && digits.iter().all(u8::is_ascii_digit);
+    let v = digits.iter().fold(0u64, |v, &b| {
+        v.wrapping_mul(10)
+            .wrapping_add(u64::from(b.wrapping_sub(b'0')))
+    });
+    if ok && v > 0 {
+        Ok(v)
+    } else {
+        Err(Error::parse(
+            path,
+            line,
+            format!("{what} '{}' is not a positive whole number", show(tok)),
+        ))
+    }
+}
+
+/// A token for an error message (at most 40 characters).
+pub(crate) fn show(tok: &[u8]) -> String {
+    let s = String::from_utf8_lossy(tok);
+    if s.chars().count() > 40 {
+        format!("{}…", s.chars().take(40).collect::<String>())
+    } else {
+        s.into_owned()
+    }
+}
+
+/// A node coordinate table: node number and coordinates per row, plus what its header says
+/// about the length unit.
+#[derive(Clone, Debug, Default)]
+pub struct NodeTable {
+    /// (node number, [x, y, z]) in file order.
+    pub rows: Vec<(u64, [f64; 3])>,
+    /// The length unit named in the header (`X-Position (m)` → `m`), if any.
+    pub length_unit: Option<String>,
+}
+
+impl NodeTable {
+    /// Coordinates in the order of `order` (node numbers).
+    ///
+    /// # Errors
+    /// [`Error::InvalidModel`] naming the first node without coordinates or given twice.
+    pub fn coordinates(&self, order: &[u64], path: &Path) -> Result<Vec<[f64; 3]>> {
+        let mut map = std::collections::HashMap::with_capacity(self.rows.len());
+        for &(n, xyz) in &self.rows {
+            if map.insert(n, xyz).is_some() {
+                return Err(Error::InvalidModel(format!(
+                    "{}: node {n} appears twice",
+                    path.display()
+                )));
+            }
+        }
+        order
+            .iter()
+            .map(|n| {
+                map.get(n).copied().ok_or_else(|| {
+                    Error::InvalidModel(format!(
+                        "{}: node {n} of the matrices has no coordinates in the table",
+                        path.display()
+                    ))
+                })
+            })
+            .collect()
+    }
+}
+
+/// Reads a node coordinate table: rows `node x y z` (further columns ignored) separated by
+/// tabs, semicolons or spaces, or by commas when a row has none of those; numbers with a
+/// decimal point or a decimal comma (`0,15`, `1,e-001`, `5,e-002` as the German-locale ANSYS
+/// export of `ansys_rotor_exudyn/` writes them). Leading lines whose first field is not a
+/// number are headers; a header field like `X-Position (m)` names the length unit.
+///
+/// # Errors
+/// [`Error::Parse`] with the line: fewer than 4 fields, a number that is neither (`1.000,5`,
+/// `1,2,3` in one field), a node number that is not a positive integer.
+pub fn read_node_table(path: &Path) -> Result<NodeTable> {
+    let mut table = NodeTable::default();
+    let mut in_header = true;
+    let mut field = String::new();
+    for_each_line(path, |line, bytes| {
+        let text = String::from_utf8_lossy(bytes);
+        let fields: Vec<&str> = if text.contains(['\t', ';']) {
+            text.split(['\t', ';']).map(str::trim).collect()
+        } else if text.trim().contains(char::is_whitespace) {
+            text.split_whitespace().collect()
+        } else {
+            text.split(',').map(str::trim).collect()
+        };
+        let fields: Vec<&str> = fields.into_iter().filter(|f| !f.is_empty()).collect();
+        if fields.is_empty() {
+            return Ok(());
+        }
+        if in_header && fields[0].parse::<u64>().is_err() {
+            if table.length_unit.is_none() {
+                table.length_unit = fields.iter().find_map(|f| {
+                    let (_, rest) = f.split_once('(')?;
+                    Some(rest.split_once(')')?.0.trim().to_string())
+                });
+            }
+            return Ok(());
+        }
+        in_header = false;
+        if fields.len() < 4 {
+            return Err(Error::parse(
+                path,
+                line,
+                format!(
+                    "expected `node x y z`, found {} field(s) (separators: tab, semicolon, space or comma)",
+                    fields.len()
+                ),
+            ));
+        }
+        let node = parse_u64(fields[0].as_bytes(), path, line, "node number")?;
+        let mut xyz = [0.0; 3];
+        for (c, f) in xyz.iter_mut().zip(&fields[1..4]) {
+            field.clear();
+            field.push_str(f);
+            *c = parse_locale_number(&mut field).ok_or_else(|| {
+                Error::parse(
+                    path,
+                    line,
+                    format!(
+                        "coordinate '{f}' is not a number with a decimal point or a decimal comma"
+                    ),
+                )
+            })?;
+        }
+        table.rows.push((node, xyz));
+        Ok(())
+    })?;
+    Ok(table)
+}
+
+/// A number with a decimal point or one decimal comma (`0,15` → 0.15; `1,e-001` → 0.1);
+/// `None` for anything else (`1.000,5`, `1,2,3`, non-finite).
+fn parse_locale_number(s: &mut String) -> Option<f64> {
+    match (s.matches(',').count(), s.contains('.')) {
+        (0, _) => {}
+        (1, false) => *s = s.replacen(',', ".", 1),
+        _ => return None,
+    }
+    s.parse::<f64>().ok().filter(|v| v.is_finite())
+}
+
+/// Node coordinates in DoF-map order when every node keeps all `dofs_per_node` DoFs, the
+/// same directions in the same order, and a table was given; otherwise `None` and a note.
+pub(crate) fn uniform_nodes(
+    dofs: &[Dof],
+    dofs_per_node: usize,
+    table: Option<&NodeTable>,
+    table_path: Option<&Path>,
+    notes: &mut Vec<String>,
+) -> Result<Option<Vec<[f64; 3]>>> {
+    let (Some(table), Some(path)) = (table, table_path) else {
+        notes.push(
+            "no node coordinates given: rigid-body modes will come from the eigenpairs".into(),
+        );
+        return Ok(None);
+    };
+    let uniform = dofs.len() % dofs_per_node == 0
+        && dofs.chunks(dofs_per_node).all(|c| {
+            c.iter()
+                .zip(Direction::ALL)
+                .all(|(d, dir)| d.node == c[0].node && d.dir == dir)
+        });
+    if !uniform {
+        notes.push(format!(
+            "the DoFs are not {dofs_per_node} per node in x, y, z order (some were constrained): node coordinates not attached"
+        ));
+        return Ok(None);
+    }
+    let order: Vec<u64> = dofs.iter().step_by(dofs_per_node).map(|d| d.node).collect();
+    table.coordinates(&order, path).map(Some)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dof_names_round_trip() {
+        for d in Direction::ALL {
+            let dof = Dof { node: 17, dir: d };
+            assert_eq!(dof.to_string().parse::<Dof>().unwrap(), dof);
+        }
+        assert!("17:q".parse::<Dof>().is_err());
+        assert!("x:17".parse::<Dof>().is_err());
+        assert_eq!(Direction::from_key(4), Some(Direction::Rx));
+        assert_eq!(Direction::from_key(7), None);
+        assert_eq!(Direction::from_key(0), None);
+    }
+
+    #[test]
+    fn locale_numbers() {
+        let p = |s: &str| parse_locale_number(&mut s.to_string());
+        assert_eq!(p("0,15"), Some(0.15));
+        assert_eq!(p("1,e-001"), Some(0.1));
+        assert_eq!(p("-5,e-002"), Some(-0.05));
+        assert_eq!(p("0,"), Some(0.0));
+        assert_eq!(p("2.5e3"), Some(2500.0));
+        assert_eq!(p("1.000,5"), None);
+        assert_eq!(p("1,2,3"), None);
+        assert_eq!(p("inf"), None);
+    }
+
+    #[test]
+    fn integers() {
+        let p = Path::new("t");
+        assert_eq!(parse_u64(b"17", p, 1, "n").unwrap(), 17);
+        assert_eq!(parse_u64(b"+3", p, 1, "n").unwrap(), 3);
+        for bad in [&b"0"[..], b"-1", b"1.5", b"", b"99999999999999999999999"] {
+            assert!(parse_u64(bad, p, 1, "n").is_err(), "{bad:?}");
+        }
+    }
+}
