@@ -237,12 +237,8 @@ pub fn mac_matrix(rom: &Rom, full: &Modes, basis: Option<MatRef<'_, f64>>) -> Re
 }
 
 /// Pairs the deformation modes of `full` (rigid ones skipped) one-to-one with the ROM's
-/// elastic modes and reports the relative frequency error and MAC of each pair.
-///
-/// Pairing rule (one-to-one, by MAC): of all (full, ROM) combinations not yet used, the one
-/// of largest MAC is paired next, until one side runs out — a stable matching, so no full
-/// and ROM mode would both rather be paired with each other than with their partners. Full
-/// modes left over are listed in [`ModalComparison::unpaired`]. The MAC is [`mac_matrix`]'s.
+/// elastic modes and reports the relative frequency error and MAC of each pair: the
+/// [`ModalComparison::from_mac`] of the [`mac_matrix`].
 ///
 /// # Errors
 /// As [`rom_modes`].
@@ -251,43 +247,54 @@ pub fn modal_comparison(
     full: &Modes,
     basis: Option<MatRef<'_, f64>>,
 ) -> Result<ModalComparison> {
-    let m = mac_matrix(rom, full, basis)?;
-    let (nf, nr) = (m.full.len(), m.rom.len());
-    let mut candidates: Vec<(f64, usize, usize)> = (0..nf)
-        .flat_map(|a| (0..nr).map(move |b| (a, b)))
-        .map(|(a, b)| (m.values[(a, b)], a, b))
-        .collect();
-    // largest MAC first; ties by full mode, then ROM mode (deterministic)
-    candidates.sort_by(|x, y| y.0.total_cmp(&x.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2)));
-    let (mut full_used, mut rom_used) = (vec![false; nf], vec![false; nr]);
-    let mut pairs = Vec::new();
-    for (mac, a_idx, b_idx) in candidates {
-        if full_used[a_idx] || rom_used[b_idx] {
-            continue;
+    Ok(ModalComparison::from_mac(&mac_matrix(rom, full, basis)?))
+}
+
+impl ModalComparison {
+    /// Pairs the rows (full modes) of `m` one-to-one with its columns (ROM modes).
+    ///
+    /// Pairing rule (one-to-one, by MAC): of all (full, ROM) combinations not yet used, the
+    /// one of largest MAC is paired next, until one side runs out — a stable matching, so no
+    /// full and ROM mode would both rather be paired with each other than with their
+    /// partners. Full modes left over are listed in [`ModalComparison::unpaired`].
+    pub fn from_mac(m: &MacMatrix) -> Self {
+        let (nf, nr) = (m.full.len(), m.rom.len());
+        let mut candidates: Vec<(f64, usize, usize)> = (0..nf)
+            .flat_map(|a| (0..nr).map(move |b| (a, b)))
+            .map(|(a, b)| (m.values[(a, b)], a, b))
+            .collect();
+        // largest MAC first; ties by full mode, then ROM mode (deterministic)
+        candidates.sort_by(|x, y| y.0.total_cmp(&x.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2)));
+        let (mut full_used, mut rom_used) = (vec![false; nf], vec![false; nr]);
+        let mut pairs = Vec::new();
+        for (mac, a_idx, b_idx) in candidates {
+            if full_used[a_idx] || rom_used[b_idx] {
+                continue;
+            }
+            full_used[a_idx] = true;
+            rom_used[b_idx] = true;
+            let ((full_mode, f), (rom_mode, fr)) = (m.full[a_idx], m.rom[b_idx]);
+            pairs.push(ModePair {
+                full_mode,
+                full_hz: f,
+                rom_mode,
+                rom_hz: fr,
+                rel_freq_error: (fr - f).abs() / f,
+                mac,
+            });
         }
-        full_used[a_idx] = true;
-        rom_used[b_idx] = true;
-        let ((full_mode, f), (rom_mode, fr)) = (m.full[a_idx], m.rom[b_idx]);
-        pairs.push(ModePair {
-            full_mode,
-            full_hz: f,
-            rom_mode,
-            rom_hz: fr,
-            rel_freq_error: (fr - f).abs() / f,
-            mac,
-        });
+        pairs.sort_by_key(|p| p.full_mode);
+        let unpaired = m
+            .full
+            .iter()
+            .zip(&full_used)
+            .filter(|(_, &used)| !used)
+            .map(|(&mode, _)| mode)
+            .collect();
+        ModalComparison {
+            pairs,
+            unpaired,
+            expanded: m.expanded,
+        }
     }
-    pairs.sort_by_key(|p| p.full_mode);
-    let unpaired = m
-        .full
-        .iter()
-        .zip(&full_used)
-        .filter(|(_, &used)| !used)
-        .map(|(&mode, _)| mode)
-        .collect();
-    Ok(ModalComparison {
-        pairs,
-        unpaired,
-        expanded: m.expanded,
-    })
 }

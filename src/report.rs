@@ -54,10 +54,15 @@ pub struct Chart {
     pub y_log: bool,
     /// The series, drawn in order (the legend lists them in the same order).
     pub series: Vec<Series>,
+    /// The x-axis range; `None`: from the data ([`axis_range`]).
+    pub x_range: Option<(f64, f64)>,
 }
 
-/// Width and height of a chart (px).
-const CHART_SIZE: (u32, u32) = (900, 420);
+/// Width and height of a chart (px), the legend's column included.
+const CHART_SIZE: (u32, u32) = (1100, 420);
+
+/// Width of the legend column right of the plot (px).
+const LEGEND_WIDTH: u32 = 230;
 
 /// Palette colour `k`: black, then a qualitative palette (tab10) repeating.
 pub fn color(k: usize) -> RGBColor {
@@ -92,7 +97,9 @@ fn axis_range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
     match (log, lo.is_finite()) {
         (true, true) => {
             let (a, b) = (lo.log10().floor(), hi.log10().ceil());
-            (10f64.powf(a), 10f64.powf(b.max(a + 1.0)))
+            // a hair below the lower decade, so that plotters (which rounds log10 of the
+            // bound up to find its first tick) labels that decade too
+            (10f64.powf(a) * (1.0 - 1e-9), 10f64.powf(b.max(a + 1.0)))
         }
         (true, false) => (1.0, 10.0),
         (false, true) if hi > lo => (lo, hi),
@@ -113,15 +120,17 @@ fn tick(v: f64) -> String {
     }
 }
 
-/// SVG of `c` (900 × 420 px): one line or marker set per series, legend top right.
+/// SVG of `c` (1100 × 420 px): one line or marker set per series, the legend right of the plot.
 ///
 /// # Errors
 /// [`Error::InvalidSetting`] naming the chart if plotters fails to draw it.
 pub fn chart_svg(c: &Chart) -> Result<String> {
-    let xr = axis_range(
-        c.series.iter().flat_map(|s| s.points.iter().map(|p| p.0)),
-        c.x_log,
-    );
+    let xr = c.x_range.unwrap_or_else(|| {
+        axis_range(
+            c.series.iter().flat_map(|s| s.points.iter().map(|p| p.0)),
+            c.x_log,
+        )
+    });
     let yr = axis_range(
         c.series.iter().flat_map(|s| s.points.iter().map(|p| p.1)),
         c.y_log,
@@ -155,6 +164,7 @@ where
     let mut chart = ChartBuilder::on(root)
         .caption(&c.title, ("sans-serif", 17))
         .margin(12)
+        .margin_right(LEGEND_WIDTH)
         .x_label_area_size(45)
         .y_label_area_size(70)
         .build_cartesian_2d(x, y)?;
@@ -176,26 +186,14 @@ where
         let col = color(s.color);
         let pts: Vec<(f64, f64)> = s.points.iter().filter(shown).copied().collect();
         let line = ShapeStyle::from(&col).stroke_width(2);
-        let anno = match s.draw {
-            Draw::Line | Draw::LineMarkers => {
-                chart.draw_series(std::iter::once(PathElement::new(pts.clone(), line)))?
-            }
-            Draw::Dashed => chart.draw_series(DashedLineSeries::new(pts.clone(), 8, 5, line))?,
-            Draw::Markers => chart.draw_series(
-                pts.iter()
-                    .map(|&p| Circle::new(p, 4, ShapeStyle::from(&col).filled())),
-            )?,
-        };
-        let anno = anno.label(s.name.as_str());
-        match s.draw {
-            Draw::Markers => anno.legend(move |(x, y)| Circle::new((x + 10, y), 4, col.filled())),
-            _ => anno.legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], line)),
-        };
-        if s.draw == Draw::LineMarkers {
-            chart.draw_series(
-                pts.iter()
-                    .map(|&p| Circle::new(p, 4, ShapeStyle::from(&col).filled())),
-            )?;
+        if matches!(s.draw, Draw::Line | Draw::LineMarkers) {
+            chart.draw_series(std::iter::once(PathElement::new(pts.clone(), line)))?;
+        }
+        if s.draw == Draw::Dashed {
+            chart.draw_series(DashedLineSeries::new(pts.clone(), 8, 5, line))?;
+        }
+        if matches!(s.draw, Draw::Markers | Draw::LineMarkers) {
+            chart.draw_series(pts.iter().map(|&p| Circle::new(p, 4, col.filled())))?;
         }
         chart.draw_series(
             s.points
@@ -212,13 +210,33 @@ where
                 }),
         )?;
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK.mix(0.4))
-        .label_font(("sans-serif", 12))
-        .draw()
+    // the legend in its own column right of the plot, clear of the data
+    let (px, py) = chart.plotting_area().get_base_pixel();
+    let x = px + chart.plotting_area().dim_in_pixel().0 as i32 + 16;
+    for (k, s) in c.series.iter().enumerate() {
+        let (col, y) = (color(s.color), py + 8 + 20 * k as i32);
+        let line = ShapeStyle::from(&col).stroke_width(2);
+        match s.draw {
+            Draw::Line | Draw::LineMarkers => {
+                root.draw(&PathElement::new(vec![(x, y), (x + 24, y)], line))?
+            }
+            Draw::Dashed => {
+                for dash in [x, x + 16] {
+                    root.draw(&PathElement::new(vec![(dash, y), (dash + 8, y)], line))?;
+                }
+            }
+            Draw::Markers => {}
+        }
+        if matches!(s.draw, Draw::Markers | Draw::LineMarkers) {
+            root.draw(&Circle::new((x + 12, y), 4, col.filled()))?;
+        }
+        root.draw(&Text::new(
+            s.name.clone(),
+            (x + 32, y - 7),
+            ("sans-serif", 13).into_font(),
+        ))?;
+    }
+    Ok(())
 }
 
 /// A matrix of values in [0, 1] drawn as coloured cells (white 0 → dark blue 1) with the
@@ -437,6 +455,7 @@ pub fn tradeoff_svg(title: &str, rows: &[TradeoffRow]) -> Result<String> {
         x_log: true,
         y_log: true,
         series,
+        x_range: None,
     })
 }
 
@@ -475,7 +494,11 @@ mod tests {
 
     #[test]
     fn log_axis_covers_whole_decades_and_ticks_read_well() {
-        assert_eq!(axis_range([0.003, 0.2, 0.0].into_iter(), true), (1e-3, 1.0));
+        let (lo, hi) = axis_range([0.003, 0.2, 0.0].into_iter(), true);
+        assert!(
+            (lo / 1e-3 - 1.0).abs() < 1e-8 && lo <= 1e-3 && hi == 1.0,
+            "{lo} {hi}"
+        );
         assert_eq!(axis_range([5.0, 1000.0].into_iter(), false), (5.0, 1000.0));
         assert_eq!(tick(1e-3), "1e-3");
         assert_eq!(tick(100.0), "100");
