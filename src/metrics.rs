@@ -179,22 +179,27 @@ pub struct ModalComparison {
     pub expanded: bool,
 }
 
-/// Pairs the deformation modes of `full` (rigid ones skipped) one-to-one with the ROM's
-/// elastic modes and reports the relative frequency error and MAC of each pair.
-///
-/// Pairing rule (one-to-one, by MAC): of all (full, ROM) combinations not yet used, the one
-/// of largest MAC is paired next, until one side runs out — a stable matching, so no full
-/// and ROM mode would both rather be paired with each other than with their partners. Full
-/// modes left over are listed in [`ModalComparison::unpaired`]. The MAC uses V φ̃ when
-/// `basis` (V) is given, else the mode shapes on the ROM's DoFs.
+/// MAC of every full-model deformation mode against every ROM elastic mode.
+#[derive(Clone, Debug)]
+pub struct MacMatrix {
+    /// Rows: the full deformation modes (1-based number among all modes, frequency in Hz).
+    pub full: Vec<(usize, f64)>,
+    /// Columns: the ROM's elastic modes (1-based number among its modes, frequency in Hz).
+    pub rom: Vec<(usize, f64)>,
+    /// `values[(r, c)]` = MAC(full mode r, ROM mode c).
+    pub values: Mat<f64>,
+    /// True when the ROM modes were expanded to V φ̃ over all N DoFs; false when the MAC
+    /// was taken on the ROM's DoFs only (no V available).
+    pub expanded: bool,
+}
+
+/// The MAC matrix of the deformation modes of `full` (rigid ones skipped) against the
+/// ROM's elastic modes (λ > 1e-10 λ_max). The MAC uses V φ̃ when `basis` (V) is given,
+/// else the mode shapes on the ROM's DoFs.
 ///
 /// # Errors
 /// As [`rom_modes`].
-pub fn modal_comparison(
-    rom: &Rom,
-    full: &Modes,
-    basis: Option<MatRef<'_, f64>>,
-) -> Result<ModalComparison> {
+pub fn mac_matrix(rom: &Rom, full: &Modes, basis: Option<MatRef<'_, f64>>) -> Result<MacMatrix> {
     let (lam_r, phi_r) = rom_modes(rom)?;
     let lam_max = lam_r.iter().copied().fold(0.0, f64::max);
     let rom_elastic: Vec<usize> = (0..lam_r.len())
@@ -202,8 +207,7 @@ pub fn modal_comparison(
         .collect();
     let expanded_modes = basis.map(|v| v * &phi_r);
     let full_modes: Vec<usize> = (full.rigid..full.lambdas.len()).collect();
-    // MAC of every (full, ROM) combination
-    let mut candidates = Vec::with_capacity(full_modes.len() * rom_elastic.len());
+    let mut values = Mat::zeros(full_modes.len(), rom_elastic.len());
     for (a_idx, &i) in full_modes.iter().enumerate() {
         let phi_full = full.vectors.as_ref().col(i).as_mat();
         let a = match &expanded_modes {
@@ -215,43 +219,82 @@ pub fn modal_comparison(
                 Some(e) => e.as_ref().col(j).as_mat().to_owned(),
                 None => phi_r.as_ref().col(j).as_mat().to_owned(),
             };
-            candidates.push((mac(a.as_ref(), b.as_ref()), a_idx, b_idx));
+            values[(a_idx, b_idx)] = mac(a.as_ref(), b.as_ref());
         }
     }
-    // largest MAC first; ties by full mode, then ROM mode (deterministic)
-    candidates.sort_by(|x, y| y.0.total_cmp(&x.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2)));
-    let (mut full_used, mut rom_used) = (
-        vec![false; full_modes.len()],
-        vec![false; rom_elastic.len()],
-    );
-    let mut pairs = Vec::new();
-    for (m, a_idx, b_idx) in candidates {
-        if full_used[a_idx] || rom_used[b_idx] {
-            continue;
-        }
-        full_used[a_idx] = true;
-        rom_used[b_idx] = true;
-        let (i, j) = (full_modes[a_idx], rom_elastic[b_idx]);
-        let (f, fr) = (lambda_to_hz(full.lambdas[i]), lambda_to_hz(lam_r[j]));
-        pairs.push(ModePair {
-            full_mode: i + 1,
-            full_hz: f,
-            rom_mode: j + 1,
-            rom_hz: fr,
-            rel_freq_error: (fr - f).abs() / f,
-            mac: m,
-        });
-    }
-    pairs.sort_by_key(|p| p.full_mode);
-    let unpaired = full_modes
-        .iter()
-        .zip(&full_used)
-        .filter(|(_, &used)| !used)
-        .map(|(&i, _)| (i + 1, lambda_to_hz(full.lambdas[i])))
-        .collect();
-    Ok(ModalComparison {
-        pairs,
-        unpaired,
+    Ok(MacMatrix {
+        full: full_modes
+            .iter()
+            .map(|&i| (i + 1, lambda_to_hz(full.lambdas[i])))
+            .collect(),
+        rom: rom_elastic
+            .iter()
+            .map(|&j| (j + 1, lambda_to_hz(lam_r[j])))
+            .collect(),
+        values,
         expanded: expanded_modes.is_some(),
     })
+}
+
+/// Pairs the deformation modes of `full` (rigid ones skipped) one-to-one with the ROM's
+/// elastic modes and reports the relative frequency error and MAC of each pair: the
+/// [`ModalComparison::from_mac`] of the [`mac_matrix`].
+///
+/// # Errors
+/// As [`rom_modes`].
+pub fn modal_comparison(
+    rom: &Rom,
+    full: &Modes,
+    basis: Option<MatRef<'_, f64>>,
+) -> Result<ModalComparison> {
+    Ok(ModalComparison::from_mac(&mac_matrix(rom, full, basis)?))
+}
+
+impl ModalComparison {
+    /// Pairs the rows (full modes) of `m` one-to-one with its columns (ROM modes).
+    ///
+    /// Pairing rule (one-to-one, by MAC): of all (full, ROM) combinations not yet used, the
+    /// one of largest MAC is paired next, until one side runs out — a stable matching, so no
+    /// full and ROM mode would both rather be paired with each other than with their
+    /// partners. Full modes left over are listed in [`ModalComparison::unpaired`].
+    pub fn from_mac(m: &MacMatrix) -> Self {
+        let (nf, nr) = (m.full.len(), m.rom.len());
+        let mut candidates: Vec<(f64, usize, usize)> = (0..nf)
+            .flat_map(|a| (0..nr).map(move |b| (a, b)))
+            .map(|(a, b)| (m.values[(a, b)], a, b))
+            .collect();
+        // largest MAC first; ties by full mode, then ROM mode (deterministic)
+        candidates.sort_by(|x, y| y.0.total_cmp(&x.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2)));
+        let (mut full_used, mut rom_used) = (vec![false; nf], vec![false; nr]);
+        let mut pairs = Vec::new();
+        for (mac, a_idx, b_idx) in candidates {
+            if full_used[a_idx] || rom_used[b_idx] {
+                continue;
+            }
+            full_used[a_idx] = true;
+            rom_used[b_idx] = true;
+            let ((full_mode, f), (rom_mode, fr)) = (m.full[a_idx], m.rom[b_idx]);
+            pairs.push(ModePair {
+                full_mode,
+                full_hz: f,
+                rom_mode,
+                rom_hz: fr,
+                rel_freq_error: (fr - f).abs() / f,
+                mac,
+            });
+        }
+        pairs.sort_by_key(|p| p.full_mode);
+        let unpaired = m
+            .full
+            .iter()
+            .zip(&full_used)
+            .filter(|(_, &used)| !used)
+            .map(|(&mode, _)| mode)
+            .collect();
+        ModalComparison {
+            pairs,
+            unpaired,
+            expanded: m.expanded,
+        }
+    }
 }

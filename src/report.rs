@@ -1,116 +1,508 @@
-//! Plots for the user (DESIGN.md §5 `report`): a dependency-free SVG of the speed/accuracy
-//! trade (wall time vs verified max ε, both logarithmic), one polyline per method.
+//! Plots for the user (docs/design.md §7 `report`, `tradeoff --svg`), drawn with the
+//! `plotters` crate's SVG backend (pure Rust, no system library): line/marker charts on
+//! linear or logarithmic axes ([`chart_svg`]), heat maps ([`heat_map_svg`]) and the
+//! speed/accuracy trade of `sparsemor tradeoff` ([`tradeoff_svg`], its CSV rows
+//! [`TradeoffRow`]). Every function returns the SVG text; nothing is printed or written.
 
-use std::fmt::Write as _;
+use crate::{Error, Result};
+use plotters::coord::ranged1d::{AsRangedCoord, Ranged, ValueFormatter};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+use std::path::Path;
 
-/// One point of a series: x (s), y (ε), label.
-pub type Point = (f64, f64, String);
+/// How a series is drawn.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Draw {
+    /// A solid line through the points.
+    Line,
+    /// A dashed line through the points.
+    Dashed,
+    /// A marker at each point.
+    Markers,
+    /// A solid line with a marker at each point.
+    LineMarkers,
+}
 
-/// Log–log SVG plot of `series` (name, points); non-positive values are skipped.
-pub fn tradeoff_svg(title: &str, series: &[(String, Vec<Point>)]) -> String {
-    let (w, h, m) = (720.0, 460.0, 70.0);
-    let pts = series
-        .iter()
-        .flat_map(|s| s.1.iter())
-        .filter(|p| p.0 > 0.0 && p.1 > 0.0);
-    let (mut x0, mut x1, mut y0, mut y1) = (
-        f64::INFINITY,
-        f64::NEG_INFINITY,
-        f64::INFINITY,
-        f64::NEG_INFINITY,
-    );
-    for p in pts {
-        x0 = x0.min(p.0.log10());
-        x1 = x1.max(p.0.log10());
-        y0 = y0.min(p.1.log10());
-        y1 = y1.max(p.1.log10());
+/// One named series of a chart.
+#[derive(Clone, Debug)]
+pub struct Series {
+    /// Legend entry.
+    pub name: String,
+    /// (x, y) points; on a logarithmic axis non-positive values are left out.
+    pub points: Vec<(f64, f64)>,
+    /// Colour: index into the palette ([`color`]); 0 is black.
+    pub color: usize,
+    /// Line, dashes or markers.
+    pub draw: Draw,
+    /// A text next to each point (empty: none).
+    pub labels: Vec<String>,
+}
+
+/// A chart: axes, their scales and the series drawn on them.
+#[derive(Clone, Debug)]
+pub struct Chart {
+    /// Caption.
+    pub title: String,
+    /// x-axis description.
+    pub x_label: String,
+    /// y-axis description.
+    pub y_label: String,
+    /// Logarithmic x-axis.
+    pub x_log: bool,
+    /// Logarithmic y-axis.
+    pub y_log: bool,
+    /// The series, drawn in order (the legend lists them in the same order).
+    pub series: Vec<Series>,
+    /// The x-axis range; `None`: from the data ([`axis_range`]).
+    pub x_range: Option<(f64, f64)>,
+}
+
+/// Width and height of a chart (px), the legend's column included.
+const CHART_SIZE: (u32, u32) = (1100, 420);
+
+/// Width of the legend column right of the plot (px).
+const LEGEND_WIDTH: u32 = 230;
+
+/// Palette colour `k`: black, then a qualitative palette (tab10) repeating.
+pub fn color(k: usize) -> RGBColor {
+    const TAB: [RGBColor; 8] = [
+        RGBColor(31, 119, 180),
+        RGBColor(214, 39, 40),
+        RGBColor(44, 160, 44),
+        RGBColor(148, 103, 189),
+        RGBColor(255, 127, 14),
+        RGBColor(140, 86, 75),
+        RGBColor(227, 119, 194),
+        RGBColor(23, 190, 207),
+    ];
+    match k {
+        0 => BLACK,
+        k => TAB[(k - 1) % TAB.len()],
     }
-    if !x0.is_finite() {
-        (x0, x1, y0, y1) = (0.0, 1.0, 0.0, 1.0);
-    }
-    let (x0, x1, y0, y1) = (
-        x0.floor(),
-        x1.ceil().max(x0.floor() + 1.0),
-        y0.floor(),
-        y1.ceil().max(y0.floor() + 1.0),
-    );
-    let px = |x: f64| m + (x.log10() - x0) / (x1 - x0) * (w - 2.0 * m);
-    let py = |y: f64| h - m - (y.log10() - y0) / (y1 - y0) * (h - 2.0 * m);
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" font-family="sans-serif" font-size="12">"#
-    );
-    let _ = writeln!(s, r#"<rect width="100%" height="100%" fill="white"/>"#);
-    let _ = writeln!(
-        s,
-        r#"<text x="{}" y="24" text-anchor="middle" font-size="15">{title}</text>"#,
-        w / 2.0
-    );
-    for d in (x0 as i32)..=(x1 as i32) {
-        let x = px(10f64.powi(d));
-        let _ = writeln!(
-            s,
-            r##"<line x1="{x}" y1="{m}" x2="{x}" y2="{}" stroke="#ddd"/><text x="{x}" y="{}" text-anchor="middle">1e{d}</text>"##,
-            h - m,
-            h - m + 18.0
-        );
-    }
-    for d in (y0 as i32)..=(y1 as i32) {
-        let y = py(10f64.powi(d));
-        let _ = writeln!(
-            s,
-            r##"<line x1="{m}" y1="{y}" x2="{}" y2="{y}" stroke="#ddd"/><text x="{}" y="{}" text-anchor="end">1e{d}</text>"##,
-            w - m,
-            m - 6.0,
-            y + 4.0
-        );
-    }
-    let _ = writeln!(
-        s,
-        r#"<text x="{}" y="{}" text-anchor="middle">wall time of the reduction (s)</text>"#,
-        w / 2.0,
-        h - 20.0
-    );
-    let _ = writeln!(
-        s,
-        r#"<text x="18" y="{}" text-anchor="middle" transform="rotate(-90 18 {})">verified max ε (fine grid)</text>"#,
-        h / 2.0,
-        h / 2.0
-    );
-    let colors = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd"];
-    for (k, (name, points)) in series.iter().enumerate() {
-        let c = colors[k % colors.len()];
-        let valid: Vec<&Point> = points.iter().filter(|p| p.0 > 0.0 && p.1 > 0.0).collect();
-        let path: Vec<String> = valid
-            .iter()
-            .map(|p| format!("{:.1},{:.1}", px(p.0), py(p.1)))
-            .collect();
-        let _ = writeln!(
-            s,
-            r#"<polyline points="{}" fill="none" stroke="{c}" stroke-width="2"/>"#,
-            path.join(" ")
-        );
-        for p in valid {
-            let _ = writeln!(
-                s,
-                r#"<circle cx="{:.1}" cy="{:.1}" r="4" fill="{c}"/><text x="{:.1}" y="{:.1}" fill="{c}">{}</text>"#,
-                px(p.0),
-                py(p.1),
-                px(p.0) + 6.0,
-                py(p.1) - 6.0,
-                p.2
-            );
+}
+
+fn plot_error(title: &str, e: impl std::fmt::Display) -> Error {
+    Error::InvalidSetting(format!("plot '{title}': {e}"))
+}
+
+/// The axis range of `values`: whole decades on a logarithmic axis (non-positive values
+/// ignored), the data range on a linear one; [0, 1] or [1, 10] when nothing is left.
+fn axis_range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
+    let (lo, hi) = values
+        .filter(|v| v.is_finite() && (!log || *v > 0.0))
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        });
+    match (log, lo.is_finite()) {
+        (true, true) => {
+            let (a, b) = (lo.log10().floor(), hi.log10().ceil());
+            // a hair below the lower decade, so that plotters (which rounds log10 of the
+            // bound up to find its first tick) labels that decade too
+            (10f64.powf(a) * (1.0 - 1e-9), 10f64.powf(b.max(a + 1.0)))
         }
-        let _ = writeln!(
-            s,
-            r#"<rect x="{}" y="{}" width="14" height="4" fill="{c}"/><text x="{}" y="{}">{name}</text>"#,
-            w - m - 200.0,
-            m + 10.0 + 18.0 * k as f64,
-            w - m - 180.0,
-            m + 15.0 + 18.0 * k as f64
-        );
+        (true, false) => (1.0, 10.0),
+        (false, true) if hi > lo => (lo, hi),
+        (false, true) => (lo - 0.5, hi + 0.5),
+        (false, false) => (0.0, 1.0),
     }
-    s.push_str("</svg>\n");
-    s
+}
+
+/// `v` in the shortest readable form: "1e-3" for powers of ten, else 3 significant digits.
+fn tick(v: f64) -> String {
+    let l = v.abs().log10();
+    if v != 0.0 && (l - l.round()).abs() < 1e-9 && !(0.0..=3.0).contains(&l.round()) {
+        format!("1e{}", l.round())
+    } else if v != 0.0 && (v.abs() < 1e-2 || v.abs() >= 1e5) {
+        format!("{v:.1e}")
+    } else {
+        format!("{}", (v * 1e3).round() / 1e3)
+    }
+}
+
+/// SVG of `c` (1100 × 420 px): one line or marker set per series, the legend right of the plot.
+///
+/// # Errors
+/// [`Error::InvalidSetting`] naming the chart if plotters fails to draw it.
+pub fn chart_svg(c: &Chart) -> Result<String> {
+    let xr = c.x_range.unwrap_or_else(|| {
+        axis_range(
+            c.series.iter().flat_map(|s| s.points.iter().map(|p| p.0)),
+            c.x_log,
+        )
+    });
+    let yr = axis_range(
+        c.series.iter().flat_map(|s| s.points.iter().map(|p| p.1)),
+        c.y_log,
+    );
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, CHART_SIZE).into_drawing_area();
+        let (x, y) = (xr.0..xr.1, yr.0..yr.1);
+        match (c.x_log, c.y_log) {
+            (false, false) => draw_chart(&root, c, x, y),
+            (false, true) => draw_chart(&root, c, x, y.log_scale()),
+            (true, false) => draw_chart(&root, c, x.log_scale(), y),
+            (true, true) => draw_chart(&root, c, x.log_scale(), y.log_scale()),
+        }
+        .map_err(|e| plot_error(&c.title, e))?;
+        root.present().map_err(|e| plot_error(&c.title, e))?;
+    }
+    Ok(svg)
+}
+
+type DrawResult = std::result::Result<(), DrawingAreaErrorKind<std::io::Error>>;
+
+fn draw_chart<X, Y>(root: &DrawingArea<SVGBackend<'_>, Shift>, c: &Chart, x: X, y: Y) -> DrawResult
+where
+    X: AsRangedCoord<Value = f64>,
+    Y: AsRangedCoord<Value = f64>,
+    X::CoordDescType: Ranged<ValueType = f64> + ValueFormatter<f64>,
+    Y::CoordDescType: Ranged<ValueType = f64> + ValueFormatter<f64>,
+{
+    root.fill(&WHITE)?;
+    let mut chart = ChartBuilder::on(root)
+        .caption(&c.title, ("sans-serif", 17))
+        .margin(12)
+        .margin_right(LEGEND_WIDTH)
+        .x_label_area_size(45)
+        .y_label_area_size(70)
+        .build_cartesian_2d(x, y)?;
+    chart
+        .configure_mesh()
+        .x_desc(c.x_label.as_str())
+        .y_desc(c.y_label.as_str())
+        .x_label_formatter(&|v| tick(*v))
+        .y_label_formatter(&|v| tick(*v))
+        .light_line_style(RGBColor(235, 235, 235))
+        .label_style(("sans-serif", 12))
+        .axis_desc_style(("sans-serif", 14))
+        .draw()?;
+    let (x_log, y_log) = (c.x_log, c.y_log);
+    let shown = |p: &&(f64, f64)| {
+        p.0.is_finite() && p.1.is_finite() && (!x_log || p.0 > 0.0) && (!y_log || p.1 > 0.0)
+    };
+    for s in &c.series {
+        let col = color(s.color);
+        let pts: Vec<(f64, f64)> = s.points.iter().filter(shown).copied().collect();
+        let line = ShapeStyle::from(&col).stroke_width(2);
+        if matches!(s.draw, Draw::Line | Draw::LineMarkers) {
+            chart.draw_series(std::iter::once(PathElement::new(pts.clone(), line)))?;
+        }
+        if s.draw == Draw::Dashed {
+            chart.draw_series(DashedLineSeries::new(pts.clone(), 8, 5, line))?;
+        }
+        if matches!(s.draw, Draw::Markers | Draw::LineMarkers) {
+            chart.draw_series(pts.iter().map(|&p| Circle::new(p, 4, col.filled())))?;
+        }
+        chart.draw_series(
+            s.points
+                .iter()
+                .zip(&s.labels)
+                .filter(|(p, _)| shown(p))
+                .map(|(&p, l)| {
+                    EmptyElement::at(p)
+                        + Text::new(
+                            l.clone(),
+                            (6, -14),
+                            ("sans-serif", 11).into_font().color(&col),
+                        )
+                }),
+        )?;
+    }
+    // the legend in its own column right of the plot, clear of the data
+    let (px, py) = chart.plotting_area().get_base_pixel();
+    let x = px + chart.plotting_area().dim_in_pixel().0 as i32 + 16;
+    for (k, s) in c.series.iter().enumerate() {
+        let (col, y) = (color(s.color), py + 8 + 20 * k as i32);
+        let line = ShapeStyle::from(&col).stroke_width(2);
+        match s.draw {
+            Draw::Line | Draw::LineMarkers => {
+                root.draw(&PathElement::new(vec![(x, y), (x + 24, y)], line))?
+            }
+            Draw::Dashed => {
+                for dash in [x, x + 16] {
+                    root.draw(&PathElement::new(vec![(dash, y), (dash + 8, y)], line))?;
+                }
+            }
+            Draw::Markers => {}
+        }
+        if matches!(s.draw, Draw::Markers | Draw::LineMarkers) {
+            root.draw(&Circle::new((x + 12, y), 4, col.filled()))?;
+        }
+        root.draw(&Text::new(
+            s.name.clone(),
+            (x + 32, y - 7),
+            ("sans-serif", 13).into_font(),
+        ))?;
+    }
+    Ok(())
+}
+
+/// A matrix of values in [0, 1] drawn as coloured cells (white 0 → dark blue 1) with the
+/// value printed in each cell.
+#[derive(Clone, Debug)]
+pub struct HeatMap {
+    /// Caption.
+    pub title: String,
+    /// x-axis (column) description.
+    pub x_label: String,
+    /// y-axis (row) description.
+    pub y_label: String,
+    /// Column tick labels, left to right.
+    pub columns: Vec<String>,
+    /// Row tick labels, bottom to top.
+    pub rows: Vec<String>,
+    /// `values[r][c]`, row r from the bottom.
+    pub values: Vec<Vec<f64>>,
+}
+
+/// SVG of `h`: 40 px cells (at least 300 px of plot each way) plus axes and labels.
+///
+/// # Errors
+/// [`Error::InvalidSetting`] naming the heat map if it is empty or plotters fails.
+pub fn heat_map_svg(h: &HeatMap) -> Result<String> {
+    let (nc, nr) = (h.columns.len(), h.rows.len());
+    if nc == 0 || nr == 0 || h.values.len() != nr || h.values.iter().any(|r| r.len() != nc) {
+        return Err(plot_error(
+            &h.title,
+            "no cells, or values do not match the labels",
+        ));
+    }
+    let cell = 40u32;
+    let size = (
+        (nc as u32 * cell).max(300) + 110,
+        (nr as u32 * cell).max(300) + 110,
+    );
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
+        draw_heat_map(&root, h).map_err(|e| plot_error(&h.title, e))?;
+        root.present().map_err(|e| plot_error(&h.title, e))?;
+    }
+    Ok(svg)
+}
+
+fn draw_heat_map(root: &DrawingArea<SVGBackend<'_>, Shift>, h: &HeatMap) -> DrawResult {
+    let (nc, nr) = (h.columns.len(), h.rows.len());
+    root.fill(&WHITE)?;
+    let mut chart = ChartBuilder::on(root)
+        .caption(&h.title, ("sans-serif", 15))
+        .margin(10)
+        .x_label_area_size(45)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0.0..nc as f64, 0.0..nr as f64)?;
+    // ticks at the cell centres, labelled by the cell's name
+    let name = |names: &[String], v: f64| {
+        let k = v.floor();
+        if (v - k - 0.5).abs() < 1e-6 && k >= 0.0 {
+            names.get(k as usize).cloned().unwrap_or_default()
+        } else {
+            String::new()
+        }
+    };
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .x_labels(2 * nc + 1)
+        .y_labels(2 * nr + 1)
+        .x_label_formatter(&|v| name(&h.columns, *v))
+        .y_label_formatter(&|v| name(&h.rows, *v))
+        .x_desc(h.x_label.as_str())
+        .y_desc(h.y_label.as_str())
+        .label_style(("sans-serif", 11))
+        .axis_desc_style(("sans-serif", 13))
+        .draw()?;
+    let shade = |v: f64| {
+        let t = v.clamp(0.0, 1.0);
+        let mix = |a: f64, b: f64| (a + (b - a) * t).round() as u8;
+        RGBColor(mix(255.0, 8.0), mix(255.0, 48.0), mix(255.0, 107.0))
+    };
+    for (r, row) in h.values.iter().enumerate() {
+        for (c, &v) in row.iter().enumerate() {
+            let (x, y) = (c as f64, r as f64);
+            chart.draw_series(std::iter::once(Rectangle::new(
+                [(x, y), (x + 1.0, y + 1.0)],
+                shade(v).filled(),
+            )))?;
+            let ink = if v > 0.5 { WHITE } else { BLACK };
+            chart.draw_series(std::iter::once(Text::new(
+                format!("{v:.2}"),
+                (x + 0.5, y + 0.5),
+                ("sans-serif", 10)
+                    .into_font()
+                    .color(&ink)
+                    .pos(Pos::new(HPos::Center, VPos::Center)),
+            )))?;
+        }
+    }
+    Ok(())
+}
+
+/// One row of `sparsemor tradeoff --csv`: a reduction and its verified accuracy.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TradeoffRow {
+    /// `linefit` or `serep`.
+    pub method: String,
+    /// What was asked: "tol 1e-3", "9 modes".
+    pub setting: String,
+    /// Wall time of the reduction (s).
+    pub seconds: f64,
+    /// Factorizations it spent.
+    pub factorizations: usize,
+    /// ROM order.
+    pub order: usize,
+    /// Verified max elastic ε (eq. 23) on the fine grid.
+    pub max_eps: f64,
+}
+
+impl TradeoffRow {
+    /// The CSV header line.
+    pub const CSV_HEADER: &'static str = "method,setting,seconds,factorizations,order,max_eps";
+
+    /// `rows` as CSV (header + one line each, floats round-trip exactly).
+    pub fn to_csv(rows: &[TradeoffRow]) -> String {
+        let mut s = format!("{}\n", Self::CSV_HEADER);
+        for r in rows {
+            s.push_str(&format!(
+                "{},{},{:?},{},{},{:?}\n",
+                r.method, r.setting, r.seconds, r.factorizations, r.order, r.max_eps
+            ));
+        }
+        s
+    }
+
+    /// Parses [`Self::to_csv`]'s text; `path` names the file in errors.
+    ///
+    /// # Errors
+    /// [`Error::Parse`] with the line for a wrong header, field count or number.
+    pub fn parse_csv(text: &str, path: &Path) -> Result<Vec<TradeoffRow>> {
+        let err = |line: usize, msg: String| Error::Parse {
+            path: path.to_path_buf(),
+            line,
+            msg,
+        };
+        let mut lines = text
+            .lines()
+            .enumerate()
+            .filter(|(_, l)| !l.trim().is_empty());
+        match lines.next() {
+            Some((_, h)) if h.trim() == Self::CSV_HEADER => {}
+            _ => {
+                return Err(err(
+                    1,
+                    format!(
+                        "expected the header '{}' (sparsemor tradeoff --csv)",
+                        Self::CSV_HEADER
+                    ),
+                ))
+            }
+        }
+        lines
+            .map(|(k, l)| {
+                let f: Vec<&str> = l.split(',').map(str::trim).collect();
+                let bad = |what: &str| err(k + 1, format!("{what} in '{l}'"));
+                if f.len() != 6 {
+                    return Err(bad("expected 6 comma-separated fields"));
+                }
+                Ok(TradeoffRow {
+                    method: f[0].to_string(),
+                    setting: f[1].to_string(),
+                    seconds: f[2].parse().map_err(|_| bad("bad seconds"))?,
+                    factorizations: f[3].parse().map_err(|_| bad("bad factorizations"))?,
+                    order: f[4].parse().map_err(|_| bad("bad order"))?,
+                    max_eps: f[5].parse().map_err(|_| bad("bad max_eps"))?,
+                })
+            })
+            .collect()
+    }
+}
+
+/// Log–log chart of the speed/accuracy trade: wall time of each reduction vs its verified
+/// max ε (eq. 23), one line per method, each point labelled by its setting.
+///
+/// # Errors
+/// As [`chart_svg`].
+pub fn tradeoff_svg(title: &str, rows: &[TradeoffRow]) -> Result<String> {
+    let mut methods: Vec<&str> = Vec::new();
+    for r in rows {
+        if !methods.contains(&r.method.as_str()) {
+            methods.push(&r.method);
+        }
+    }
+    let series = methods
+        .iter()
+        .enumerate()
+        .map(|(k, m)| {
+            let of: Vec<&TradeoffRow> = rows.iter().filter(|r| r.method == *m).collect();
+            Series {
+                name: match *m {
+                    "linefit" => "line-fitting (sampling loop)".to_string(),
+                    "serep" => "SEREP".to_string(),
+                    m => m.to_string(),
+                },
+                points: of.iter().map(|r| (r.seconds, r.max_eps)).collect(),
+                color: k + 1,
+                draw: Draw::LineMarkers,
+                labels: of.iter().map(|r| r.setting.clone()).collect(),
+            }
+        })
+        .collect();
+    chart_svg(&Chart {
+        title: title.to_string(),
+        x_label: "wall time of the reduction (s)".into(),
+        y_label: "verified max ε (fine grid)".into(),
+        x_log: true,
+        y_log: true,
+        series,
+        x_range: None,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tradeoff_csv_round_trips_and_plots() {
+        let rows = vec![
+            TradeoffRow {
+                method: "linefit".into(),
+                setting: "tol 1e-2".into(),
+                seconds: 0.25,
+                factorizations: 12,
+                order: 14,
+                max_eps: 3.5e-3,
+            },
+            TradeoffRow {
+                method: "serep".into(),
+                setting: "9 modes".into(),
+                seconds: 0.5,
+                factorizations: 1,
+                order: 9,
+                max_eps: 0.1,
+            },
+        ];
+        let csv = TradeoffRow::to_csv(&rows);
+        let back = TradeoffRow::parse_csv(&csv, Path::new("t.csv")).unwrap();
+        assert_eq!(back, rows);
+        let svg = tradeoff_svg("t", &rows).unwrap();
+        assert!(svg.starts_with("<svg") && svg.contains("tol 1e-2") && svg.contains("SEREP"));
+        let e = TradeoffRow::parse_csv("a,b\n", Path::new("t.csv")).unwrap_err();
+        assert!(e.to_string().contains("header"), "{e}");
+    }
+
+    #[test]
+    fn log_axis_covers_whole_decades_and_ticks_read_well() {
+        let (lo, hi) = axis_range([0.003, 0.2, 0.0].into_iter(), true);
+        assert!(
+            (lo / 1e-3 - 1.0).abs() < 1e-8 && lo <= 1e-3 && hi == 1.0,
+            "{lo} {hi}"
+        );
+        assert_eq!(axis_range([5.0, 1000.0].into_iter(), false), (5.0, 1000.0));
+        assert_eq!(tick(1e-3), "1e-3");
+        assert_eq!(tick(100.0), "100");
+        assert_eq!(tick(250.5), "250.5");
+        assert_eq!(tick(2e-3), "2.0e-3");
+    }
 }

@@ -6,6 +6,7 @@ mod commands;
 mod import;
 mod progress;
 mod reduce;
+mod report;
 
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
@@ -34,6 +35,7 @@ const EXAMPLES: &str = "Examples:
   sparsemor reduce bar --method linefit --extra-interface 5 --tol 1e-3 --max-order 24 --out rom3
   sparsemor tradeoff bar --tols 1e-1,1e-2,1e-3,1e-4 --csv tradeoff.csv --svg tradeoff.svg
   sparsemor modes bar --band 0:1000
+  sparsemor report bar rom rom9 --tradeoff tradeoff.csv --tol 1e-2 --out report
   sparsemor bench sweep
 
 Exit status:
@@ -106,6 +108,8 @@ enum Command {
     Tradeoff(reduce::TradeoffArgs),
     /// A model directory from the files ANSYS or Abaqus wrote (.full, APDL Math, *MATRIX OUTPUT).
     Import(import::ImportArgs),
+    /// One HTML page comparing ROMs with their model: |H|, ε(f), eigenfrequency errors, MAC.
+    Report(report::ReportArgs),
     /// Performance tables (markdown): `bench sweep`.
     Bench(bench::BenchArgs),
 }
@@ -136,6 +140,7 @@ pub fn run() -> sparsemor::Result<Done> {
         Command::Demo { threads } => met(reduce::demo(threads)),
         Command::Tradeoff(args) => met(reduce::tradeoff(&args)),
         Command::Import(args) => met(import::import(&args)),
+        Command::Report(args) => met(report::report(&args)),
         Command::Bench(args) => met(bench::run(&args)),
     }
 }

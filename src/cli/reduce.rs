@@ -15,6 +15,7 @@ use sparsemor::reduce::linefit::{
 };
 use sparsemor::reduce::serep::{self, ModeChoice, SerepOptions};
 use sparsemor::reduce::Rom;
+use sparsemor::report::{tradeoff_svg, TradeoffRow};
 use sparsemor::scene::{positive_band, Scene};
 use sparsemor::sweep::{no_progress, SweepOptions};
 use sparsemor::{Error, Result};
@@ -674,7 +675,7 @@ pub fn tradeoff(a: &TradeoffArgs) -> Result<()> {
         grid.len(),
         t.elapsed().as_secs_f64()
     );
-    let mut rows: Vec<(String, String, f64, usize, usize, f64)> = Vec::new();
+    let mut rows: Vec<TradeoffRow> = Vec::new();
     for &tol in &tols {
         let mut s = SamplingOptions::new(tol);
         s.max_order = Some(a.max_order);
@@ -693,14 +694,14 @@ pub fn tradeoff(a: &TradeoffArgs) -> Result<()> {
         let report = rom
             .sampling()
             .ok_or_else(|| Error::InvalidSetting("the sampling loop returned no report".into()))?;
-        rows.push((
-            "linefit".into(),
-            format!("tol {tol:.0e}"),
-            secs,
-            report.factorizations,
-            rom.order(),
-            e,
-        ));
+        rows.push(TradeoffRow {
+            method: "linefit".into(),
+            setting: format!("tol {tol:.0e}"),
+            seconds: secs,
+            factorizations: report.factorizations,
+            order: rom.order(),
+            max_eps: e,
+        });
         if report.outcome != Outcome::Converged {
             eprintln!("tol {tol:.0e}: {}", sampling_message(report, &rom));
         }
@@ -721,14 +722,14 @@ pub fn tradeoff(a: &TradeoffArgs) -> Result<()> {
         let rom = serep::reduce(&body, &scene, &opts, None)?;
         let secs = t.elapsed().as_secs_f64();
         let e = ErrorCurve::max_mean(&reference.error(&rom)?.eps_elastic).0;
-        rows.push((
-            "serep".into(),
-            format!("{c} modes"),
-            secs,
-            1,
-            rom.order(),
-            e,
-        ));
+        rows.push(TradeoffRow {
+            method: "serep".into(),
+            setting: format!("{c} modes"),
+            seconds: secs,
+            factorizations: 1,
+            order: rom.order(),
+            max_eps: e,
+        });
     }
     println!(
         "| method | setting | wall s | factorizations | order | verified max eps ({} points) |",
@@ -738,39 +739,14 @@ pub fn tradeoff(a: &TradeoffArgs) -> Result<()> {
     for r in &rows {
         println!(
             "| {} | {} | {:.3} | {} | {} | {:.2e} |",
-            r.0, r.1, r.2, r.3, r.4, r.5
+            r.method, r.setting, r.seconds, r.factorizations, r.order, r.max_eps
         );
     }
     if let Some(path) = &a.csv {
-        let mut s = String::from("method,setting,seconds,factorizations,order,max_eps\n");
-        for r in &rows {
-            s.push_str(&format!(
-                "{},{},{:?},{},{},{:?}\n",
-                r.0, r.1, r.2, r.3, r.4, r.5
-            ));
-        }
-        atomic::write_bytes(path, s)?;
+        atomic::write_bytes(path, TradeoffRow::to_csv(&rows))?;
     }
     if let Some(path) = &a.svg {
-        let series: Vec<(String, Vec<sparsemor::report::Point>)> = ["linefit", "serep"]
-            .iter()
-            .map(|m| {
-                let name = if *m == "linefit" {
-                    "line-fitting (sampling loop)"
-                } else {
-                    "SEREP"
-                };
-                (
-                    name.to_string(),
-                    rows.iter()
-                        .filter(|r| r.0 == *m)
-                        .map(|r| (r.2, r.5, r.1.clone()))
-                        .collect(),
-                )
-            })
-            .collect();
-        let svg =
-            sparsemor::report::tradeoff_svg(&format!("{}: time vs accuracy", model.name), &series);
+        let svg = tradeoff_svg(&format!("{}: time vs accuracy", model.name), &rows)?;
         atomic::write_bytes(path, svg)?;
     }
     Ok(())
