@@ -368,13 +368,13 @@ impl<'m> Solver<'m> {
         let omega = 2.0 * std::f64::consts::PI * f;
         let p = self.inputs.len();
         let t0 = Instant::now();
-        numeric.factor(&self.analysis, &self.pencil, omega, par)?;
+        numeric.factor(&self.pencil, omega, par)?;
         let factor_s = t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
         rhs.as_mut().subcols_mut(0, p).copy_from(&self.load);
         self.pencil
             .apply(omega, self.probe.as_ref(), rhs.as_mut().subcols_mut(p, 1));
-        numeric.solve(&self.analysis, rhs.as_mut(), par);
+        numeric.solve(rhs.as_mut(), par);
         let solve_s = t1.elapsed().as_secs_f64();
         let mut err = Mat::<c64>::from_fn(rhs.nrows(), 1, |i, _| rhs[(i, p)] - self.probe[(i, 0)]);
         if let Some(rb) = &self.rigid {

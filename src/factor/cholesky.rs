@@ -1,0 +1,74 @@
+//! Real sparse Cholesky LLᵀ of the shifted pencil K − σM (faer, supernodal, AMD ordering).
+//!
+//! For σ below the spectrum of K φ = λ M φ (σ < 0 with M positive definite and K positive
+//! semi-definite), K − σM is symmetric positive definite, even for a free body, so it has a
+//! Cholesky factor P (K − σM) Pᵀ = L Lᵀ (DESIGN.md §3.1, §3.6). Here:
+//! - the benches' reference "real Cholesky on the same pattern" ([`reference_cholesky`]),
+//!   the arithmetic floor the complex factorizations of A(iω) are compared with.
+//!
+//! [`symbolic_cholesky`] is the AMD-ordered symbolic analysis of the pencil's N×N lower
+//! pattern. It is shared: the LBLᵀ backend factors the real pencil on it and expands its
+//! order pairwise for the 2N form, and the inertia count factors K − σM on it.
+
+use super::{pattern, try_vec, workspace};
+use crate::pencil::Pencil;
+use crate::{Error, Result};
+use faer::dyn_stack::MemStack;
+use faer::sparse::linalg::cholesky::{
+    factorize_symbolic_cholesky, CholeskySymbolicParams, SymbolicCholesky, SymmetricOrdering,
+};
+use faer::sparse::linalg::SupernodalThreshold;
+use faer::sparse::SparseColMatRef;
+use faer::{Par, Side};
+use std::time::Instant;
+
+/// Symbolic Cholesky of the pencil's pattern with AMD ordering: the reference "real
+/// Cholesky on the same pattern" of the benches, and the ordering the 2N form expands.
+///
+/// # Errors
+/// [`Error::Factor`] when the analysis fails (allocation, index overflow).
+pub fn symbolic_cholesky(pencil: &Pencil) -> Result<SymbolicCholesky<usize>> {
+    factorize_symbolic_cholesky(
+        pattern::lower(pencil),
+        Side::Lower,
+        SymmetricOrdering::Amd,
+        supernodal_params(),
+    )
+    .map_err(|e| Error::Factor(format!("symbolic analysis: {e:?}")))
+}
+
+/// The symbolic parameters of every factorization on faer's Cholesky machinery: always
+/// supernodal (the intranode LBLᵀ needs supernodes for its 2×2 pivots).
+pub(super) fn supernodal_params() -> CholeskySymbolicParams<'static> {
+    CholeskySymbolicParams {
+        supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+        ..Default::default()
+    }
+}
+
+/// The reference of the benches: a real sparse Cholesky LLᵀ of K + σM (σ = (2π·1 Hz)², so
+/// that a free body's K becomes definite) on the pencil's AMD-ordered pattern. Returns
+/// (nnz(L), seconds of the numeric factorization) — the arithmetic floor a complex
+/// factorization of the same pattern is compared with (4× the flops in complex arithmetic).
+///
+/// # Errors
+/// [`Error::Factor`] when the analysis or the factorization fails.
+pub fn reference_cholesky(pencil: &Pencil, par: Par) -> Result<(usize, f64)> {
+    let sym = symbolic_cholesky(pencil)?;
+    let mut vals = vec![0.0; pencil.nnz()];
+    pencil.fill_shifted(-(2.0 * std::f64::consts::PI).powi(2), &mut vals);
+    let mut l = try_vec::<f64>(sym.len_val())?;
+    let mut buf = workspace(sym.factorize_numeric_llt_scratch::<f64>(par, Default::default()))?;
+    let t = Instant::now();
+    sym.factorize_numeric_llt(
+        &mut l,
+        SparseColMatRef::new(pattern::lower(pencil), &vals),
+        Side::Lower,
+        Default::default(),
+        par,
+        MemStack::new(&mut buf),
+        Default::default(),
+    )
+    .map_err(|e| Error::Factor(format!("reference Cholesky: {e:?}")))?;
+    Ok((sym.len_val(), t.elapsed().as_secs_f64()))
+}
