@@ -15,8 +15,8 @@
 //!   [`Backend::Auto`] uses it only up to [`LU_MAX_N`].
 //! - [`umfpack`] — **UMFPACK** (cargo feature `umfpack`), real or complex LU.
 //!
-//! Beside them: `cholesky` (the symbolic Cholesky the symmetric factorizations share and the
-//! benches' reference LLᵀ, [`reference_cholesky`]), `inertia` (exact eigenvalue counts,
+//! Beside them: `cholesky` (the real LLᵀ of K − σM of the eigensolver and the benches'
+//! reference, [`reference_cholesky`]), `inertia` (exact eigenvalue counts,
 //! [`count_eigenvalues_below`]) and `pattern` (the patterns the backends read).
 //!
 //! Adding a backend: one file with a symbolic type (`new`, `numeric`) and a numeric type
@@ -37,6 +37,8 @@ pub mod umfpack;
 pub use cholesky::{reference_cholesky, symbolic_cholesky};
 pub use inertia::{count_eigenvalues_below, count_eigenvalues_below_with};
 pub use lblt::PivotStats;
+
+pub(crate) use cholesky::Cholesky;
 
 use crate::pencil::Pencil;
 use crate::{Error, Result};
