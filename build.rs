@@ -10,7 +10,7 @@
 //!   `UMFPACK_MAIN_VERSION`. UMFPACK 6 (SuiteSparse 7) changed the C return type of the
 //!   `umfpack_?l_*` functions from `SuiteSparse_long` to `int` and the `sys` argument of
 //!   `solve` to `int`; for version >= 6 the cfg `umfpack_v6` is set so the hand-written
-//!   `extern "C"` block in `src/factor/umfpack.rs` matches the installed ABI. If no header is
+//!   `extern "C"` block in `src/factor/umfpack/sys.rs` matches the installed ABI. If no header is
 //!   found, the 5.x prototypes (the ones checked against UMFPACK 5.7.9) are assumed.
 
 use std::path::PathBuf;

@@ -56,7 +56,7 @@ fn bench(c: &mut Criterion) {
             let an = Analysis::new(&pencil, backend, 10).unwrap();
             let mut num = an.numeric(&pencil).unwrap();
             g.bench_function(BenchmarkId::new(label, m.n()), |b| {
-                b.iter(|| num.factor(&an, &pencil, omega, faer::Par::Seq).unwrap())
+                b.iter(|| num.factor(&pencil, omega, faer::Par::Seq).unwrap())
             });
         }
         let pencil = Pencil::new(&m);

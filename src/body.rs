@@ -18,14 +18,14 @@ use crate::rigid::RigidBody;
 use crate::Result;
 use faer::sparse::linalg::cholesky::SymbolicCholesky;
 use faer::{c64, Mat};
-use std::sync::OnceLock;
+use std::sync::{Arc, OnceLock};
 
 /// A model prepared for computation; see the module doc.
 pub struct Body<'m> {
     model: &'m Model,
     pencil: Pencil,
     rigid: Option<RigidBody>,
-    symbolic: OnceLock<SymbolicCholesky<usize>>,
+    symbolic: OnceLock<Arc<SymbolicCholesky<usize>>>,
 }
 
 impl<'m> Body<'m> {
@@ -68,12 +68,12 @@ impl<'m> Body<'m> {
     ///
     /// # Errors
     /// [`crate::Error::Factor`] when the analysis fails (allocation, index overflow).
-    pub fn symbolic(&self) -> Result<&SymbolicCholesky<usize>> {
+    pub fn symbolic(&self) -> Result<Arc<SymbolicCholesky<usize>>> {
         if let Some(s) = self.symbolic.get() {
-            return Ok(s);
+            return Ok(s.clone());
         }
-        let s = crate::factor::symbolic_cholesky(&self.pencil)?;
-        Ok(self.symbolic.get_or_init(|| s))
+        let s = Arc::new(crate::factor::symbolic_cholesky(&self.pencil)?);
+        Ok(self.symbolic.get_or_init(|| s).clone())
     }
 
     /// B (N×p): unit forces at `inputs`, as complex columns.

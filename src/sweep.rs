@@ -179,7 +179,10 @@ impl<'a> Solver<'a> {
             )));
         }
         let threads = opts.resolved_threads();
-        let analysis = Analysis::new(body.pencil(), opts.backend, inputs.len() + 1)?;
+        let analysis =
+            Analysis::with_symbolic(body.pencil(), opts.backend, inputs.len() + 1, || {
+                body.symbolic()
+            })?;
         let load = match response {
             Response::Elastic => body.elastic_load(inputs),
             Response::Total => body.unit_load(inputs),
@@ -380,14 +383,14 @@ impl<'a> Solver<'a> {
         let omega = 2.0 * std::f64::consts::PI * f;
         let p = self.inputs.len();
         let t0 = Instant::now();
-        numeric.factor(&self.analysis, self.body.pencil(), omega, par)?;
+        numeric.factor(self.body.pencil(), omega, par)?;
         let factor_s = t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
         rhs.as_mut().subcols_mut(0, p).copy_from(&self.load);
         self.body
             .pencil()
             .apply(omega, self.probe.as_ref(), rhs.as_mut().subcols_mut(p, 1));
-        numeric.solve(&self.analysis, rhs.as_mut(), par);
+        numeric.solve(rhs.as_mut(), par);
         let solve_s = t1.elapsed().as_secs_f64();
         let mut err = Mat::<c64>::from_fn(rhs.nrows(), 1, |i, _| rhs[(i, p)] - self.probe[(i, 0)]);
         if let Some(rb) = self.body.rigid() {

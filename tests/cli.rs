@@ -133,6 +133,13 @@ fn generate_info_sweep_matches_the_library_bit_exactly() {
     };
     assert_eq!(field("N "), "1656", "info:\n{info}");
     assert!(field("rigid modes").starts_with("6:"), "info:\n{info}");
+    // info says what the sweep will do: at N = 1656 the automatic backend is faer LU
+    let factorization = field("factorization");
+    assert!(
+        factorization.contains("faer LU") && factorization.contains("auto → faer-lu"),
+        "{factorization}"
+    );
+    assert!(!factorization.contains("2N"), "{factorization}");
 
     let work = scratch("sweep_ok");
     let args = [
@@ -581,4 +588,19 @@ fn unmet_tolerance_writes_the_rom_and_exits_with_status_3() {
             "{stdout}"
         );
     }
+}
+
+/// `bench sweep` reports no made-up fill for faer LU: a dash with its footnote.
+#[test]
+fn bench_marks_the_fill_it_cannot_report() {
+    let out = ok(
+        &scratch("bench_lu"),
+        &["bench", "sweep", "--backends", "faer-lu", "--max-n", "2000"],
+    );
+    let row = out
+        .lines()
+        .find(|l| l.contains("faer-lu"))
+        .unwrap_or_else(|| panic!("no faer-lu row:\n{out}"));
+    assert!(row.contains("— (a)") && !row.contains("| 0 |"), "{row}");
+    assert!(out.contains("(a) faer LU and UMFPACK"), "{out}");
 }

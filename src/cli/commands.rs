@@ -168,13 +168,32 @@ pub fn info(dir: &Path) -> Result<()> {
     );
     let pencil = Pencil::new(&model);
     let chol = sparsemor::factor::symbolic_cholesky(&pencil)?;
-    let an = Analysis::new(&pencil, Backend::FaerLblt, scene.inputs.len() + 1)?;
+    // what `sweep`, `reduce` and `evaluate` will do: the same decision (Backend::resolved)
+    let backend = Backend::Auto.resolved(model.n());
+    let an = Analysis::new(&pencil, backend, scene.inputs.len() + 1)?;
     let s = an.stats();
+    let path = match (s.backend, s.real) {
+        (Backend::FaerLblt, true) => "faer LBLᵀ of the real N×N pencil (D = 0)",
+        (Backend::FaerLblt, false) => {
+            "faer LBLᵀ of the complex pencil as its interleaved 2N×2N real form"
+        }
+        (Backend::FaerLu, true) => "faer LU (COLAMD) of the real pencil (D = 0)",
+        (Backend::FaerLu, false) => "faer LU (COLAMD) of the complex pencil",
+        (_, true) => "UMFPACK, real",
+        (_, false) => "UMFPACK, complex",
+    };
     println!(
-        "factorization    {} path; real Cholesky fill nnz(L) = {}; LBLᵀ factor {} entries, ~{} per factorization",
-        if s.real { "real (D = 0)" } else { "complex (2N interleaved)" },
+        "factorization    {} (backend auto → {}, N {} {}); real Cholesky fill nnz(L) = {}; factor {}, ~{} per factorization",
+        path,
+        s.backend,
+        if model.n() <= sparsemor::factor::LU_MAX_N { "<=" } else { ">" },
+        sparsemor::factor::LU_MAX_N,
         chol.len_val(),
-        s.factor_nnz,
+        if s.factor_nnz > 0 {
+            format!("{} entries", s.factor_nnz)
+        } else {
+            "entries known after the first numeric factorization".to_string()
+        },
         human_bytes(s.bytes_per_factor as f64)
     );
     println!(

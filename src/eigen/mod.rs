@@ -39,16 +39,16 @@ mod arpack;
 mod krylov;
 
 use crate::body::Body;
-use crate::factor::count_eigenvalues_below_with;
+use crate::factor::{count_eigenvalues_below_with, Cholesky};
 use crate::model::Model;
 use crate::pencil::Pencil;
 use crate::sparse::mul_dense;
 use crate::{Error, Result};
-use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::sparse::linalg::cholesky::{LltRef, SymbolicCholesky};
+use faer::sparse::linalg::cholesky::SymbolicCholesky;
 use faer::sparse::linalg::matmul::sparse_dense_matmul;
-use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
-use faer::{Accum, Conj, Mat, MatMut, MatRef, Par, Side};
+use faer::sparse::SparseColMatRef;
+use faer::{Accum, Mat, MatMut, MatRef, Par, Side};
+use std::sync::Arc;
 use std::time::Instant;
 
 /// |λ| ≤ RIGID_RTOL · max_i K_ii/M_ii marks a rigid-body mode when the model gives no rigid
@@ -244,7 +244,7 @@ pub fn eigenpairs(body: &Body<'_>, req: Request, opts: &EigenOptions) -> Result<
         Request::UpTo(f) => {
             let t = Instant::now();
             let hi = (2.0 * std::f64::consts::PI * f).powi(2);
-            let c = count_eigenvalues_below_with(sym, pencil, hi)?;
+            let c = count_eigenvalues_below_with(&sym, pencil, hi)?;
             stats.count_s = t.elapsed().as_secs_f64();
             (c, Some(hi))
         }
@@ -271,7 +271,7 @@ pub fn eigenpairs(body: &Body<'_>, req: Request, opts: &EigenOptions) -> Result<
     let t = Instant::now();
     let mut op = ShiftInvert::new(model, pencil, sym, sigma)?;
     stats.factor_s = t.elapsed().as_secs_f64();
-    stats.factor_nnz = op.sym.len_val();
+    stats.factor_nnz = op.chol.factor_nnz();
     stats.sigma = sigma;
     stats.krylov_dim = m;
 
@@ -291,10 +291,8 @@ pub fn eigenpairs(body: &Body<'_>, req: Request, opts: &EigenOptions) -> Result<
 /// The shift-invert operator S = (K − σM)⁻¹ M of both backends: one sparse Cholesky of
 /// K − σM (AMD ordering, faer) and the mass matrix.
 pub(crate) struct ShiftInvert<'a> {
-    sym: &'a SymbolicCholesky<usize>,
-    l: Vec<f64>,
+    chol: Cholesky,
     mass: SparseColMatRef<'a, usize, f64>,
-    stack: MemBuffer,
     sigma: f64,
 }
 
@@ -303,48 +301,18 @@ impl<'a> ShiftInvert<'a> {
     fn new(
         model: &'a Model,
         pencil: &Pencil,
-        sym: &'a SymbolicCholesky<usize>,
+        sym: Arc<SymbolicCholesky<usize>>,
         sigma: f64,
     ) -> Result<Self> {
-        let n = pencil.n();
-        let mut vals = vec![0.0; pencil.nnz()];
-        pencil.fill_shifted(sigma, &mut vals);
-        let mut l = Vec::new();
-        l.try_reserve_exact(sym.len_val()).map_err(|_| {
+        let mut chol = Cholesky::new(sym, Par::Seq)?;
+        chol.factor(pencil, sigma, Par::Seq).map_err(|e| {
             Error::Factor(format!(
-                "cannot allocate the {} entries of the Cholesky factor of K - sigma M",
-                sym.len_val()
+                "K - sigma M (sigma = {sigma:.3e}) is not positive definite ({e:?}): is M positive definite and K positive semi-definite?"
             ))
         })?;
-        l.resize(sym.len_val(), 0.0);
-        let req = sym
-            .factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default())
-            .or(sym.solve_in_place_scratch::<f64>(1, Par::Seq));
-        let mut stack = MemBuffer::try_new(req)
-            .map_err(|_| Error::Factor("cannot allocate the Cholesky workspace".into()))?;
-        let a = SparseColMatRef::new(
-            unsafe {
-                SymbolicSparseColMatRef::new_unchecked(
-                    n,
-                    n,
-                    pencil.col_ptr(),
-                    None,
-                    pencil.row_idx(),
-                )
-            },
-            &vals,
-        );
-        sym.factorize_numeric_llt(&mut l, a, Side::Lower, Default::default(), Par::Seq, MemStack::new(&mut stack), Default::default())
-            .map_err(|e| {
-                Error::Factor(format!(
-                    "K - sigma M (sigma = {sigma:.3e}) is not positive definite ({e:?}): is M positive definite and K positive semi-definite?"
-                ))
-            })?;
         Ok(ShiftInvert {
-            sym,
-            l,
+            chol,
             mass: model.mass.as_ref(),
-            stack,
             sigma,
         })
     }
@@ -361,8 +329,7 @@ impl<'a> ShiftInvert<'a> {
 
     /// x ← (K − σM)⁻¹ x (one column).
     fn solve_in_place(&mut self, x: MatMut<'_, f64>) {
-        let llt = LltRef::new(self.sym, &self.l);
-        llt.solve_in_place_with_conj(Conj::No, x, Par::Seq, MemStack::new(&mut self.stack));
+        self.chol.solve_in_place(x);
     }
 
     /// y ← S x = (K − σM)⁻¹ M x (one column).

@@ -1,4 +1,9 @@
-//! A thin, safe wrapper over UMFPACK (SuiteSparse) sparse LU, behind the `umfpack` feature.
+//! A thin, safe wrapper over UMFPACK (SuiteSparse) sparse LU, behind the `umfpack` feature,
+//! and the UMFPACK backend of [`super::Analysis`].
+//!
+//! As a backend it factors A(iω) = K − ω²M + iωD as P R A Q = L U (R a row scaling, P and Q
+//! from threshold partial pivoting and a METIS column order) on the full pattern of the
+//! symmetric pencil: real (`dl`) when D = 0, complex (`zl`) otherwise.
 //!
 //! Bindings are hand-written (no bindgen, no `-sys` crate) for the `umfpack_dl_*` (real,
 //! 64-bit `SuiteSparse_long` indices) and `umfpack_zl_*` (complex, *split* real/imaginary
@@ -8,7 +13,7 @@
 //! `SuiteSparse_long` (= `long` = `i64` on 64-bit Unix) and `solve` takes `SuiteSparse_long
 //! sys`; UMFPACK 6 (SuiteSparse 7) returns `int` and takes `int sys`. `build.rs` reads the
 //! installed header and sets the cfg `umfpack_v6` for version >= 6, which switches the two
-//! type aliases in the private `ffi` module. Only the 5.7.9 path has been built and tested.
+//! type aliases in the private `sys` module. Only the 5.7.9 path has been built and tested.
 //!
 //! Usage: analyse the pattern once with [`UmfpackSymbolic::new`], then factor any number of
 //! value sets on that pattern with [`UmfpackNumeric::real`] / [`UmfpackNumeric::complex`]
@@ -57,173 +62,30 @@ use std::ffi::c_void;
 use std::ptr::{self, NonNull};
 use std::sync::Arc;
 
+use super::{pattern, try_vec, Factorization, Footprint, Values};
 use crate::error::{Error, Result};
+use crate::pencil::Pencil;
+use faer::{c64, MatMut, Par};
 
-/// Raw declarations from `umfpack.h`; everything here is `unsafe` and private to the module.
-#[allow(non_snake_case, non_upper_case_globals, dead_code)]
-mod ffi {
-    use std::ffi::c_void;
+mod sys;
 
-    /// `SuiteSparse_long` (5.x) / `int64_t` (6.x): `long` on 64-bit Unix, `__int64` on Win64.
-    pub type SsLong = i64;
-    /// Return type of `umfpack_?l_symbolic/numeric/solve`.
-    #[cfg(not(umfpack_v6))]
-    pub type Status = SsLong;
-    /// Return type of `umfpack_?l_symbolic/numeric/solve`.
-    #[cfg(umfpack_v6)]
-    pub type Status = std::ffi::c_int;
-    /// Type of the `sys` argument of `umfpack_?l_solve`.
-    #[cfg(not(umfpack_v6))]
-    pub type Sys = SsLong;
-    /// Type of the `sys` argument of `umfpack_?l_solve`.
-    #[cfg(umfpack_v6)]
-    pub type Sys = std::ffi::c_int;
+use sys::{UMFPACK_CONTROL, UMFPACK_INFO};
 
-    // `SuiteSparse_long` is `long` on every 64-bit Unix; make an LP64 mismatch a build error.
-    #[cfg(unix)]
-    const _: () = assert!(std::mem::size_of::<std::ffi::c_long>() == std::mem::size_of::<SsLong>());
-
-    /// Widens a returned status to `i64` (a no-op for UMFPACK 5.x).
-    #[inline]
-    #[allow(clippy::useless_conversion)]
-    pub fn widen(s: Status) -> i64 {
-        i64::from(s)
-    }
-
-    pub const UMFPACK_INFO: usize = 90;
-    pub const UMFPACK_CONTROL: usize = 20;
-
-    // Info indices.
-    pub const UMFPACK_STATUS: usize = 0;
-    pub const UMFPACK_SIZE_OF_UNIT: usize = 3;
-    pub const UMFPACK_PEAK_MEMORY: usize = 41;
-    pub const UMFPACK_FLOPS: usize = 42;
-    pub const UMFPACK_LNZ: usize = 43;
-    pub const UMFPACK_UNZ: usize = 44;
-    pub const UMFPACK_RCOND: usize = 67;
-    pub const UMFPACK_NUMERIC_WALLTIME: usize = 75;
-    pub const UMFPACK_IR_TAKEN: usize = 80;
-    pub const UMFPACK_OMEGA1: usize = 82;
-    pub const UMFPACK_OMEGA2: usize = 83;
-
-    // Control indices and values.
-    pub const UMFPACK_ORDERING: usize = 10;
-    pub const UMFPACK_ORDERING_CHOLMOD: f64 = 0.0;
-    pub const UMFPACK_ORDERING_AMD: f64 = 1.0;
-    pub const UMFPACK_ORDERING_METIS: f64 = 3.0;
-    pub const UMFPACK_ORDERING_BEST: f64 = 4.0;
-
-    // Status codes.
-    pub const UMFPACK_OK: i64 = 0;
-    pub const UMFPACK_WARNING_singular_matrix: i64 = 1;
-    pub const UMFPACK_WARNING_determinant_underflow: i64 = 2;
-    pub const UMFPACK_WARNING_determinant_overflow: i64 = 3;
-    pub const UMFPACK_ERROR_out_of_memory: i64 = -1;
-    pub const UMFPACK_ERROR_invalid_Numeric_object: i64 = -3;
-    pub const UMFPACK_ERROR_invalid_Symbolic_object: i64 = -4;
-    pub const UMFPACK_ERROR_argument_missing: i64 = -5;
-    pub const UMFPACK_ERROR_n_nonpositive: i64 = -6;
-    pub const UMFPACK_ERROR_invalid_matrix: i64 = -8;
-    pub const UMFPACK_ERROR_different_pattern: i64 = -11;
-    pub const UMFPACK_ERROR_invalid_system: i64 = -13;
-    pub const UMFPACK_ERROR_invalid_permutation: i64 = -15;
-    pub const UMFPACK_ERROR_internal_error: i64 = -911;
-    pub const UMFPACK_ERROR_file_IO: i64 = -17;
-    pub const UMFPACK_ERROR_ordering_failed: i64 = -18;
-
-    /// Solve `A x = b`.
-    pub const UMFPACK_A: Sys = 0;
-
-    extern "C" {
-        pub fn umfpack_dl_defaults(control: *mut f64);
-        pub fn umfpack_zl_defaults(control: *mut f64);
-
-        pub fn umfpack_dl_symbolic(
-            n_row: SsLong,
-            n_col: SsLong,
-            Ap: *const SsLong,
-            Ai: *const SsLong,
-            Ax: *const f64,
-            symbolic: *mut *mut c_void,
-            control: *const f64,
-            info: *mut f64,
-        ) -> Status;
-        pub fn umfpack_zl_symbolic(
-            n_row: SsLong,
-            n_col: SsLong,
-            Ap: *const SsLong,
-            Ai: *const SsLong,
-            Ax: *const f64,
-            Az: *const f64,
-            symbolic: *mut *mut c_void,
-            control: *const f64,
-            info: *mut f64,
-        ) -> Status;
-
-        pub fn umfpack_dl_numeric(
-            Ap: *const SsLong,
-            Ai: *const SsLong,
-            Ax: *const f64,
-            symbolic: *mut c_void,
-            numeric: *mut *mut c_void,
-            control: *const f64,
-            info: *mut f64,
-        ) -> Status;
-        pub fn umfpack_zl_numeric(
-            Ap: *const SsLong,
-            Ai: *const SsLong,
-            Ax: *const f64,
-            Az: *const f64,
-            symbolic: *mut c_void,
-            numeric: *mut *mut c_void,
-            control: *const f64,
-            info: *mut f64,
-        ) -> Status;
-
-        pub fn umfpack_dl_solve(
-            sys: Sys,
-            Ap: *const SsLong,
-            Ai: *const SsLong,
-            Ax: *const f64,
-            X: *mut f64,
-            B: *const f64,
-            numeric: *mut c_void,
-            control: *const f64,
-            info: *mut f64,
-        ) -> Status;
-        #[allow(clippy::too_many_arguments)]
-        pub fn umfpack_zl_solve(
-            sys: Sys,
-            Ap: *const SsLong,
-            Ai: *const SsLong,
-            Ax: *const f64,
-            Az: *const f64,
-            Xx: *mut f64,
-            Xz: *mut f64,
-            Bx: *const f64,
-            Bz: *const f64,
-            numeric: *mut c_void,
-            control: *const f64,
-            info: *mut f64,
-        ) -> Status;
-
-        pub fn umfpack_dl_free_symbolic(symbolic: *mut *mut c_void);
-        pub fn umfpack_zl_free_symbolic(symbolic: *mut *mut c_void);
-        pub fn umfpack_dl_free_numeric(numeric: *mut *mut c_void);
-        pub fn umfpack_zl_free_numeric(numeric: *mut *mut c_void);
-    }
+/// Widens a returned status to `i64` (a no-op for UMFPACK 5.x).
+#[inline]
+#[allow(clippy::useless_conversion)]
+fn widen(s: sys::Status) -> i64 {
+    i64::from(s)
 }
-
-use ffi::{UMFPACK_CONTROL, UMFPACK_INFO};
 
 /// The status code `UMFPACK_WARNING_singular_matrix` (the factorization exists but `U` has a
 /// zero on its diagonal).
-pub const UMFPACK_WARNING_SINGULAR_MATRIX: i64 = ffi::UMFPACK_WARNING_singular_matrix;
+pub const UMFPACK_WARNING_SINGULAR_MATRIX: i64 = sys::UMFPACK_WARNING_singular_matrix;
 
 /// A readable description of an UMFPACK status code (`Info[UMFPACK_STATUS]`).
 #[allow(non_upper_case_globals)]
 pub fn status_message(status: i64) -> &'static str {
-    use ffi::*;
+    use sys::*;
     match status {
         UMFPACK_OK => "ok",
         UMFPACK_WARNING_singular_matrix => "matrix is singular (a zero pivot in U)",
@@ -253,6 +115,19 @@ fn umf_error(routine: &str, status: i64) -> Error {
         "UMFPACK {routine} failed: {} (status {status})",
         status_message(status)
     ))
+}
+
+/// The error of a routine that returned no object: its status, or an internal error if the
+/// status claims success.
+fn no_object(routine: &str, status: i64) -> Error {
+    umf_error(
+        routine,
+        if status < 0 {
+            status
+        } else {
+            sys::UMFPACK_ERROR_internal_error
+        },
+    )
 }
 
 fn bad_input(msg: impl std::fmt::Display) -> Error {
@@ -382,10 +257,10 @@ pub enum UmfpackOrdering {
 impl UmfpackOrdering {
     fn control_value(self) -> f64 {
         match self {
-            Self::Amd => ffi::UMFPACK_ORDERING_AMD,
-            Self::Metis => ffi::UMFPACK_ORDERING_METIS,
-            Self::Cholmod => ffi::UMFPACK_ORDERING_CHOLMOD,
-            Self::Best => ffi::UMFPACK_ORDERING_BEST,
+            Self::Amd => sys::UMFPACK_ORDERING_AMD,
+            Self::Metis => sys::UMFPACK_ORDERING_METIS,
+            Self::Cholmod => sys::UMFPACK_ORDERING_CHOLMOD,
+            Self::Best => sys::UMFPACK_ORDERING_BEST,
         }
     }
 }
@@ -450,19 +325,19 @@ impl UmfpackSymbolic {
         // SAFETY: `control` has UMFPACK_CONTROL entries.
         unsafe {
             if complex {
-                ffi::umfpack_zl_defaults(control.as_mut_ptr());
+                sys::umfpack_zl_defaults(control.as_mut_ptr());
             } else {
-                ffi::umfpack_dl_defaults(control.as_mut_ptr());
+                sys::umfpack_dl_defaults(control.as_mut_ptr());
             }
         }
-        control[ffi::UMFPACK_ORDERING] = ordering.control_value();
+        control[sys::UMFPACK_ORDERING] = ordering.control_value();
         // SAFETY: `control` has UMFPACK_CONTROL entries; `ap` has n + 1 and `ai` has ap[n]
         // entries forming a valid CSC pattern (validated above); Ax/Az may be NULL (they are
         // used for statistics only); `info` has UMFPACK_INFO entries; `sym` is a valid out
         // pointer.
-        let status = ffi::widen(unsafe {
+        let status = widen(unsafe {
             if complex {
-                ffi::umfpack_zl_symbolic(
+                sys::umfpack_zl_symbolic(
                     n_l,
                     n_l,
                     ap.as_ptr(),
@@ -474,7 +349,7 @@ impl UmfpackSymbolic {
                     info.as_mut_ptr(),
                 )
             } else {
-                ffi::umfpack_dl_symbolic(
+                sys::umfpack_dl_symbolic(
                     n_l,
                     n_l,
                     ap.as_ptr(),
@@ -486,38 +361,24 @@ impl UmfpackSymbolic {
                 )
             }
         });
-        let ptr = NonNull::new(sym);
-        match ptr {
-            Some(ptr) if status >= 0 => Ok(Self {
-                ptr,
-                n,
-                complex,
-                col_ptr: ap.into(),
-                row_idx: ai.into(),
-                control,
-                info,
-            }),
-            Some(p) => {
-                // Not expected (UMFPACK returns NULL on error), but never leak.
-                let mut raw = p.as_ptr();
-                // SAFETY: `raw` was produced by the matching symbolic routine.
-                unsafe {
-                    if complex {
-                        ffi::umfpack_zl_free_symbolic(&mut raw)
-                    } else {
-                        ffi::umfpack_dl_free_symbolic(&mut raw)
-                    }
-                }
+        let fresh = |ptr| Self {
+            ptr,
+            n,
+            complex,
+            col_ptr: ap.into(),
+            row_idx: ai.into(),
+            control,
+            info,
+        };
+        match NonNull::new(sym) {
+            Some(ptr) if status >= 0 => Ok(fresh(ptr)),
+            Some(ptr) => {
+                // Not expected (UMFPACK returns NULL on error), but never leak: wrapping the
+                // pointer first makes `Drop` free it.
+                drop(fresh(ptr));
                 Err(umf_error("symbolic analysis", status))
             }
-            None => Err(umf_error(
-                "symbolic analysis",
-                if status < 0 {
-                    status
-                } else {
-                    ffi::UMFPACK_ERROR_internal_error
-                },
-            )),
+            None => Err(no_object("symbolic analysis", status)),
         }
     }
 
@@ -548,9 +409,9 @@ impl Drop for UmfpackSymbolic {
         // SAFETY: `raw` came from the matching `umfpack_?l_symbolic` and is freed only here.
         unsafe {
             if self.complex {
-                ffi::umfpack_zl_free_symbolic(&mut raw)
+                sys::umfpack_zl_free_symbolic(&mut raw)
             } else {
-                ffi::umfpack_dl_free_symbolic(&mut raw)
+                sys::umfpack_dl_free_symbolic(&mut raw)
             }
         }
     }
@@ -571,9 +432,9 @@ pub struct UmfpackSolveInfo {
 impl UmfpackSolveInfo {
     fn from_info(info: &[f64; UMFPACK_INFO]) -> Self {
         Self {
-            ir_steps: info[ffi::UMFPACK_IR_TAKEN].max(0.0) as usize,
-            omega1: info[ffi::UMFPACK_OMEGA1],
-            omega2: info[ffi::UMFPACK_OMEGA2],
+            ir_steps: info[sys::UMFPACK_IR_TAKEN].max(0.0) as usize,
+            omega1: info[sys::UMFPACK_OMEGA1],
+            omega2: info[sys::UMFPACK_OMEGA2],
         }
     }
 
@@ -658,9 +519,9 @@ impl UmfpackNumeric {
         // arrays have nnz entries (checked by the callers), `sym.ptr` is a live Symbolic
         // object of the matching kind which UMFPACK only reads (shared access is fine),
         // `control`/`info` have the documented sizes and `num` is a valid out pointer.
-        let status = ffi::widen(unsafe {
+        let status = widen(unsafe {
             if sym.complex {
-                ffi::umfpack_zl_numeric(
+                sys::umfpack_zl_numeric(
                     sym.col_ptr.as_ptr(),
                     sym.row_idx.as_ptr(),
                     re.as_ptr(),
@@ -671,7 +532,7 @@ impl UmfpackNumeric {
                     info.as_mut_ptr(),
                 )
             } else {
-                ffi::umfpack_dl_numeric(
+                sys::umfpack_dl_numeric(
                     sym.col_ptr.as_ptr(),
                     sym.row_idx.as_ptr(),
                     re.as_ptr(),
@@ -702,14 +563,7 @@ impl UmfpackNumeric {
                 drop(fresh(ptr));
                 Err(umf_error("numeric factorization", status))
             }
-            None => Err(umf_error(
-                "numeric factorization",
-                if status < 0 {
-                    status
-                } else {
-                    ffi::UMFPACK_ERROR_internal_error
-                },
-            )),
+            None => Err(no_object("numeric factorization", status)),
         }
     }
 
@@ -743,9 +597,9 @@ impl UmfpackNumeric {
         let mut info = [0.0f64; UMFPACK_INFO];
         // SAFETY: pattern and values are the ones factored; `b` and `x` have n entries and
         // do not alias (`&` vs `&mut`); Numeric is live and only read; `info` is per call.
-        let status = ffi::widen(unsafe {
-            ffi::umfpack_dl_solve(
-                ffi::UMFPACK_A,
+        let status = widen(unsafe {
+            sys::umfpack_dl_solve(
+                sys::UMFPACK_A,
                 self.col_ptr.as_ptr(),
                 self.row_idx.as_ptr(),
                 self.re.as_ptr(),
@@ -795,9 +649,9 @@ impl UmfpackNumeric {
         let mut info = [0.0f64; UMFPACK_INFO];
         // SAFETY: as in `solve_real_info`; all four vectors have n entries, split storage
         // (non-NULL imaginary arrays), outputs are exclusive borrows distinct from inputs.
-        let status = ffi::widen(unsafe {
-            ffi::umfpack_zl_solve(
-                ffi::UMFPACK_A,
+        let status = widen(unsafe {
+            sys::umfpack_zl_solve(
+                sys::UMFPACK_A,
                 self.col_ptr.as_ptr(),
                 self.row_idx.as_ptr(),
                 self.re.as_ptr(),
@@ -817,8 +671,8 @@ impl UmfpackNumeric {
 
     fn solve_status(&self, status: i64) -> Result<()> {
         match status {
-            ffi::UMFPACK_OK => Ok(()),
-            ffi::UMFPACK_WARNING_singular_matrix => Err(Error::Factor(format!(
+            sys::UMFPACK_OK => Ok(()),
+            sys::UMFPACK_WARNING_singular_matrix => Err(Error::Factor(format!(
                 "UMFPACK solve: the factorization is singular (rcond = {:e}); \
                  the solution would contain Inf/NaN",
                 self.rcond()
@@ -831,12 +685,12 @@ impl UmfpackNumeric {
     /// UMFPACK's estimate of the reciprocal condition number, `min|U_ii| / max|U_ii|`
     /// (`Info[UMFPACK_RCOND]`); 0 (or NaN) for a singular factorization.
     pub fn rcond(&self) -> f64 {
-        self.info[ffi::UMFPACK_RCOND]
+        self.info[sys::UMFPACK_RCOND]
     }
 
     /// True if the numeric factorization returned `UMFPACK_WARNING_singular_matrix`.
     pub fn status_singular(&self) -> bool {
-        self.status == ffi::UMFPACK_WARNING_singular_matrix
+        self.status == sys::UMFPACK_WARNING_singular_matrix
     }
 
     /// The status returned by the numeric factorization (0 or a positive warning).
@@ -847,26 +701,26 @@ impl UmfpackNumeric {
     /// Entries in `L` plus entries in `U`, each including its diagonal
     /// (`Info[UMFPACK_LNZ] + Info[UMFPACK_UNZ]`).
     pub fn lu_nnz(&self) -> usize {
-        let l = self.info[ffi::UMFPACK_LNZ].max(0.0);
-        let u = self.info[ffi::UMFPACK_UNZ].max(0.0);
+        let l = self.info[sys::UMFPACK_LNZ].max(0.0);
+        let u = self.info[sys::UMFPACK_UNZ].max(0.0);
         (l + u) as usize
     }
 
     /// Peak memory of symbolic plus numeric factorization in bytes
     /// (`Info[UMFPACK_PEAK_MEMORY] * Info[UMFPACK_SIZE_OF_UNIT]`).
     pub fn peak_memory_bytes(&self) -> f64 {
-        self.info[ffi::UMFPACK_PEAK_MEMORY] * self.info[ffi::UMFPACK_SIZE_OF_UNIT]
+        self.info[sys::UMFPACK_PEAK_MEMORY] * self.info[sys::UMFPACK_SIZE_OF_UNIT]
     }
 
     /// Floating-point operations of the factorization (`Info[UMFPACK_FLOPS]`).
     pub fn flops(&self) -> f64 {
-        self.info[ffi::UMFPACK_FLOPS]
+        self.info[sys::UMFPACK_FLOPS]
     }
 
     /// Wall-clock time of the factorization in seconds, as measured by UMFPACK
     /// (`Info[UMFPACK_NUMERIC_WALLTIME]`).
     pub fn walltime(&self) -> f64 {
-        self.info[ffi::UMFPACK_NUMERIC_WALLTIME]
+        self.info[sys::UMFPACK_NUMERIC_WALLTIME]
     }
 
     /// UMFPACK's `Info` array from the numeric factorization (indices as in `umfpack.h`).
@@ -881,11 +735,124 @@ impl Drop for UmfpackNumeric {
         // SAFETY: `raw` came from the matching `umfpack_?l_numeric` and is freed only here.
         unsafe {
             if self.complex {
-                ffi::umfpack_zl_free_numeric(&mut raw)
+                sys::umfpack_zl_free_numeric(&mut raw)
             } else {
-                ffi::umfpack_dl_free_numeric(&mut raw)
+                sys::umfpack_dl_free_numeric(&mut raw)
             }
         }
+    }
+}
+
+/// The backend of [`super::Analysis`]: UMFPACK's analysis of the pencil's full pattern and,
+/// for each of its entries, the position in the pencil's lower pattern.
+pub(super) struct Symbolic {
+    sym: UmfpackSymbolic,
+    src: Vec<usize>,
+    real: bool,
+}
+
+impl Symbolic {
+    /// Orders (METIS) and analyses the full pattern of the pencil.
+    pub(super) fn new(pencil: &Pencil) -> Result<(Self, Footprint)> {
+        let (pattern, src) = pattern::full(pencil);
+        let real = pencil.is_real();
+        // METIS: measured 6× fewer flops and 2.4× less fill than UMFPACK's default AMD on a
+        // 10⁵-DoF 3-D pattern (143 s vs 861 s per real factorization)
+        let sym = UmfpackSymbolic::with_ordering(
+            pencil.n(),
+            pattern.col_ptr(),
+            pattern.row_idx(),
+            !real,
+            UmfpackOrdering::Metis,
+        )?;
+        let footprint = Footprint::full_pattern(real, src.len());
+        Ok((Symbolic { sym, src, real }, footprint))
+    }
+
+    /// Allocates the value buffers of one numeric factorization.
+    pub(super) fn numeric(&self) -> Result<Numeric<'_>> {
+        let nnz = self.src.len();
+        Ok(Numeric {
+            symbolic: self,
+            num: None,
+            re: try_vec(nnz)?,
+            im: if self.real { Vec::new() } else { try_vec(nnz)? },
+            pivot_ratio: f64::NAN,
+        })
+    }
+}
+
+/// One UMFPACK factorization of A(iω), redone per frequency.
+pub(super) struct Numeric<'a> {
+    symbolic: &'a Symbolic,
+    /// The last successful factorization.
+    num: Option<UmfpackNumeric>,
+    /// Values on the full pattern (`im` empty on the real path).
+    re: Vec<f64>,
+    im: Vec<f64>,
+    pivot_ratio: f64,
+}
+
+impl Factorization for Numeric<'_> {
+    fn factor(&mut self, a: &Values<'_>, freq_hz: f64, _: Par) -> Result<()> {
+        let Symbolic { sym, src, real } = self.symbolic;
+        self.num = None;
+        for (v, &s) in self.re.iter_mut().zip(src.iter()) {
+            *v = a.re[s];
+        }
+        let f = if *real {
+            UmfpackNumeric::real(sym, &self.re)?
+        } else {
+            for (v, &s) in self.im.iter_mut().zip(src.iter()) {
+                *v = a.im[s];
+            }
+            UmfpackNumeric::complex(sym, &self.re, &self.im)?
+        };
+        self.pivot_ratio = f.rcond();
+        if f.status_singular() {
+            return Err(Error::Singular {
+                freq_hz,
+                detail: format!(
+                    "UMFPACK reports a singular matrix (rcond {:.1e})",
+                    f.rcond()
+                ),
+            });
+        }
+        self.num = Some(f);
+        Ok(())
+    }
+
+    fn solve(&mut self, mut rhs: MatMut<'_, c64>, _: Par) {
+        let f = self
+            .num
+            .as_ref()
+            .expect("solve only after a successful factorization");
+        let (n, k) = (rhs.nrows(), rhs.ncols());
+        let (mut br, mut bi) = (vec![0.0; n], vec![0.0; n]);
+        let (mut xr, mut xi) = (vec![0.0; n], vec![0.0; n]);
+        for c in 0..k {
+            for i in 0..n {
+                br[i] = rhs[(i, c)].re;
+                bi[i] = rhs[(i, c)].im;
+            }
+            let ok = if self.symbolic.real {
+                f.solve_real(&br, &mut xr)
+                    .and_then(|_| f.solve_real(&bi, &mut xi))
+            } else {
+                f.solve_complex(&br, &bi, &mut xr, &mut xi)
+            };
+            if ok.is_err() {
+                xr.fill(f64::NAN);
+            }
+            for i in 0..n {
+                rhs[(i, c)] = c64::new(xr[i], xi[i]);
+            }
+        }
+    }
+
+    /// UMFPACK's rcond estimate.
+    fn pivot_ratio(&self) -> f64 {
+        self.pivot_ratio
     }
 }
 

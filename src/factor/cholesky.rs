@@ -1,0 +1,131 @@
+//! Real sparse Cholesky LLᵀ of the shifted pencil K − σM (faer, supernodal, AMD ordering).
+//!
+//! For σ below the spectrum of K φ = λ M φ (σ < 0 with M positive definite and K positive
+//! semi-definite), K − σM is symmetric positive definite, even for a free body, so it has a
+//! Cholesky factor P (K − σM) Pᵀ = L Lᵀ. Two users (DESIGN.md §3.1, §3.6):
+//! - the eigensolver's shift-invert operator (K − σM)⁻¹ M ([`Cholesky`]: factor once, solve
+//!   in place per Krylov step);
+//! - the benches' reference "real Cholesky on the same pattern" ([`reference_cholesky`]),
+//!   the arithmetic floor the complex factorizations of A(iω) are compared with.
+//!
+//! [`symbolic_cholesky`] is the AMD-ordered symbolic analysis of the pencil's N×N lower
+//! pattern. It is shared: the LBLᵀ backend factors the real pencil on it and expands its
+//! order pairwise for the 2N form, and the inertia count factors K − σM on it.
+
+use super::{pattern, try_vec, workspace};
+use crate::pencil::Pencil;
+use crate::{Error, Result};
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt::factor::LltError;
+use faer::sparse::linalg::cholesky::{
+    factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymbolicCholesky,
+    SymmetricOrdering,
+};
+use faer::sparse::linalg::SupernodalThreshold;
+use faer::sparse::SparseColMatRef;
+use faer::{Conj, MatMut, Par, Side};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Symbolic Cholesky of the pencil's pattern with AMD ordering: the reference "real
+/// Cholesky on the same pattern" of the benches, and the ordering the 2N form expands.
+///
+/// # Errors
+/// [`Error::Factor`] when the analysis fails (allocation, index overflow).
+pub fn symbolic_cholesky(pencil: &Pencil) -> Result<SymbolicCholesky<usize>> {
+    factorize_symbolic_cholesky(
+        pattern::lower(pencil),
+        Side::Lower,
+        SymmetricOrdering::Amd,
+        supernodal_params(),
+    )
+    .map_err(|e| Error::Factor(format!("symbolic analysis: {e:?}")))
+}
+
+/// The symbolic parameters of every factorization on faer's Cholesky machinery: always
+/// supernodal (the intranode LBLᵀ needs supernodes for its 2×2 pivots).
+pub(super) fn supernodal_params() -> CholeskySymbolicParams<'static> {
+    CholeskySymbolicParams {
+        supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+        ..Default::default()
+    }
+}
+
+/// A numeric Cholesky factor of K − σM on a [`symbolic_cholesky`] of the pencil: allocate
+/// once ([`Cholesky::new`]), factor ([`Cholesky::factor`]), solve in place
+/// ([`Cholesky::solve_in_place`], one column at a time, sequential).
+pub(crate) struct Cholesky {
+    sym: Arc<SymbolicCholesky<usize>>,
+    l: Vec<f64>,
+    stack: MemBuffer,
+}
+
+impl Cholesky {
+    /// Allocates the factor and the workspace of a factorization with parallelism `par`
+    /// and of one-column solves.
+    ///
+    /// # Errors
+    /// [`Error::Factor`] when the memory cannot be allocated.
+    pub(crate) fn new(sym: Arc<SymbolicCholesky<usize>>, par: Par) -> Result<Self> {
+        let l = try_vec(sym.len_val())?;
+        let stack = workspace(
+            sym.factorize_numeric_llt_scratch::<f64>(par, Default::default())
+                .or(sym.solve_in_place_scratch::<f64>(1, Par::Seq)),
+        )?;
+        Ok(Cholesky { sym, l, stack })
+    }
+
+    /// Entries of the factor L.
+    pub(crate) fn factor_nnz(&self) -> usize {
+        self.sym.len_val()
+    }
+
+    /// Factors K − σM.
+    ///
+    /// # Errors
+    /// faer's error when a pivot is not positive (K − σM is not positive definite).
+    pub(crate) fn factor(
+        &mut self,
+        pencil: &Pencil,
+        sigma: f64,
+        par: Par,
+    ) -> std::result::Result<(), LltError> {
+        let mut vals = vec![0.0; pencil.nnz()];
+        pencil.fill_shifted(sigma, &mut vals);
+        self.sym.factorize_numeric_llt(
+            &mut self.l,
+            SparseColMatRef::new(pattern::lower(pencil), &vals),
+            Side::Lower,
+            Default::default(),
+            par,
+            MemStack::new(&mut self.stack),
+            Default::default(),
+        )?;
+        Ok(())
+    }
+
+    /// x ← (K − σM)⁻¹ x (sequential).
+    pub(crate) fn solve_in_place(&mut self, x: MatMut<'_, f64>) {
+        LltRef::new(&self.sym, &self.l).solve_in_place_with_conj(
+            Conj::No,
+            x,
+            Par::Seq,
+            MemStack::new(&mut self.stack),
+        );
+    }
+}
+
+/// The reference of the benches: a real sparse Cholesky LLᵀ of K + σM (σ = (2π·1 Hz)², so
+/// that a free body's K becomes definite) on the pencil's AMD-ordered pattern. Returns
+/// (nnz(L), seconds of the numeric factorization) — the arithmetic floor a complex
+/// factorization of the same pattern is compared with (4× the flops in complex arithmetic).
+///
+/// # Errors
+/// [`Error::Factor`] when the analysis or the factorization fails.
+pub fn reference_cholesky(pencil: &Pencil, par: Par) -> Result<(usize, f64)> {
+    let mut chol = Cholesky::new(Arc::new(symbolic_cholesky(pencil)?), par)?;
+    let t = Instant::now();
+    chol.factor(pencil, -(2.0 * std::f64::consts::PI).powi(2), par)
+        .map_err(|e| Error::Factor(format!("reference Cholesky: {e:?}")))?;
+    Ok((chol.factor_nnz(), t.elapsed().as_secs_f64()))
+}

@@ -1,0 +1,101 @@
+//! Sparsity patterns the backends factor, all derived from the pencil's N×N lower pattern.
+//!
+//! The pencil A(iω) = K − ω²M + iωD is symmetric and stored by its lower triangle
+//! (row ≥ column, rows sorted). The backends read it in three forms:
+//! - [`lower`]: the pencil's own lower pattern, as a faer view (the symmetric factorizations
+//!   of the real N×N matrix: LBLᵀ, LLᵀ, the inertia count);
+//! - [`interleaved`]: the lower pattern of the real symmetric 2N×2N form
+//!   [[Ar, Ai], [Ai, −Ar]] with the two unknowns of each DoF interleaved (LBLᵀ, damped);
+//! - [`full`]: both triangles, for the unsymmetric LU backends (faer LU, UMFPACK), with the
+//!   position of every entry in the lower pattern so the values are gathered per frequency.
+
+use crate::pencil::Pencil;
+use faer::sparse::{SymbolicSparseColMat, SymbolicSparseColMatRef};
+
+/// The pencil's N×N lower pattern as a faer view, without re-checking it (this runs for
+/// every factorization).
+pub(super) fn lower(pencil: &Pencil) -> SymbolicSparseColMatRef<'_, usize> {
+    let n = pencil.n();
+    // SAFETY: `Pencil::new` builds this CSC pattern itself: `col_ptr` has n + 1 entries,
+    // starts at 0, is non-decreasing and ends at `row_idx.len()`; each column's rows come
+    // from a sorted merge of the sorted row lists of M, K (and D), each row taken once, so
+    // they are strictly increasing, and they are row indices of N×N matrices, so < n. The
+    // pencil is immutable afterwards.
+    unsafe {
+        SymbolicSparseColMatRef::new_unchecked(n, n, pencil.col_ptr(), None, pencil.row_idx())
+    }
+}
+
+/// Lower pattern of the interleaved 2N×2N form: block (i, j) of the N×N lower pattern
+/// becomes rows 2i, 2i+1 of columns 2j, 2j+1 (only 2j+1 for the diagonal of column 2j+1).
+pub(super) fn interleaved(pencil: &Pencil) -> SymbolicSparseColMat<usize> {
+    let n = pencil.n();
+    let (cp, ri) = (pencil.col_ptr(), pencil.row_idx());
+    let mut col_ptr = Vec::with_capacity(2 * n + 1);
+    let mut row_idx = Vec::with_capacity(4 * ri.len());
+    col_ptr.push(0);
+    for j in 0..n {
+        for &i in &ri[cp[j]..cp[j + 1]] {
+            row_idx.extend([2 * i, 2 * i + 1]);
+        }
+        col_ptr.push(row_idx.len());
+        for &i in &ri[cp[j]..cp[j + 1]] {
+            if i == j {
+                row_idx.push(2 * i + 1);
+            } else {
+                row_idx.extend([2 * i, 2 * i + 1]);
+            }
+        }
+        col_ptr.push(row_idx.len());
+    }
+    SymbolicSparseColMat::new_checked(2 * n, 2 * n, col_ptr, None, row_idx)
+}
+
+/// Full (both triangles) pattern from the pencil's lower pattern, with the source position
+/// of every entry in the lower pattern.
+pub(super) fn full(pencil: &Pencil) -> (SymbolicSparseColMat<usize>, Vec<usize>) {
+    let n = pencil.n();
+    let (cp, ri) = (pencil.col_ptr(), pencil.row_idx());
+    let mut count = vec![0usize; n];
+    for j in 0..n {
+        for &i in &ri[cp[j]..cp[j + 1]] {
+            count[j] += 1;
+            if i != j {
+                count[i] += 1;
+            }
+        }
+    }
+    let mut col_ptr = vec![0usize; n + 1];
+    for j in 0..n {
+        col_ptr[j + 1] = col_ptr[j] + count[j];
+    }
+    let mut next = col_ptr[..n].to_vec();
+    let nnz = col_ptr[n];
+    let mut row_idx = vec![0usize; nnz];
+    let mut src = vec![0usize; nnz];
+    // rows of column j: first the upper part (from columns i < j, i.e. entries (j, i) of the
+    // lower pattern, visited in increasing i), then the lower part (sorted): sorted overall
+    for j in 0..n {
+        for p in cp[j]..cp[j + 1] {
+            let i = ri[p];
+            if i != j {
+                // entry (i, j) lower → also (j, i) in column i, row j
+                row_idx[next[i]] = j;
+                src[next[i]] = p;
+                next[i] += 1;
+            }
+        }
+    }
+    // second pass for the lower part, appended after the upper entries of each column
+    for j in 0..n {
+        for p in cp[j]..cp[j + 1] {
+            row_idx[next[j]] = ri[p];
+            src[next[j]] = p;
+            next[j] += 1;
+        }
+    }
+    (
+        SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx),
+        src,
+    )
+}
