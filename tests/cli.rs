@@ -604,3 +604,73 @@ fn bench_marks_the_fill_it_cannot_report() {
     assert!(row.contains("— (a)") && !row.contains("| 0 |"), "{row}");
     assert!(out.contains("(a) faer LU and UMFPACK"), "{out}");
 }
+
+/// With stderr not a terminal (a script, a log file) no progress bar is drawn: stderr holds
+/// only the closing summary line.
+#[test]
+fn no_progress_bar_when_stderr_is_not_a_terminal() {
+    let work = scratch("quiet_progress");
+    let out = run(
+        &work,
+        &[
+            "sweep",
+            bar_str(),
+            "--band",
+            "1:1000",
+            "--points",
+            "40",
+            "--threads",
+            "1",
+            "--out",
+            "f.csv",
+        ],
+    );
+    let err = text(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        !err.contains("eta") && !err.contains("[="),
+        "a bar was drawn:\n{err}"
+    );
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("40 frequencies in"), "{err}");
+}
+
+/// Ctrl-C (SIGINT) during a long sweep stops it cleanly: a clear message, a non-zero exit
+/// status and no output file.
+#[cfg(unix)]
+#[test]
+fn ctrl_c_stops_a_long_sweep_and_writes_nothing() {
+    let work = scratch("ctrl_c");
+    let child = Command::new(env!("CARGO_BIN_EXE_sparsemor"))
+        .args([
+            "sweep",
+            bar_str(),
+            "--band",
+            "1:1000",
+            "--points",
+            "200000",
+            "--threads",
+            "1",
+            "--out",
+            "f.csv",
+        ])
+        .current_dir(&work)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("start the sweep");
+    std::thread::sleep(std::time::Duration::from_secs(2));
+    let kill = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .expect("kill -INT");
+    assert!(kill.success());
+    let out = child.wait_with_output().expect("wait");
+    let err = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("cancelled"), "{err}");
+    assert!(
+        entries(&work).is_empty(),
+        "left {:?} behind",
+        entries(&work)
+    );
+}

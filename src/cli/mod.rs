@@ -117,6 +117,7 @@ enum Command {
 /// Parses the command line and runs the command.
 pub fn run() -> sparsemor::Result<Done> {
     let cli = Cli::parse();
+    progress::handle_interrupts();
     let met = |r: sparsemor::Result<()>| r.map(|()| Done::Met);
     match cli.command {
         Command::Generate {

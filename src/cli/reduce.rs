@@ -117,7 +117,10 @@ pub fn reduce(a: &ReduceArgs) -> Result<super::Done> {
                 References::Explicit(f) => with_progress(f.len(), "reference frequencies", |cb| {
                     linefit::reduce(&body, &scene, &opts, None, cb)
                 })?,
-                _ => linefit::reduce(&body, &scene, &opts, None, &no_progress)?,
+                References::Tolerance(s) => with_progress(s.max_points, "factorizations", |cb| {
+                    linefit::reduce(&body, &scene, &opts, None, cb)
+                })?,
+                References::Count(_) => linefit::reduce(&body, &scene, &opts, None, &no_progress)?,
             };
             if let Some(s) = rom.sampling() {
                 print_steps(&s.steps);
