@@ -6,7 +6,7 @@
 //! same pattern and the ratio complex ÷ Cholesky (4 is the arithmetic limit), and a 4-frequency
 //! sweep on 1 vs 2 threads. Timings are single runs: quote ratios from one table.
 
-use super::commands::human_bytes;
+use super::args::human_bytes;
 use sparsemor::body::Body;
 use sparsemor::factor::{reference_cholesky, Analysis, Backend};
 use sparsemor::fe::{paper_scene, BoxSpec};

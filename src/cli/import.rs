@@ -1,6 +1,6 @@
 //! `import`: a model directory from the files an FE code wrote (ANSYS, Abaqus).
 
-use super::commands::parse_band;
+use super::args::parse_band;
 use sparsemor::io::import::{self, Dof, Imported};
 use sparsemor::io::model_dir::{self, Source, SourceToml};
 use sparsemor::{Error, Result};

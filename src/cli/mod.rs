@@ -1,12 +1,19 @@
 //! Command-line interface: argument parsing (clap), progress bars (indicatif) and output.
 //! All numerics live in the library; this module only renders.
 
+mod args;
 mod bench;
-mod commands;
+mod demo;
+mod evaluate;
+mod generate;
 mod import;
+mod info;
+mod modes;
 mod progress;
 mod reduce;
 mod report;
+mod sweep;
+mod tradeoff;
 
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
@@ -91,13 +98,13 @@ enum Command {
         model: PathBuf,
     },
     /// Transfer functions H(iω) over a band or a list of frequencies, written as CSV.
-    Sweep(commands::SweepArgs),
+    Sweep(sweep::SweepArgs),
     /// Reduce a model: line-fitting or SEREP, written as a ROM directory.
     Reduce(reduce::ReduceArgs),
     /// Transfer-function error, eigenfrequency errors and MAC of a ROM against its model.
-    Evaluate(reduce::EvaluateArgs),
+    Evaluate(evaluate::EvaluateArgs),
     /// Eigenfrequencies (partial, shift-invert Krylov; counted exactly up to a frequency).
-    Modes(reduce::ModesArgs),
+    Modes(modes::ModesArgs),
     /// The paper's comparison on the built-in bar: line-fitting vs SEREP.
     Demo {
         /// Worker threads (0 = all cores).
@@ -105,7 +112,7 @@ enum Command {
         threads: usize,
     },
     /// Speed vs accuracy: the sampling loop per tolerance and SEREP per mode count.
-    Tradeoff(reduce::TradeoffArgs),
+    Tradeoff(tradeoff::TradeoffArgs),
     /// A model directory from the files ANSYS or Abaqus wrote (.full, APDL Math, *MATRIX OUTPUT).
     Import(import::ImportArgs),
     /// One HTML page comparing ROMs with their model: |H|, ε(f), eigenfrequency errors, MAC.
@@ -126,20 +133,20 @@ pub fn run() -> sparsemor::Result<Done> {
             size,
             cell,
             out,
-        } => met(commands::generate(
+        } => met(generate::generate(
             &kind,
             elements.as_deref(),
             size.as_deref(),
             cell,
             &out,
         )),
-        Command::Info { model } => met(commands::info(&model)),
-        Command::Sweep(args) => met(commands::sweep(&args, cli.verbose)),
+        Command::Info { model } => met(info::info(&model)),
+        Command::Sweep(args) => met(sweep::sweep(&args, cli.verbose)),
         Command::Reduce(args) => reduce::reduce(&args),
-        Command::Evaluate(args) => met(reduce::evaluate(&args)),
-        Command::Modes(args) => met(reduce::modes(&args)),
-        Command::Demo { threads } => met(reduce::demo(threads)),
-        Command::Tradeoff(args) => met(reduce::tradeoff(&args)),
+        Command::Evaluate(args) => met(evaluate::evaluate(&args)),
+        Command::Modes(args) => met(modes::modes(&args)),
+        Command::Demo { threads } => met(demo::demo(threads)),
+        Command::Tradeoff(args) => met(tradeoff::tradeoff(&args)),
         Command::Import(args) => met(import::import(&args)),
         Command::Report(args) => met(report::report(&args)),
         Command::Bench(args) => met(bench::run(&args)),

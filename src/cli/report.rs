@@ -1,7 +1,7 @@
 //! `report`: one self-contained HTML page (inline SVG, no scripts or external assets) that
 //! compares ROMs with their full model — the paper's figures 4–7 and more (issue 9 item 4).
 
-use super::commands::linspace;
+use super::args::linspace;
 use super::progress::with_progress;
 use sparsemor::body::Body;
 use sparsemor::eigen::{eigenpairs, EigenOptions, Request};

@@ -1,0 +1,148 @@
+//! `sparsemor evaluate`: ε(f) of a ROM against its model, the ROM's eigenfrequencies, the
+//! one-to-one MAC pairing and stability.
+
+use super::args::{linspace, parse_band};
+use super::progress::with_progress;
+use sparsemor::body::Body;
+use sparsemor::eigen::{eigenpairs, EigenOptions, Request};
+use sparsemor::io::{atomic, model_dir, rom_dir};
+use sparsemor::metrics::{
+    modal_comparison, rom_eigenfrequencies, ErrorCurve, ModalComparison, Reference,
+};
+use sparsemor::reduce::Rom;
+use sparsemor::scene::{positive_band, Scene};
+use sparsemor::sweep::SweepOptions;
+use sparsemor::{Error, Result};
+use std::path::{Path, PathBuf};
+
+#[derive(clap::Args)]
+pub struct EvaluateArgs {
+    /// Model directory.
+    model: PathBuf,
+    /// ROM directory.
+    rom: PathBuf,
+    /// Band LO:HI in Hz (default: the model's band, starting at 1 Hz on a free body if it starts at 0).
+    #[arg(long)]
+    band: Option<String>,
+    /// Grid points, both ends included.
+    #[arg(long, default_value_t = 500)]
+    points: usize,
+    /// Write ε(f) as CSV: f_hz,eps_elastic,eps_total.
+    #[arg(long)]
+    csv: Option<PathBuf>,
+    /// Worker threads (0 = all cores).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+}
+
+/// The requested (or the scene's) band, starting above 0 Hz ([`positive_band`]).
+fn evaluation_band(scene: &Scene, band: Option<&str>) -> Result<[f64; 2]> {
+    Ok(positive_band(match band {
+        Some(s) => parse_band(s)?,
+        None => scene.band_hz,
+    }))
+}
+
+pub fn evaluate(a: &EvaluateArgs) -> Result<()> {
+    let (model, scene, _) = model_dir::read(&a.model)?;
+    let rom = rom_dir::read(&a.rom)?;
+    rom.check_model(&model)
+        .map_err(|e| Error::InvalidSetting(format!("{}: {e}", a.rom.display())))?;
+    let band = evaluation_band(&scene, a.band.as_deref())?;
+    let body = Body::new(&model)?;
+    let rom_scene = Scene {
+        inputs: rom.inputs.clone(),
+        outputs: rom.outputs.clone(),
+        band_hz: band,
+    };
+    if a.points < 2 {
+        return Err(Error::InvalidSetting("--points must be >= 2".into()));
+    }
+    let freqs = linspace(band, a.points);
+    let opts = SweepOptions {
+        threads: a.threads,
+        ..Default::default()
+    };
+    let curve = with_progress(freqs.len(), "evaluate", |cb| {
+        Reference::compute(&body, &rom_scene, &freqs, &opts, cb)?.error(&rom)
+    })?;
+    let full = eigenpairs(&body, Request::UpTo(band[1]), &EigenOptions::default())?;
+    let modal = modal_comparison(&rom, &full, rom.basis.as_ref().map(|v| v.as_ref()))?;
+    print_evaluation(&rom, &curve, &modal)?;
+    if let Some(path) = &a.csv {
+        write_eps_csv(path, &curve)?;
+        eprintln!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+fn print_evaluation(rom: &Rom, curve: &ErrorCurve, modal: &ModalComparison) -> Result<()> {
+    let (emax, emean) = ErrorCurve::max_mean(&curve.eps_elastic);
+    let (tmax, tmean) = ErrorCurve::max_mean(&curve.eps_total);
+    println!(
+        "eps elastic      max {:.3e}  mean {:.3e}   ({} points in [{}, {}] Hz)",
+        emax,
+        emean,
+        curve.freqs_hz.len(),
+        curve.freqs_hz[0],
+        curve.freqs_hz[curve.freqs_hz.len() - 1]
+    );
+    println!("eps total        max {tmax:.3e}  mean {tmean:.3e}");
+    let f = rom_eigenfrequencies(rom)?;
+    println!(
+        "ROM eigenfreqs   {}",
+        f.iter()
+            .map(|x| format!("{x:.1}"))
+            .collect::<Vec<_>>()
+            .join(" ")
+    );
+    println!(
+        "largest          {:.1} Hz",
+        f.last().copied().unwrap_or(f64::NAN)
+    );
+    println!(
+        "stability        Mr {}, Kr {}",
+        if rom.mass_definiteness.positive_definite {
+            "SPD"
+        } else {
+            "NOT SPD"
+        },
+        if rom.stiffness_definiteness.positive_definite {
+            "SPD"
+        } else {
+            "NOT SPD"
+        }
+    );
+    println!(
+        "modes in band    (MAC {})",
+        if modal.expanded {
+            "of expanded modes V·phi"
+        } else {
+            "on the ROM DoFs; --keep-basis gives expanded MAC"
+        }
+    );
+    for p in &modal.pairs {
+        println!(
+            "  full {:>3} {:>9.2} Hz   rom {:>3} {:>9.2} Hz   rel err {:.2e}   MAC {:.5}",
+            p.full_mode, p.full_hz, p.rom_mode, p.rom_hz, p.rel_freq_error, p.mac
+        );
+    }
+    for (k, f) in &modal.unpaired {
+        println!(
+            "  full {k:>3} {f:>9.2} Hz   unpaired: beyond the ROM's {} modes",
+            rom.order()
+        );
+    }
+    Ok(())
+}
+
+fn write_eps_csv(path: &Path, c: &ErrorCurve) -> Result<()> {
+    let mut s = String::from("f_hz,eps_elastic,eps_total\n");
+    for k in 0..c.freqs_hz.len() {
+        s.push_str(&format!(
+            "{:?},{:?},{:?}\n",
+            c.freqs_hz[k], c.eps_elastic[k], c.eps_total[k]
+        ));
+    }
+    atomic::write_bytes(path, s)
+}

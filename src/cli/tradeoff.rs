@@ -1,0 +1,152 @@
+//! `sparsemor tradeoff`: speed vs accuracy — the sampling loop per tolerance and SEREP per
+//! mode count, each verified on one fine grid of full solves.
+
+use super::args::{linspace, parse_list};
+use super::progress::with_progress;
+use super::reduce::sampling_message;
+use sparsemor::body::Body;
+use sparsemor::eigen::EigenOptions;
+use sparsemor::io::{atomic, model_dir};
+use sparsemor::metrics::{ErrorCurve, Reference};
+use sparsemor::reduce::linefit::{
+    self, Interface, LineFitOptions, Outcome, References, SamplingOptions,
+};
+use sparsemor::reduce::serep::{self, ModeChoice, SerepOptions};
+use sparsemor::report::{tradeoff_svg, TradeoffRow};
+use sparsemor::scene::positive_band;
+use sparsemor::sweep::{no_progress, SweepOptions};
+use sparsemor::{Error, Result};
+use std::path::PathBuf;
+use std::time::Instant;
+
+#[derive(clap::Args)]
+pub struct TradeoffArgs {
+    /// Model directory.
+    model: PathBuf,
+    /// Tolerances of the sampling loop.
+    #[arg(long, default_value = "1e-1,1e-2,1e-3,1e-4")]
+    tols: String,
+    /// Initial interface: outputs + K spread DoFs.
+    #[arg(long, default_value_t = 5)]
+    extra_interface: usize,
+    /// Largest order the sampling loop may grow to.
+    #[arg(long, default_value_t = 40)]
+    max_order: usize,
+    /// Factorization budget per tolerance.
+    #[arg(long, default_value_t = 80)]
+    max_points: usize,
+    /// SEREP mode counts c to compare (c retained DoFs: the outputs first, then spread DoFs).
+    #[arg(long, default_value = "3,6,9,12,15,20")]
+    serep_modes: String,
+    /// Verification grid points over the band (full solves).
+    #[arg(long, default_value_t = 2000)]
+    points: usize,
+    /// Worker threads (0 = all cores).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// CSV output: method,setting,seconds,factorizations,order,max_eps.
+    #[arg(long)]
+    csv: Option<PathBuf>,
+    /// SVG plot output.
+    #[arg(long)]
+    svg: Option<PathBuf>,
+}
+
+/// Speed vs accuracy: the sampling loop per tolerance and SEREP per mode count, each
+/// verified on a fine grid by full solves (computed once).
+pub fn tradeoff(a: &TradeoffArgs) -> Result<()> {
+    let (model, scene, _) = model_dir::read(&a.model)?;
+    let body = Body::new(&model)?;
+    let outputs = &scene.outputs;
+    let tols: Vec<f64> = parse_list(&a.tols, "--tols")?;
+    let modes: Vec<usize> = parse_list(&a.serep_modes, "--serep-modes")?;
+    let sweep = SweepOptions {
+        threads: a.threads,
+        ..Default::default()
+    };
+    let grid = linspace(positive_band(scene.band_hz), a.points.max(2));
+    let t = Instant::now();
+    let reference = with_progress(grid.len(), "verification grid", |cb| {
+        Reference::compute(&body, &scene, &grid, &sweep, cb)
+    })?;
+    eprintln!(
+        "verification grid: {} full solves in {:.1} s",
+        grid.len(),
+        t.elapsed().as_secs_f64()
+    );
+    let mut rows: Vec<TradeoffRow> = Vec::new();
+    for &tol in &tols {
+        let mut s = SamplingOptions::new(tol);
+        s.max_order = Some(a.max_order);
+        s.max_points = a.max_points;
+        // verified below on the common grid
+        s.verify_points = Some(0);
+        let mut o = LineFitOptions::new(
+            Interface::OutputsPlus(a.extra_interface),
+            References::Tolerance(s),
+        );
+        o.sweep = sweep.clone();
+        let t = Instant::now();
+        let rom = linefit::reduce(&body, &scene, &o, None, &no_progress)?;
+        let secs = t.elapsed().as_secs_f64();
+        let e = ErrorCurve::max_mean(&reference.error(&rom)?.eps_elastic).0;
+        let report = rom
+            .sampling()
+            .ok_or_else(|| Error::InvalidSetting("the sampling loop returned no report".into()))?;
+        rows.push(TradeoffRow {
+            method: "linefit".into(),
+            setting: format!("tol {tol:.0e}"),
+            seconds: secs,
+            factorizations: report.factorizations,
+            order: rom.order(),
+            max_eps: e,
+        });
+        if report.outcome != Outcome::Converged {
+            eprintln!("tol {tol:.0e}: {}", sampling_message(report, &rom));
+        }
+    }
+    for &c in &modes {
+        // r = c retained DoFs (SEREP needs c >= r): the outputs first, then spread DoFs
+        let mut retain: Vec<usize> = outputs.iter().copied().take(c).collect();
+        if c > retain.len() {
+            retain.extend(linefit::spread_dofs(&model, c - retain.len(), outputs)?);
+        }
+        let t = Instant::now();
+        let opts = SerepOptions {
+            modes: ModeChoice::LowestDeformation(c),
+            retain: Some(retain),
+            keep_basis: false,
+            eigen: EigenOptions::for_band(scene.band_hz[1]),
+        };
+        let rom = serep::reduce(&body, &scene, &opts, None)?;
+        let secs = t.elapsed().as_secs_f64();
+        let e = ErrorCurve::max_mean(&reference.error(&rom)?.eps_elastic).0;
+        rows.push(TradeoffRow {
+            method: "serep".into(),
+            setting: format!("{c} modes"),
+            seconds: secs,
+            factorizations: 1,
+            order: rom.order(),
+            max_eps: e,
+        });
+    }
+    println!(
+        "| method | setting | wall s | factorizations | order | verified max eps ({} points) |",
+        grid.len()
+    );
+    println!("|---|---|---|---|---|---|");
+    for r in &rows {
+        println!(
+            "| {} | {} | {:.3} | {} | {} | {:.2e} |",
+            r.method, r.setting, r.seconds, r.factorizations, r.order, r.max_eps
+        );
+    }
+    if let Some(path) = &a.csv {
+        atomic::write_bytes(path, TradeoffRow::to_csv(&rows))?;
+    }
+    if let Some(path) = &a.svg {
+        let svg = tradeoff_svg(&format!("{}: time vs accuracy", model.name), &rows)?;
+        atomic::write_bytes(path, svg)?;
+    }
+    Ok(())
+}
