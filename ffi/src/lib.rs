@@ -3,7 +3,7 @@
 //!
 //! The header `ffi/include/sparsemor.h` is generated from this crate by cbindgen and checked
 //! in; `tests/header.rs` fails when it is stale (regenerate with
-//! `SPARSEMOR_FFI_REGENERATE=1 cargo test -p sparsemor-ffi --test header`).
+//! `SPARSEMOR_FFI_REGENERATE=1 cargo test -p sparsemor-ffi --test it header`).
 //!
 //! Conventions (DESIGN.md §6, STYLE.md §3 and patterns 10–11):
 //! - every function that can fail returns a [`SparsemorStatus`]; on failure

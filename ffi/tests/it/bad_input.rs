@@ -2,8 +2,7 @@
 //! per case, each checking the status code and the message (DESIGN.md §6, issue item 3).
 //! Nothing here may crash; every failure must leave `*_out` handles NULL.
 
-mod common;
-use common::*;
+use crate::common::*;
 use sparsemor_ffi::*;
 use std::ptr::{null, null_mut};
 

@@ -1,9 +1,8 @@
 //! The model directory (DESIGN.md §4): bit-exact round trips, the real ANSYS example, and
 //! one test per kind of bad input (error variant + a message that names the problem).
 
-mod common;
 
-use common::{dense_h, random_model, random_scene, rel_err, sparse};
+use crate::common::{dense_h, random_model, random_scene, rel_err, sparse};
 use faer::Mat;
 use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
 use sparsemor::io::{atomic, model_dir};
@@ -417,7 +416,7 @@ fn nan_in_stiffness_file_names_the_file_and_line() {
 fn nan_in_stiffness_matrix_is_rejected_by_validation() {
     // The same check for a model built in memory (Model::new).
     let base = random_model(9, 2, 3, Damping::None);
-    let mut k = common::dense(&base.stiffness);
+    let mut k = crate::common::dense(&base.stiffness);
     k[(4, 4)] = f64::NAN;
     let e = Model::new(
         "nan".into(),
@@ -616,7 +615,7 @@ fn failed_write_leaves_no_directory_behind() {
     // A model that cannot be written: a NaN in K, bypassing Model::new (fields are public).
     let parent = scratch("write_fails");
     let mut model = random_model(9, 2, 5, Damping::None);
-    let mut k = common::dense(&model.stiffness);
+    let mut k = crate::common::dense(&model.stiffness);
     k[(8, 8)] = f64::NAN;
     model.stiffness = sparse(&k);
     let dir = parent.join("out");

@@ -2,8 +2,7 @@
 //! at mid-band, accurate at 1e-3 Hz where H − H0 fails; invariant to units, DoF permutation
 //! and thread count; singular pencils are reported.
 
-mod common;
-use common::*;
+use crate::common::*;
 use faer::{c64, Mat};
 use sparsemor::body::Body;
 use sparsemor::fe::{bar_model, paper_scene, BoxSpec};

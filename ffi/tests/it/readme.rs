@@ -1,8 +1,7 @@
 //! The README's snippets work: the C program compiles (warnings as errors) against the
 //! static library and runs; the Python snippets run when numpy/scipy (and pyMOR) are there.
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::path::Path;
 use std::process::Command;
 

@@ -1,7 +1,6 @@
 //! The sweep's transfer functions equal dense direct solves (issue: foundation, acceptance 1).
 
-mod common;
-use common::*;
+use crate::common::*;
 use sparsemor::body::Body;
 use sparsemor::factor::Backend;
 use sparsemor::model::Damping;

@@ -2,8 +2,7 @@
 //! here, the exact-fit property, the paper's accuracy on the built-in bar, ROM files and
 //! bad settings.
 
-mod common;
-use common::*;
+use crate::common::*;
 use faer::linalg::solvers::SolveLstsq;
 use faer::{c64, Mat};
 use sparsemor::body::Body;

@@ -3,8 +3,7 @@
 //! build's shared library, and the pyMOR example when pyMOR is installed. Skipped with a note
 //! when python3 with numpy and scipy is missing (CI installs them: `pip install numpy scipy`).
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::path::Path;
 use std::process::Command;
 

@@ -1,9 +1,8 @@
 //! Importers (io::import, io::ansys, io::abaqus) on the real files of `../shared/data/`, the
 //! rotor cross-check between ANSYS and Abaqus, and one test per bad-file class.
 
-mod common;
 
-use common::dense;
+use crate::common::dense;
 use proptest::prelude::*;
 use sparsemor::body::Body;
 use sparsemor::eigen::{eigenpairs, EigenOptions, Request};

@@ -2,8 +2,7 @@
 //! the paper's bar), against Euler–Bernoulli beam theory (a slender bar), backend agreement
 //! (with `--features arpack`) and bad settings.
 
-mod common;
-use common::*;
+use crate::common::*;
 use faer::Mat;
 use sparsemor::body::Body;
 use sparsemor::eigen::{eigenpairs, EigenBackend, EigenOptions, Modes, Request};

@@ -1,6 +1,6 @@
 //! The checked-in C header `include/sparsemor.h` must equal what cbindgen generates from the
 //! current sources (STYLE.md pattern 11). Regenerate with
-//! `SPARSEMOR_FFI_REGENERATE=1 cargo test -p sparsemor-ffi --test header`.
+//! `SPARSEMOR_FFI_REGENERATE=1 cargo test -p sparsemor-ffi --test it header`.
 
 use std::path::PathBuf;
 
@@ -38,7 +38,7 @@ fn header_is_up_to_date() {
             );
         panic!(
             "{} is stale (first difference at line {line}); regenerate it with\n  \
-             SPARSEMOR_FFI_REGENERATE=1 cargo test -p sparsemor-ffi --test header\nand commit the result",
+             SPARSEMOR_FFI_REGENERATE=1 cargo test -p sparsemor-ffi --test it header\nand commit the result",
             path.display()
         );
     }

@@ -2,8 +2,7 @@
 //! 2000-point grid, the indicator against the true error, no re-factorization, clear
 //! messages when a tolerance cannot be reached.
 
-mod common;
-use common::*;
+use crate::common::*;
 use sparsemor::body::Body;
 use sparsemor::eigen::{eigenpairs, EigenOptions, Request};
 use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
@@ -311,7 +310,7 @@ fn impossible_requests_say_what_was_reached_and_what_would_help() {
     assert_eq!(r.outcome, Outcome::Stagnated);
     assert!(message.contains("NOT reached") && message.contains("larger interface"));
     // a tiny budget: the library names the option (the CLI words it as --max-points, tested
-    // in tests/cli.rs)
+    // in tests/it/cli.rs)
     let mut small = SamplingOptions::new(1e-6);
     small.max_points = 5;
     let rom = sampled(m, scene, small, 5, 0, &no_progress).unwrap();

@@ -4,8 +4,7 @@
 //! The same program runs under `valgrind --leak-check=full --error-exitcode=1` when valgrind
 //! is installed.
 
-mod common;
-use common::*;
+use crate::common::*;
 use sparsemor::body::Body;
 use sparsemor::eigen::EigenOptions;
 use sparsemor::fe::{bar_model, paper_scene, BoxSpec};

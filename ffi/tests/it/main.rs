@@ -1,0 +1,9 @@
+//! The integration tests of the C ABI, one module per concern, in one test binary.
+
+mod bad_input;
+mod c_client;
+mod common;
+mod discipline;
+mod header;
+mod python;
+mod readme;

@@ -1,0 +1,17 @@
+//! The integration tests of the library and the `sparsemor` command, one module per
+//! capability, in one test binary (one link instead of one per file).
+
+mod cli;
+mod common;
+mod eigen;
+mod fe_bar;
+mod import;
+mod linefit;
+mod lsq;
+mod matrix_market;
+mod model_dir;
+mod report;
+mod rigid_elastic;
+mod sampling;
+mod serep;
+mod sweep_dense;
