@@ -135,6 +135,15 @@ impl Pencil {
         &self.k
     }
 
+    /// max_i |K_ii| (the first entry of each column is its diagonal).
+    pub fn stiffness_diagonal_max(&self) -> f64 {
+        (0..self.n)
+            .filter(|&j| {
+                self.col_ptr[j] < self.col_ptr[j + 1] && self.row_idx[self.col_ptr[j]] == j
+            })
+            .map(|j| self.k[self.col_ptr[j]].abs())
+            .fold(0.0, f64::max)
+    }
     /// re ← K − ω²M (the real part of A(iω)).
     pub fn fill_real(&self, omega: f64, re: &mut [f64]) {
         self.fill_shifted(omega * omega, re);

@@ -128,6 +128,17 @@ impl RigidBody {
         })
     }
 
+    /// Six DoFs on which the rigid modes are independent — a statically determinate support
+    /// of the free body — chosen as the first six pivots of a column-pivoted QR of V0ᵀ (6×N),
+    /// so V0[s,:] is as well conditioned as the nodes allow; sorted.
+    pub fn supports(&self) -> Vec<usize> {
+        let qr = self.v0.transpose().to_owned().col_piv_qr();
+        let (fwd, _) = qr.P().arrays();
+        let mut s: Vec<usize> = fwd.iter().copied().take(6).collect();
+        s.sort_unstable();
+        s
+    }
+
     /// The rigid modes V0 (N×6).
     pub fn modes(&self) -> MatRef<'_, f64> {
         self.v0.as_ref()

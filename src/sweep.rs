@@ -157,6 +157,8 @@ pub struct Solver<'a> {
     threads: usize,
     memory_budget: usize,
     probe_tol: f64,
+    /// Diagonal of the held DoFs at 0 Hz: the largest |K_ii|, so the supported K keeps its scale.
+    support_scale: f64,
 }
 
 impl<'a> Solver<'a> {
@@ -211,6 +213,7 @@ impl<'a> Solver<'a> {
             threads,
             memory_budget,
             probe_tol: opts.probe_tol,
+            support_scale: body.pencil().stiffness_diagonal_max(),
         })
     }
 
@@ -272,10 +275,11 @@ impl<'a> Solver<'a> {
                     "frequency {f} Hz: must be finite and >= 0"
                 )));
             }
-            if f == 0.0 && self.body.rigid().is_some() {
+            if f == 0.0 && self.body.rigid().is_some() && self.response == Response::Total {
                 return Err(Error::InvalidSetting(
-                    "frequency 0 Hz on a free body: A(0) = K is singular (rigid modes) and H(0) is infinite; \
-                     use frequencies > 0 (e.g. a band starting at 1 Hz)"
+                    "frequency 0 Hz on a free body: the total response H(0) is infinite (the rigid part \
+                     grows like 1/ω²); the elastic part is finite at 0 Hz (part elastic), or use \
+                     frequencies > 0 (e.g. a band starting at 1 Hz)"
                         .into(),
                 ));
             }
@@ -383,13 +387,27 @@ impl<'a> Solver<'a> {
         let omega = 2.0 * std::f64::consts::PI * f;
         let p = self.inputs.len();
         let t0 = Instant::now();
-        numeric.factor(self.body.pencil(), omega, par)?;
+        // the elastic response of a free body at 0 Hz: K is singular, so solve with the body
+        // held at six support DoFs and let Pᵀ remove the rigid motion (docs/design.md §3.2)
+        let held = match (f == 0.0, self.body.rigid()) {
+            (true, Some(rb)) => Some(rb.supports()),
+            _ => None,
+        };
+        match &held {
+            Some(s) => numeric.factor_supported(self.body.pencil(), s, self.support_scale, par)?,
+            None => numeric.factor(self.body.pencil(), omega, par)?,
+        }
         let factor_s = t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
         rhs.as_mut().subcols_mut(0, p).copy_from(&self.load);
         self.body
             .pencil()
             .apply(omega, self.probe.as_ref(), rhs.as_mut().subcols_mut(p, 1));
+        for &d in held.iter().flatten() {
+            for c in 0..=p {
+                rhs[(d, c)] = c64::new(0.0, 0.0);
+            }
+        }
         numeric.solve(rhs.as_mut(), par);
         let solve_s = t1.elapsed().as_secs_f64();
         let mut err = Mat::<c64>::from_fn(rhs.nrows(), 1, |i, _| rhs[(i, p)] - self.probe[(i, 0)]);

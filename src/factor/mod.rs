@@ -316,6 +316,51 @@ impl Numeric<'_> {
         Ok(())
     }
 
+    /// Factors K with the rows and columns of the `supports` DoFs replaced by those of a
+    /// scaled identity (their off-diagonal entries 0, the diagonal `scale`): the static
+    /// stiffness of a free body held by a statically determinate support (docs/design.md
+    /// §3.2). With supports on which the rigid modes are independent (V0[s,:] invertible),
+    /// the supported K is non-singular, and for a load b without rigid component the solution
+    /// x (x_s = 0) differs from every solution of K x = b by a rigid motion only, which Pᵀ
+    /// removes. `supports` must be sorted.
+    ///
+    /// # Errors
+    /// As [`Self::factor`].
+    pub fn factor_supported(
+        &mut self,
+        pencil: &Pencil,
+        supports: &[usize],
+        scale: f64,
+        par: Par,
+    ) -> Result<()> {
+        self.factored_at = None;
+        if self.real {
+            pencil.fill_real(0.0, &mut self.re);
+        } else {
+            pencil.fill_complex(0.0, &mut self.re, &mut self.im);
+        }
+        let (cp, ri) = (pencil.col_ptr(), pencil.row_idx());
+        let held = |d: usize| supports.binary_search(&d).is_ok();
+        for j in 0..pencil.n() {
+            for p in cp[j]..cp[j + 1] {
+                if held(j) || held(ri[p]) {
+                    self.re[p] = if ri[p] == j { scale } else { 0.0 };
+                    if let Some(v) = self.im.get_mut(p) {
+                        *v = 0.0;
+                    }
+                }
+            }
+        }
+        let values = Values {
+            pattern: pattern::lower(pencil),
+            re: &self.re,
+            im: &self.im,
+        };
+        self.factors.factor(&values, 0.0, par)?;
+        self.factored_at = Some(0.0);
+        Ok(())
+    }
+
     /// min |pivot| / max |pivot| of the last factorization (1×1 pivots and the eigenvalues of
     /// 2×2 pivots for LBLᵀ; UMFPACK's rcond estimate; NaN for faer LU).
     pub fn pivot_ratio(&self) -> f64 {

@@ -1,7 +1,6 @@
 //! Importers (io::import, io::ansys, io::abaqus) on the real files of `../shared/data/`, the
 //! rotor cross-check between ANSYS and Abaqus, and one test per bad-file class.
 
-
 use crate::common::dense;
 use proptest::prelude::*;
 use sparsemor::body::Body;
