@@ -1,4 +1,4 @@
-//! Streamed QR (DESIGN.md §3.3) vs dense least squares of the stacked system.
+//! Streamed QR (docs/design.md §3.3) vs dense least squares of the stacked system.
 //!
 //! n = 14 interface unknowns, 2p = 18 rows per frequency, z = 20 frequencies (360 rows),
 //! m = 10⁴, 10⁵ (both methods) and 10⁶ (streamed only: the stacked T_nᵀ would be 2.9 GB).

@@ -1,4 +1,4 @@
-//! Criterion benches of the sweep phases (DESIGN.md §8): symbolic analysis, numeric
+//! Criterion benches of the sweep phases (docs/design.md §8): symbolic analysis, numeric
 //! factorization (complex 2N LBLᵀ, real LBLᵀ, faer LU, reference Cholesky) and a
 //! 4-frequency sweep on 1 vs 2 threads, for the bar at N = 1656 and ≈ 1.2·10⁴.
 //! Larger N are in `sparsemor bench sweep` (single runs, peak memory).

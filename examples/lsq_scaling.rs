@@ -1,4 +1,4 @@
-//! Streamed QR (DESIGN.md §3.3) vs dense least squares of the stacked system: time and memory
+//! Streamed QR (docs/design.md §3.3) vs dense least squares of the stacked system: time and memory
 //! against m, printed as a markdown table.
 //!
 //! `cargo run --release --example lsq_scaling`

@@ -2,7 +2,7 @@
 //!
 //! Errors name what is wrong and where (file and line for malformed files, the field of
 //! `model.toml`, the DoF index, the frequency of a singular pencil) and, where there is one,
-//! the fix. Library code never panics on bad input (DESIGN.md §4).
+//! the fix. Library code never panics on bad input (docs/design.md §4).
 
 use std::path::PathBuf;
 
@@ -28,7 +28,7 @@ pub enum Error {
         /// What is wrong and how to fix it.
         msg: String,
     },
-    /// A model (matrices, nodes, DoF indices, damping) violates DESIGN.md §1/§4.
+    /// A model (matrices, nodes, DoF indices, damping) violates docs/design.md §1/§4.
     #[error("invalid model: {0}")]
     InvalidModel(String),
     /// A setting (scene, band, frequencies, interface, thread count, ...) is impossible.
@@ -57,7 +57,7 @@ pub enum Error {
         /// The smallest number of reference frequencies z with 2pz ≥ n.
         min_frequencies: usize,
     },
-    /// A factorization is numerically singular or inaccurate at a frequency (DESIGN.md §3.1).
+    /// A factorization is numerically singular or inaccurate at a frequency (docs/design.md §3.1).
     #[error("A(s) at {freq_hz} Hz is numerically singular: {detail}")]
     Singular {
         /// The frequency of the failing pencil.

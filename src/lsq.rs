@@ -1,4 +1,4 @@
-//! Line-fitting least squares with a streamed QR / TSQR state (DESIGN.md §3.3, paper eq. 18–22).
+//! Line-fitting least squares with a streamed QR / TSQR state (docs/design.md §3.3, paper eq. 18–22).
 //!
 //! # Problem
 //!
@@ -58,7 +58,7 @@ const DEFAULT_CHUNK_COLS: usize = 4096;
 /// Options of [`StreamedQr::finish`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LsqOptions {
-    /// Relative singular-value threshold of the rank decision (DESIGN.md §3.3 "below a
+    /// Relative singular-value threshold of the rank decision (docs/design.md §3.3 "below a
     /// relative threshold truncate").
     ///
     /// Singular values σ_i of the equilibrated triangle `R·S` with
@@ -97,7 +97,7 @@ impl LsqOptions {
     }
 }
 
-/// Result of [`StreamedQr::finish`] (DESIGN.md §3.3).
+/// Result of [`StreamedQr::finish`] (docs/design.md §3.3).
 #[derive(Clone, Debug)]
 pub struct LsqSolution {
     /// The line-fitting matrix `W` (m × n): `Wᵀ = S·(R S)⁺·Y`, the (truncated) least-squares
@@ -136,7 +136,7 @@ pub struct LsqSolution {
     pub rows: usize,
 }
 
-/// Streamed QR / TSQR state of the line-fitting least-squares problem (DESIGN.md §3.3).
+/// Streamed QR / TSQR state of the line-fitting least-squares problem (docs/design.md §3.3).
 ///
 /// See the [module documentation](self) for the invariant. Memory: `8·(n² + n·m + m)` bytes
 /// plus the chunk buffers of [`absorb`](StreamedQr::absorb), at most
@@ -329,7 +329,7 @@ impl StreamedQr {
     }
 
     /// Absorbs one block of rows: `g` (q × n, rows of `T_oᵀ`) and `f` (q × m, the same rows of
-    /// `T_nᵀ`), any q ≥ 0 (DESIGN.md §3.3 "to absorb a block").
+    /// `T_nᵀ`), any q ≥ 0 (docs/design.md §3.3 "to absorb a block").
     ///
     /// Householder QR of `[R; G]` gives the new `R`; the same reflectors, transposed, are
     /// applied to `[Y; F]`: the top n rows are the new `Y`, the squared column norms of the
@@ -524,7 +524,7 @@ impl StreamedQr {
         Reflectors { vg, t, vgt }
     }
 
-    /// Solves the least-squares problem from the state (DESIGN.md §3.3 "Finish").
+    /// Solves the least-squares problem from the state (docs/design.md §3.3 "Finish").
     ///
     /// 1. Column equilibration: the column norms of `T_oᵀ` equal those of `R` (`Q` is
     ///    orthogonal), and QR commutes with column scaling, so with `S = diag(1/‖R e_j‖)` the

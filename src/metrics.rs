@@ -1,10 +1,10 @@
-//! The paper's evaluation (§4.3, DESIGN.md §3.7): the relative transfer-function error
+//! The paper's evaluation (§4.3, docs/design.md §3.7): the relative transfer-function error
 //! ε(f) = ‖H(iω) − Hr(iω)‖_F / ‖H(iω)‖_F (eq. 23) on a grid, in two variants, and the ROM's
 //! eigenfrequencies.
 //!
 //! - elastic: H1 (by inertia relief, [`crate::sweep::Part::Elastic`]) vs the ROM;
 //! - total: H = H0 + H1 vs H0 + ROM, i.e. ‖H1 − Hr‖ / ‖H0 + H1‖. H is formed as H0 + H1
-//!   (exact for Rayleigh damping, DESIGN.md §3.2) rather than by a second sweep: it is more
+//!   (exact for Rayleigh damping, docs/design.md §3.2) rather than by a second sweep: it is more
 //!   accurate at low frequency and costs nothing extra. On a constrained body both coincide.
 //!
 //! The full H1 on the grid comes from the same parallel sweep as everything else.

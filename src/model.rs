@@ -1,4 +1,4 @@
-//! The full-order model M q'' + D q' + K q = B u, y = C q (DESIGN.md §1, eq. 3), with its
+//! The full-order model M q'' + D q' + K q = B u, y = C q (docs/design.md §1, eq. 3), with its
 //! validation.
 //!
 //! M and K are stored in full (both triangles) CSC; B and C are selections of DoFs given by
@@ -15,7 +15,7 @@ pub const SYMMETRY_RTOL: f64 = 1e-10;
 /// Damping model.
 #[derive(Clone, Debug)]
 pub enum Damping {
-    /// D = 0: the pencil is real (DESIGN.md §3.1, real path).
+    /// D = 0: the pencil is real (docs/design.md §3.1, real path).
     None,
     /// D = α M + β K.
     Rayleigh {

@@ -1,4 +1,4 @@
-//! The pencil A(s) = s²M + sD + K on one sparsity pattern (DESIGN.md §3.1).
+//! The pencil A(s) = s²M + sD + K on one sparsity pattern (docs/design.md §3.1).
 //!
 //! [`Pencil::new`] builds the union pattern of the lower triangles of M, K (and D) once and
 //! scatters their values into arrays aligned with that pattern (the index maps are applied

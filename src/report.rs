@@ -54,7 +54,7 @@ pub struct Chart {
     pub y_log: bool,
     /// The series, drawn in order (the legend lists them in the same order).
     pub series: Vec<Series>,
-    /// The x-axis range; `None`: from the data ([`axis_range`]).
+    /// The x-axis range; `None`: from the data.
     pub x_range: Option<(f64, f64)>,
 }
 

@@ -1,7 +1,7 @@
-//! The rigid-body part of a free body (DESIGN.md §3.2, eq. 15–17).
+//! The rigid-body part of a free body (docs/design.md §3.2, eq. 15–17).
 //!
 //! V0 (N×6) holds the rigid modes built from node coordinates r_k, centered at their
-//! centroid c for conditioning: translations [I₃] and rotations [−skew(r_k − c)] per node
+//! centroid c for conditioning: translations `I₃` and rotations `−skew(r_k − c)` per node
 //! (3 DoFs/node); 6-DoF nodes add [0; I₃] on their rotational DoFs. With M0 = V0ᵀMV0,
 //!
 //! ```text
@@ -130,7 +130,7 @@ impl RigidBody {
 
     /// Six DoFs on which the rigid modes are independent — a statically determinate support
     /// of the free body — chosen as the first six pivots of a column-pivoted QR of V0ᵀ (6×N),
-    /// so V0[s,:] is as well conditioned as the nodes allow; sorted.
+    /// so V0 restricted to those rows is as well conditioned as the nodes allow; sorted.
     pub fn supports(&self) -> Vec<usize> {
         let qr = self.v0.transpose().to_owned().col_piv_qr();
         let (fwd, _) = qr.P().arrays();

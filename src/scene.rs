@@ -1,4 +1,4 @@
-//! The scene: what the simulation needs from the body (DESIGN.md §1) — where forces act
+//! The scene: what the simulation needs from the body (docs/design.md §1) — where forces act
 //! (inputs, the columns of B), what is measured (outputs, the rows of C) and the band.
 
 /// Inputs, outputs and frequency band of a reduction or sweep. DoF indices are 0-based.

@@ -1,4 +1,4 @@
-//! Parallel frequency sweep of A(iω) = K − ω²M + iωD (DESIGN.md §3.1–3.2).
+//! Parallel frequency sweep of A(iω) = K − ω²M + iωD (docs/design.md §3.1–3.2).
 //!
 //! [`Solver`] prepares everything that does not depend on the frequency — pencil pattern,
 //! symbolic analysis, rigid modes, the (projected) load — once. [`Solver::run`] then factors

@@ -226,7 +226,7 @@ typedef struct SparsemorCsc {
 typedef int32_t (*SparsemorProgressFn)(size_t done, size_t total, double freq_hz, void *user_data);
 
 /**
- * Numerics of the line-fitting least-squares fit (DESIGN.md §3.3).
+ * Numerics of the line-fitting least-squares fit (docs/design.md §3.3).
  */
 typedef struct SparsemorFitReport {
     /**
@@ -374,7 +374,7 @@ enum SparsemorStatus sparsemor_model_n(const struct SparsemorModel *model, size_
 
 /**
  * True (1) when the model is a free body: it has node coordinates and K·V0 = 0 for its
- * rigid-body modes V0, so the reductions separate the rigid part (DESIGN.md §3.2).
+ * rigid-body modes V0, so the reductions separate the rigid part (docs/design.md §3.2).
  *
  * # Safety
  * `model` a live handle; `free_out` writable.
@@ -434,7 +434,7 @@ enum SparsemorStatus sparsemor_options_set_threads(struct SparsemorOptions *opti
                                                    size_t threads);
 
 /**
- * The accuracy target of line-fitting with tolerance-driven frequency sampling (DESIGN.md
+ * The accuracy target of line-fitting with tolerance-driven frequency sampling (docs/design.md
  * §3.5): with a tolerance set, `sparsemor_reduce_linefit` chooses the reference frequencies
  * itself (explicit reference frequencies, if set, become extra seeds) until the true elastic
  * error (eq. 23) at two consecutive steps' new and earlier points is ≤ tol, the budget of
@@ -545,12 +545,12 @@ enum SparsemorStatus sparsemor_options_set_keep_basis(struct SparsemorOptions *o
                                                       int32_t keep);
 
 /**
- * Reduces the model by line-fitting (DESIGN.md §3.3): V = Πᵀ[I; W] with W fitted by least
+ * Reduces the model by line-fitting (docs/design.md §3.3): V = Πᵀ[I; W] with W fitted by least
  * squares to the elastic responses at the reference frequencies, then Galerkin projection.
  *
  * Uses the model's scene (inputs, outputs, band; `sparsemor_model_set_scene` first) and
  * from `options`: threads, interface, reference frequencies (explicit or a count), keep-basis
- * — or, with a tolerance (`sparsemor_options_set_tolerance`), the sampling loop of DESIGN.md
+ * — or, with a tolerance (`sparsemor_options_set_tolerance`), the sampling loop of docs/design.md
  * §3.5 chooses the frequencies (not reaching the tolerance is not an error: see
  * `sparsemor_rom_sampling_converged` and the step log).
  *
@@ -568,7 +568,7 @@ enum SparsemorStatus sparsemor_reduce_linefit(const struct SparsemorModel *model
                                               struct SparsemorRom **rom_out);
 
 /**
- * Reduces the model by SEREP (DESIGN.md §3.6): V = U_c U_cr⁺ from c eigenvectors and their
+ * Reduces the model by SEREP (docs/design.md §3.6): V = U_c U_cr⁺ from c eigenvectors and their
  * rows at the retained DoFs, then Galerkin projection.
  *
  * Uses the model's scene (the band sets the eigensolver's shift) and from `options`: the

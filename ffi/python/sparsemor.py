@@ -468,7 +468,7 @@ def reduce_linefit(model, reference_frequencies=None, reference_count=None, inte
     """Line-fitting reduction. Give `reference_frequencies` (Hz) or `reference_count` (the
     library places that many points from the in-band resonances). Interface: an explicit
     DoF list, else the outputs plus `outputs_plus` spread DoFs. With `tolerance` the library
-    chooses the reference frequencies itself (DESIGN.md §3.5); given frequencies become seeds."""
+    chooses the reference frequencies itself (docs/design.md §3.5); given frequencies become seeds."""
     with _Options() as o:
         _check(lib.sparsemor_options_set_threads(o, threads))
         if interface is not None:

@@ -126,7 +126,7 @@ def test_linefit_transfer_function_matches_dense_solve():
 
 def test_exact_fit_interpolates_at_the_reference_frequencies():
     # 2pz = n (p = 2 inputs, z = 3 frequencies, n = 12 interface DoFs): the fit is exact and
-    # the Galerkin ROM reproduces H at every reference frequency (DESIGN.md §3.4)
+    # the Galerkin ROM reproduces H at every reference frequency (docs/design.md §3.4)
     M, K = chain(120)
     beta = 1e-4
     inputs, outputs = [119, 60], [119, 60, 30]

@@ -1,6 +1,6 @@
 //! Status codes, the thread-local last error and the panic guard every export runs in.
 //!
-//! The discipline is regex-capi's and libgit2's (STYLE.md §3b, pattern 10): every exported
+//! The discipline is regex-capi's and libgit2's (docs/design.md §6): every exported
 //! body runs inside [`ffi_body!`], which calls [`guard`]: the body runs under
 //! `catch_unwind`, an `Err` becomes its [`SparsemorStatus`] plus a message stored in a
 //! thread-local, and a panic becomes [`SparsemorStatus::Panic`] with the panic message. The

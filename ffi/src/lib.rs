@@ -5,7 +5,7 @@
 //! in; `tests/header.rs` fails when it is stale (regenerate with
 //! `SPARSEMOR_FFI_REGENERATE=1 cargo test -p sparsemor-ffi --test it header`).
 //!
-//! Conventions (DESIGN.md §6, STYLE.md §3 and patterns 10–11):
+//! Conventions (docs/design.md §6):
 //! - every function that can fail returns a [`SparsemorStatus`]; on failure
 //!   `sparsemor_last_error_message` (thread-local) says what went wrong and how to fix it;
 //! - every exported body runs under `catch_unwind`: no panic crosses the boundary, a caught

@@ -294,7 +294,7 @@ pub unsafe extern "C" fn sparsemor_model_n(
 }
 
 /// True (1) when the model is a free body: it has node coordinates and K·V0 = 0 for its
-/// rigid-body modes V0, so the reductions separate the rigid part (DESIGN.md §3.2).
+/// rigid-body modes V0, so the reductions separate the rigid part (docs/design.md §3.2).
 ///
 /// # Safety
 /// `model` a live handle; `free_out` writable.

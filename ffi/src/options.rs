@@ -162,7 +162,7 @@ pub unsafe extern "C" fn sparsemor_options_set_threads(
     })
 }
 
-/// The accuracy target of line-fitting with tolerance-driven frequency sampling (DESIGN.md
+/// The accuracy target of line-fitting with tolerance-driven frequency sampling (docs/design.md
 /// §3.5): with a tolerance set, `sparsemor_reduce_linefit` chooses the reference frequencies
 /// itself (explicit reference frequencies, if set, become extra seeds) until the true elastic
 /// error (eq. 23) at two consecutive steps' new and earlier points is ≤ tol, the budget of

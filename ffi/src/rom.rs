@@ -95,12 +95,12 @@ unsafe fn emit(rom: Rom, rom_out: *mut *mut SparsemorRom) -> Result<(), Failure>
     Ok(())
 }
 
-/// Reduces the model by line-fitting (DESIGN.md §3.3): V = Πᵀ[I; W] with W fitted by least
+/// Reduces the model by line-fitting (docs/design.md §3.3): V = Πᵀ[I; W] with W fitted by least
 /// squares to the elastic responses at the reference frequencies, then Galerkin projection.
 ///
 /// Uses the model's scene (inputs, outputs, band; `sparsemor_model_set_scene` first) and
 /// from `options`: threads, interface, reference frequencies (explicit or a count), keep-basis
-/// — or, with a tolerance (`sparsemor_options_set_tolerance`), the sampling loop of DESIGN.md
+/// — or, with a tolerance (`sparsemor_options_set_tolerance`), the sampling loop of docs/design.md
 /// §3.5 chooses the frequencies (not reaching the tolerance is not an error: see
 /// `sparsemor_rom_sampling_converged` and the step log).
 ///
@@ -137,7 +137,7 @@ pub unsafe extern "C" fn sparsemor_reduce_linefit(
     })
 }
 
-/// Reduces the model by SEREP (DESIGN.md §3.6): V = U_c U_cr⁺ from c eigenvectors and their
+/// Reduces the model by SEREP (docs/design.md §3.6): V = U_c U_cr⁺ from c eigenvectors and their
 /// rows at the retained DoFs, then Galerkin projection.
 ///
 /// Uses the model's scene (the band sets the eigensolver's shift) and from `options`: the
@@ -412,7 +412,7 @@ pub unsafe extern "C" fn sparsemor_rom_reference_frequencies(
     })
 }
 
-/// Numerics of the line-fitting least-squares fit (DESIGN.md §3.3).
+/// Numerics of the line-fitting least-squares fit (docs/design.md §3.3).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct SparsemorFitReport {

@@ -1,4 +1,4 @@
-//! `sparsemor bench sweep`: the performance table of DESIGN.md §8 for the sweep phases.
+//! `sparsemor bench sweep`: the performance table of docs/design.md §8 for the sweep phases.
 //!
 //! For each model (the bar at growing N, a chunky cube) and backend: symbolic time, numeric
 //! factorization time per frequency (complex = damped, real = undamped path), solve time,

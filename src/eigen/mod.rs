@@ -1,4 +1,4 @@
-//! Partial eigenpairs K φ = λ M φ — only the ones needed (DESIGN.md §3.6).
+//! Partial eigenpairs K φ = λ M φ — only the ones needed (docs/design.md §3.6).
 //!
 //! Entry point: [`eigenpairs`]. Both backends ([`EigenBackend`]) iterate on the same
 //! shift-invert operator S = (K − σM)⁻¹ M with σ < 0: S is self-adjoint in the M-inner
@@ -27,7 +27,7 @@
 //! gives the number of eigenvalues below (2πf)² from the inertia of K − (2πf)²M (on the same
 //! symbolic analysis as the Cholesky of K − σM: the pattern is analysed once).
 //!
-//! Rigid modes: on a free body with nodes ([`RigidBody::detect`]) a mode is rigid when most of
+//! Rigid modes: on a free body with nodes ([`crate::rigid::RigidBody::detect`]) a mode is rigid when most of
 //! its M-norm lies in the span of the rigid-body modes V0 (the M-projection onto span V0 has
 //! M-norm² ≥ ½; it is ≈ 1 for rigid and ≈ 0 for elastic modes). Without V0 the fallback is
 //! |λ| ≤ [`RIGID_RTOL`] · max_i K_ii/M_ii (a scale of the largest eigenvalue) — which cannot

@@ -2,7 +2,7 @@
 //!
 //! For σ below the spectrum of K φ = λ M φ (σ < 0 with M positive definite and K positive
 //! semi-definite), K − σM is symmetric positive definite, even for a free body, so it has a
-//! Cholesky factor P (K − σM) Pᵀ = L Lᵀ. Two users (DESIGN.md §3.1, §3.6):
+//! Cholesky factor P (K − σM) Pᵀ = L Lᵀ. Two users (docs/design.md §3.1, §3.6):
 //! - the eigensolver's shift-invert operator (K − σM)⁻¹ M ([`Cholesky`]: factor once, solve
 //!   in place per Krylov step);
 //! - the benches' reference "real Cholesky on the same pattern" ([`reference_cholesky`]),

@@ -1,4 +1,4 @@
-//! Exact eigenvalue counts of K φ = λ M φ from the inertia of K − σM (DESIGN.md §3.6).
+//! Exact eigenvalue counts of K φ = λ M φ from the inertia of K − σM (docs/design.md §3.6).
 //!
 //! With M symmetric positive definite, the number of eigenvalues λ < σ equals the number of
 //! negative eigenvalues of the symmetric K − σM. By Sylvester's law of inertia a congruence

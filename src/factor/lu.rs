@@ -3,7 +3,7 @@
 //! P A Q = L U with Q the COLAMD column order and P the partial-pivoting row order, on the
 //! full (both triangles) pattern of the symmetric pencil; the symmetry is not used. The
 //! symbolic phase sizes the supernodes from the AᵀA structure, which is fine at 10⁴ DoF but
-//! explodes on 3-D pencils at 10⁵ (DESIGN.md §3.1), so [`super::Backend::Auto`] uses it only
+//! explodes on 3-D pencils at 10⁵ (docs/design.md §3.1), so [`super::Backend::Auto`] uses it only
 //! up to [`super::LU_MAX_N`].
 
 use super::{pattern, solve_split, try_vec, workspace, Factorization, Footprint, Values};

@@ -1,5 +1,5 @@
 //! Sparse factorization of the pencil A(iω) = K − ω²M + iωD behind one interface
-//! (DESIGN.md §3.1).
+//! (docs/design.md §3.1).
 //!
 //! [`Analysis::new`] does the pattern work once per model: ordering and symbolic
 //! factorization. [`Analysis::numeric`] allocates one numeric factorization ([`Numeric`]),
@@ -11,9 +11,9 @@
 //!   Bunch–Kaufman pivoting; the real N×N pencil when D = 0, otherwise the equivalent real
 //!   symmetric 2N×2N form [[Ar, Ai], [Ai, −Ar]] with the unknowns interleaved.
 //! - `lu` — **faer LU**: faer's sparse LU (COLAMD) of the full pattern, real or complex. Fine
-//!   for small models; it blows up on 3-D pencils at 10⁵ DoF (DESIGN.md §3.1), so
+//!   for small models; it blows up on 3-D pencils at 10⁵ DoF (docs/design.md §3.1), so
 //!   [`Backend::Auto`] uses it only up to [`LU_MAX_N`].
-//! - [`umfpack`] — **UMFPACK** (cargo feature `umfpack`), real or complex LU.
+//! - `umfpack` — **UMFPACK** (cargo feature `umfpack`), real or complex LU.
 //!
 //! Beside them: `cholesky` (the real LLᵀ of K − σM of the eigensolver and the benches'
 //! reference, [`reference_cholesky`]), `inertia` (exact eigenvalue counts,
@@ -52,7 +52,7 @@ use std::time::Instant;
 /// Largest N for which [`Backend::Auto`] picks faer LU. Measured (`sparsemor bench sweep`,
 /// README): on the bar, faer LU and the LBLᵀ form factor equally fast at N = 1656 and LU
 /// sweeps 1.4–1.6× faster at N = 12 060 (its solve is 2× cheaper); at 10⁵ DoF LU's COLAMD fill
-/// explodes on 3-D pencils (DESIGN.md §3.1), so above this size Auto uses LBLᵀ.
+/// explodes on 3-D pencils (docs/design.md §3.1), so above this size Auto uses LBLᵀ.
 pub const LU_MAX_N: usize = 15_000;
 
 /// Which sparse factorization to use.
@@ -319,7 +319,7 @@ impl Numeric<'_> {
     /// Factors K with the rows and columns of the `supports` DoFs replaced by those of a
     /// scaled identity (their off-diagonal entries 0, the diagonal `scale`): the static
     /// stiffness of a free body held by a statically determinate support (docs/design.md
-    /// §3.2). With supports on which the rigid modes are independent (V0[s,:] invertible),
+    /// §3.2). With supports on which the rigid modes are independent (V0 restricted to the rows s invertible),
     /// the supported K is non-singular, and for a load b without rigid component the solution
     /// x (x_s = 0) differs from every solution of K x = b by a rigid motion only, which Pᵀ
     /// removes. `supports` must be sorted.

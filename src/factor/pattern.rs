@@ -52,48 +52,11 @@ pub(super) fn interleaved(pencil: &Pencil) -> SymbolicSparseColMat<usize> {
 }
 
 /// Full (both triangles) pattern from the pencil's lower pattern, with the source position
-/// of every entry in the lower pattern.
+/// of every entry in the lower pattern ([`crate::sparse::mirror_lower`]).
 pub(super) fn full(pencil: &Pencil) -> (SymbolicSparseColMat<usize>, Vec<usize>) {
     let n = pencil.n();
-    let (cp, ri) = (pencil.col_ptr(), pencil.row_idx());
-    let mut count = vec![0usize; n];
-    for j in 0..n {
-        for &i in &ri[cp[j]..cp[j + 1]] {
-            count[j] += 1;
-            if i != j {
-                count[i] += 1;
-            }
-        }
-    }
-    let mut col_ptr = vec![0usize; n + 1];
-    for j in 0..n {
-        col_ptr[j + 1] = col_ptr[j] + count[j];
-    }
-    let mut next = col_ptr[..n].to_vec();
-    let nnz = col_ptr[n];
-    let mut row_idx = vec![0usize; nnz];
-    let mut src = vec![0usize; nnz];
-    // rows of column j: first the upper part (from columns i < j, i.e. entries (j, i) of the
-    // lower pattern, visited in increasing i), then the lower part (sorted): sorted overall
-    for j in 0..n {
-        for p in cp[j]..cp[j + 1] {
-            let i = ri[p];
-            if i != j {
-                // entry (i, j) lower → also (j, i) in column i, row j
-                row_idx[next[i]] = j;
-                src[next[i]] = p;
-                next[i] += 1;
-            }
-        }
-    }
-    // second pass for the lower part, appended after the upper entries of each column
-    for j in 0..n {
-        for p in cp[j]..cp[j + 1] {
-            row_idx[next[j]] = ri[p];
-            src[next[j]] = p;
-            next[j] += 1;
-        }
-    }
+    let (col_ptr, row_idx, src) =
+        crate::sparse::mirror_lower(n, pencil.col_ptr(), pencil.row_idx());
     (
         SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx),
         src,

@@ -1,4 +1,4 @@
-//! Reading models written by FE codes (DESIGN.md §4, "Importers"): one entry, [`read`], that
+//! Reading models written by FE codes (docs/design.md §4, "Importers"): one entry, [`read`], that
 //! tells the format of each file and hands the set to the reader of that format.
 //!
 //! | what | files | reader |

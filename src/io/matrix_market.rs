@@ -1,4 +1,4 @@
-//! Matrix Market (`.mtx`) reading and writing (DESIGN.md §4).
+//! Matrix Market (`.mtx`) reading and writing (docs/design.md §4).
 //!
 //! # What is read
 //!

@@ -1,4 +1,4 @@
-//! File formats (DESIGN.md §4): Matrix Market, the model directory, the ROM directory, the
+//! File formats (docs/design.md §4): Matrix Market, the model directory, the ROM directory, the
 //! importers of FE codes' files ([`import`]: ANSYS, Abaqus); and the atomic writes all
 //! writers (and the CLI's outputs) go through.
 

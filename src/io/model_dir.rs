@@ -1,4 +1,4 @@
-//! The model directory (DESIGN.md §4): `model.toml` + Matrix Market matrices + `nodes.csv`.
+//! The model directory (docs/design.md §4): `model.toml` + Matrix Market matrices + `nodes.csv`.
 //!
 //! ```toml
 //! name = "bar"

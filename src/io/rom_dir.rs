@@ -1,4 +1,4 @@
-//! The ROM directory (DESIGN.md §4): `rom.toml` (method, order, DoFs, reference frequencies,
+//! The ROM directory (docs/design.md §4): `rom.toml` (method, order, DoFs, reference frequencies,
 //! fit numerics, definiteness, timings, version; for a tolerance-driven ROM a `[sampling]`
 //! table with the tolerance, the error reached, its kind and the loop's status) and `Mr.mtx Dr.mtx Kr.mtx Br.mtx Cr.mtx`
 //! (Matrix Market `array real general`, full double precision), optional `V.mtx`.
@@ -162,7 +162,7 @@ fn sampling_report(path: &Path, t: SamplingToml) -> Result<SamplingReport> {
     })
 }
 
-/// Reads a ROM directory written by [`write`].
+/// Reads a ROM directory written by [`write()`].
 ///
 /// # Errors
 /// File errors name the file; inconsistent shapes are [`Error::Parse`] on `rom.toml`.

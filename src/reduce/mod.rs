@@ -1,5 +1,6 @@
 //! Reduced models (docs/design.md §3.4): the [`Rom`] type with its [`Provenance`]
-//! ([`rom`]), the shared Galerkin projection with its definiteness check ([`projection`]),
+//! (`rom.rs`), the shared Galerkin projection with its definiteness check ([`project`],
+//! [`Definiteness`]),
 //! and the methods that build V: [`linefit`] (§3.3, §3.5) and [`serep`] (§3.6). Every
 //! reductor takes a prepared [`crate::body::Body`] and a [`crate::scene::Scene`] and ends in
 //! [`project`].

@@ -48,7 +48,7 @@ impl Definiteness {
     }
 }
 
-/// The Galerkin projection of DESIGN.md §3.4: Mr = VᵀMV, Kr = VᵀKV, Dr = VᵀDV (all
+/// The Galerkin projection of docs/design.md §3.4: Mr = VᵀMV, Kr = VᵀKV, Dr = VᵀDV (all
 /// symmetrized), Br = Vᵀ P B (P: inertia relief on a free body, identity otherwise),
 /// Cr = C V. Cost O(nnz·n + N·n²); MV is formed once as a sparse × dense product.
 pub struct Projected {

@@ -12,9 +12,9 @@ use faer::{c64, Mat};
 /// How a ROM was built.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Method {
-    /// Line-fitting (DESIGN.md §3.3).
+    /// Line-fitting (docs/design.md §3.3).
     LineFit,
-    /// SEREP (DESIGN.md §3.6).
+    /// SEREP (docs/design.md §3.6).
     Serep,
 }
 
@@ -60,17 +60,17 @@ pub struct FitReport {
 /// Where a ROM came from: the method and what it was built from.
 #[derive(Clone, Debug)]
 pub enum Provenance {
-    /// Line-fitting (DESIGN.md §3.3).
+    /// Line-fitting (docs/design.md §3.3).
     LineFit {
         /// Reference frequencies (Hz) whose snapshots were fitted.
         ref_freqs_hz: Vec<f64>,
         /// Least-squares numerics.
         fit: FitReport,
         /// The sampling loop's history when the frequencies were chosen for a tolerance
-        /// (DESIGN.md §3.5); `None` for explicit frequencies or a ROM read from disk.
+        /// (docs/design.md §3.5); `None` for explicit frequencies or a ROM read from disk.
         sampling: Option<SamplingReport>,
     },
-    /// SEREP (DESIGN.md §3.6).
+    /// SEREP (docs/design.md §3.6).
     Serep {
         /// Mode numbers (1-based among all modes, rigid included).
         modes: Vec<usize>,
@@ -79,7 +79,7 @@ pub enum Provenance {
     },
 }
 
-/// A reduced second-order model Mr q̈ + Dr q̇ + Kr q = Br u, y = Cr q (DESIGN.md §3.4).
+/// A reduced second-order model Mr q̈ + Dr q̇ + Kr q = Br u, y = Cr q (docs/design.md §3.4).
 #[derive(Clone, Debug)]
 pub struct Rom {
     /// How it was built.

@@ -1,4 +1,4 @@
-//! SEREP (paper §3.1, eq. 6–13; DESIGN.md §3.6): V = U_c U_cr⁺, where U_c (N×c) holds c
+//! SEREP (paper §3.1, eq. 6–13; docs/design.md §3.6): V = U_c U_cr⁺, where U_c (N×c) holds c
 //! eigenvectors and U_cr its rows at the r retained DoFs; the pseudo-inverse comes from an
 //! SVD of the small U_cr (r×c). The ROM's coordinates are the retained DoFs.
 //!

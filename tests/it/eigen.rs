@@ -1,4 +1,4 @@
-//! Partial eigenpairs (DESIGN.md §3.6): against a dense generalized eigensolve (random model,
+//! Partial eigenpairs (docs/design.md §3.6): against a dense generalized eigensolve (random model,
 //! the paper's bar), against Euler–Bernoulli beam theory (a slender bar), backend agreement
 //! (with `--features arpack`) and bad settings.
 

@@ -1,4 +1,4 @@
-//! Line-fitting (DESIGN.md §3.3–3.4) against a dense implementation of eq. 14–22 written
+//! Line-fitting (docs/design.md §3.3–3.4) against a dense implementation of eq. 14–22 written
 //! here, the exact-fit property, the paper's accuracy on the built-in bar, ROM files and
 //! bad settings.
 

@@ -1,4 +1,4 @@
-//! Streamed QR least squares (DESIGN.md §3.3) against dense least squares of the stacked
+//! Streamed QR least squares (docs/design.md §3.3) against dense least squares of the stacked
 //! system.
 #![allow(clippy::needless_range_loop)] // index loops mirror the formulas
 

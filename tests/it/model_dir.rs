@@ -1,4 +1,4 @@
-//! The model directory (DESIGN.md §4): bit-exact round trips, the real ANSYS example, and
+//! The model directory (docs/design.md §4): bit-exact round trips, the real ANSYS example, and
 //! one test per kind of bad input (error variant + a message that names the problem).
 
 use crate::common::{dense_h, random_model, random_scene, rel_err, sparse};

@@ -1,4 +1,4 @@
-//! The elastic part by inertia relief (DESIGN.md §3.2) on the built-in bar: equal to H − H0
+//! The elastic part by inertia relief (docs/design.md §3.2) on the built-in bar: equal to H − H0
 //! at mid-band, accurate at 1e-3 Hz where H − H0 fails; invariant to units, DoF permutation
 //! and thread count; singular pencils are reported.
 

@@ -1,4 +1,4 @@
-//! Iterative frequency sampling (DESIGN.md §3.5) on the built-in bar: verified accuracy on a
+//! Iterative frequency sampling (docs/design.md §3.5) on the built-in bar: verified accuracy on a
 //! 2000-point grid, the indicator against the true error, no re-factorization, clear
 //! messages when a tolerance cannot be reached.
 

@@ -1,4 +1,4 @@
-//! SEREP (paper §3.1, DESIGN.md §3.6) on the paper's bar: exact reproduction of the kept
+//! SEREP (paper §3.1, docs/design.md §3.6) on the paper's bar: exact reproduction of the kept
 //! modes with c = r, the documented warnings (c > r, ill-conditioned U_cr) and bad settings.
 
 use sparsemor::body::Body;

@@ -1,5 +1,5 @@
 //! Bad input through the exported functions (called from Rust exactly as C would): one test
-//! per case, each checking the status code and the message (DESIGN.md §6, issue item 3).
+//! per case, each checking the status code and the message (docs/design.md §6, issue item 3).
 //! Nothing here may crash; every failure must leave `*_out` handles NULL.
 
 use crate::common::*;

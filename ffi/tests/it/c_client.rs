@@ -1,4 +1,4 @@
-//! The C client `tests/c/smoke.c` against the built static library (DESIGN.md §6): it
+//! The C client `tests/c/smoke.c` against the built static library (docs/design.md §6): it
 //! builds the bar model from CSC arrays that this test writes, reduces it by line-fitting and
 //! SEREP, and its ROMs must equal the Rust API's bit for bit (one thread, same settings).
 //! The same program runs under `valgrind --leak-check=full --error-exitcode=1` when valgrind

@@ -1,4 +1,4 @@
-//! Source checks of the ABI discipline (STYLE.md pattern 10) that the compiler cannot do:
+//! Source checks of the ABI discipline (docs/design.md §6) that the compiler cannot do:
 //! every exported function runs its body under the panic guard, and caller memory is never
 //! taken over with `Vec::from_raw_parts`.
 

@@ -1,5 +1,5 @@
 //! The checked-in C header `include/sparsemor.h` must equal what cbindgen generates from the
-//! current sources (STYLE.md pattern 11). Regenerate with
+//! current sources (docs/design.md §6). Regenerate with
 //! `SPARSEMOR_FFI_REGENERATE=1 cargo test -p sparsemor-ffi --test it header`.
 
 use std::path::PathBuf;

@@ -1,4 +1,4 @@
-//! Iterative frequency sampling (DESIGN.md §3.5): the user asks for an accuracy, the backend
+//! Iterative frequency sampling (docs/design.md §3.5): the user asks for an accuracy, the backend
 //! finds the reference frequencies (and, if allowed, grows the interface).
 //!
 //! 1. Seeds: ⌈n/2p⌉ (at least 2) points spread over the band, both ends included (a band that

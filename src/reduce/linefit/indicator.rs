@@ -1,4 +1,4 @@
-//! The N-independent error indicator of the sampling loop (DESIGN.md §3.5, step 3).
+//! The N-independent error indicator of the sampling loop (docs/design.md §3.5, step 3).
 //!
 //! The residual of the ROM's reduced solution lifted to the full model,
 //! Res(s) = PB − A(s) V X̃(s) with X̃ = Ar(s)⁻¹ Br and A(s) = s²M + sD + K, is

@@ -1,4 +1,4 @@
-//! Line-fitting (paper §3.2, DESIGN.md §3.3–3.5): V = Πᵀ[I; W] with W fitted by least
+//! Line-fitting (paper §3.2, docs/design.md §3.3–3.5): V = Πᵀ[I; W] with W fitted by least
 //! squares so that the elastic responses of the non-interface DoFs are W times those of the
 //! interface DoFs at the reference frequencies:
 //!
@@ -14,8 +14,8 @@
 //! One entry point, [`reduce`], for every way of choosing the reference frequencies
 //! ([`References`]): given explicitly, a count placed beside the resonances in the band
 //! ([`place_reference_frequencies`]), or a tolerance reached by the adaptive sampling loop
-//! ([`adaptive`], DESIGN.md §3.5; its error indicator in [`indicator`], the snapshots kept
-//! for interface growth in [`snapshots`]).
+//! (`adaptive.rs`, docs/design.md §3.5; its error indicator in [`indicator`], the snapshots kept
+//! for interface growth in `snapshots.rs`).
 
 mod adaptive;
 mod fit;

@@ -32,7 +32,7 @@ pub enum References {
     /// This many, placed beside the resonances of the scene's band by
     /// [`super::place_reference_frequencies`] (the modes are computed, or taken from the caller).
     Count(usize),
-    /// As many as the adaptive sampling loop needs to reach a tolerance (DESIGN.md §3.5).
+    /// As many as the adaptive sampling loop needs to reach a tolerance (docs/design.md §3.5).
     Tolerance(SamplingOptions),
 }
 
@@ -72,7 +72,7 @@ pub enum Growth {
     Residual,
     /// Q-DEIM continued from the interface: the DoF whose row of the snapshots' left
     /// singular vectors adds the most to the span of the interface rows (see
-    /// [`super::snapshots`]).
+    /// `linefit/snapshots.rs`).
     QDeim,
 }
 

@@ -1,5 +1,5 @@
 //! Snapshots kept by the sampling loop for refitting after the interface grows
-//! (DESIGN.md §3.5, step 5): in memory, or spilled to a temporary file and streamed back.
+//! (docs/design.md §3.5, step 5): in memory, or spilled to a temporary file and streamed back.
 //!
 //! Q-DEIM growth ([`SnapshotStore::qdeim_next`]) never forms the N × 2pz snapshot matrix
 //! S = [Re X_1, Im X_1, …] (nor its N × r left singular vectors): it streams S in row blocks,
