@@ -21,7 +21,7 @@ fn scratch(name: &str) -> PathBuf {
     dir
 }
 
-fn run(cwd: &Path, args: &[&str]) -> Output {
+pub(crate) fn run(cwd: &Path, args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_sparsemor"))
         .args(args)
         .current_dir(cwd)
@@ -34,7 +34,7 @@ fn text(b: &[u8]) -> String {
 }
 
 /// Runs a command that must succeed; returns stdout.
-fn ok(cwd: &Path, args: &[&str]) -> String {
+pub(crate) fn ok(cwd: &Path, args: &[&str]) -> String {
     let out = run(cwd, args);
     assert!(
         out.status.success(),

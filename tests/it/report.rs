@@ -5,29 +5,10 @@
 //! and data, no console message, and a screenshot that is not blank. With
 //! `SPARSEMOR_UPDATE_SCREENSHOT=1` the screenshot is copied to `docs/report.png`.
 
+use crate::cli::{ok as succeeds, run as sparsemor};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
-
-fn sparsemor(cwd: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_sparsemor"))
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .expect("run sparsemor")
-}
-
-/// Runs a command that must succeed (exit status 0).
-fn succeeds(cwd: &Path, args: &[&str]) {
-    let out = sparsemor(cwd, args);
-    assert!(
-        out.status.success(),
-        "sparsemor {args:?}: {}\n{}{}",
-        out.status,
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
 
 /// Runs a report that must fail before writing: stderr names `needle`, `out` not created.
 fn refused(cwd: &Path, args: &[&str], out: &str, needle: &str) {
