@@ -157,8 +157,9 @@ pub struct Solver<'a> {
     threads: usize,
     memory_budget: usize,
     probe_tol: f64,
-    /// Diagonal of the held DoFs at 0 Hz: the largest |K_ii|, so the supported K keeps its scale.
-    support_scale: f64,
+    /// A free body's six support DoFs for 0 Hz and their diagonal (the largest |K_ii|, so the
+    /// supported K keeps its scale); chosen once here, not per solve.
+    supports: Option<(Vec<usize>, f64)>,
 }
 
 impl<'a> Solver<'a> {
@@ -213,7 +214,9 @@ impl<'a> Solver<'a> {
             threads,
             memory_budget,
             probe_tol: opts.probe_tol,
-            support_scale: body.pencil().stiffness_diagonal_max(),
+            supports: body
+                .rigid()
+                .map(|rb| (rb.supports(), body.pencil().stiffness_diagonal_max())),
         })
     }
 
@@ -389,12 +392,9 @@ impl<'a> Solver<'a> {
         let t0 = Instant::now();
         // the elastic response of a free body at 0 Hz: K is singular, so solve with the body
         // held at six support DoFs and let Pᵀ remove the rigid motion (docs/design.md §3.2)
-        let held = match (f == 0.0, self.body.rigid()) {
-            (true, Some(rb)) => Some(rb.supports()),
-            _ => None,
-        };
-        match &held {
-            Some(s) => numeric.factor_supported(self.body.pencil(), s, self.support_scale, par)?,
+        let held = self.supports.as_ref().filter(|_| f == 0.0);
+        match held {
+            Some((s, scale)) => numeric.factor_supported(self.body.pencil(), s, *scale, par)?,
             None => numeric.factor(self.body.pencil(), omega, par)?,
         }
         let factor_s = t0.elapsed().as_secs_f64();
@@ -403,7 +403,7 @@ impl<'a> Solver<'a> {
         self.body
             .pencil()
             .apply(omega, self.probe.as_ref(), rhs.as_mut().subcols_mut(p, 1));
-        for &d in held.iter().flatten() {
+        for &d in held.iter().flat_map(|(s, _)| s) {
             for c in 0..=p {
                 rhs[(d, c)] = c64::new(0.0, 0.0);
             }

@@ -44,7 +44,7 @@ use crate::reduce::rom::{Provenance, Rom, Timing};
 use crate::scene::{positive_band, Scene};
 use crate::sweep::{ProgressFn, Response, Solver};
 use crate::{Error, Result};
-use faer::{c64, Mat};
+use faer::{c64, Mat, MatRef};
 use std::time::Instant;
 
 /// What [`Loop::refine`] decided.
@@ -177,7 +177,7 @@ impl<'a> Loop<'a> {
         let (qr, new) = solve_and_absorb(&solver, &part, &sampled, progress)?;
         let sampled_h1 = new
             .iter()
-            .map(|(f, x)| (*f, h1_at(&scene.outputs, x)))
+            .map(|(f, x)| (*f, h1_at(&scene.outputs, x.as_ref())))
             .collect();
         if let Some(s) = store.as_mut() {
             s.extend(new.into_iter().map(|(_, x)| x))?;
@@ -256,7 +256,7 @@ impl<'a> Loop<'a> {
         let rom = &self.rom;
         let true_error = new
             .iter()
-            .map(|(f, x)| rel_err(rom, *f, &h1_at(outputs, x)))
+            .map(|(f, x)| rel_err(rom, *f, &h1_at(outputs, x.as_ref())))
             .fold(0.0, f64::max);
         let sampled_error = self
             .sampled_h1
@@ -295,7 +295,7 @@ impl<'a> Loop<'a> {
         let qr = std::mem::replace(&mut self.qr, StreamedQr::new(0, 0));
         self.qr = qr.merge(more)?;
         self.sampled_h1
-            .extend(new.iter().map(|(f, x)| (*f, h1_at(outputs, x))));
+            .extend(new.iter().map(|(f, x)| (*f, h1_at(outputs, x.as_ref()))));
         self.sampled.extend(picks.iter().copied());
         if let Some(s) = self.store.as_mut() {
             s.extend(new.into_iter().map(|(_, x)| x))?;
@@ -390,7 +390,7 @@ impl<'a> Loop<'a> {
                 &freqs,
                 || 0.0f64,
                 |worst: &mut f64, snap| {
-                    let h1 = h1_at(outputs, &snap.x.to_owned());
+                    let h1 = h1_at(outputs, snap.x);
                     *worst = worst.max(rel_err(&rom, snap.freq_hz, &h1));
                     Ok(())
                 },
@@ -428,7 +428,7 @@ impl<'a> Loop<'a> {
 }
 
 /// H1 at the outputs from a full-state snapshot.
-fn h1_at(outputs: &[usize], x: &Mat<c64>) -> Mat<c64> {
+fn h1_at(outputs: &[usize], x: MatRef<'_, c64>) -> Mat<c64> {
     Mat::from_fn(outputs.len(), x.ncols(), |o, j| x[(outputs[o], j)])
 }
 
