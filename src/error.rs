@@ -68,6 +68,10 @@ pub enum Error {
     /// A factorization backend failed for another reason (allocation, library status).
     #[error("factorization failed: {0}")]
     Factor(String),
+    /// An iteration (the eigensolver's Krylov–Schur, ARPACK) stopped before every wanted
+    /// quantity converged: what converged, the largest residual, where, and what to change.
+    #[error("not converged: {0}")]
+    NotConverged(String),
     /// The work was cancelled through the progress callback.
     #[error("cancelled by the caller")]
     Cancelled,

@@ -5,3 +5,8 @@
 pub fn lambda_to_hz(l: f64) -> f64 {
     l.signum() * l.abs().sqrt() / (2.0 * std::f64::consts::PI)
 }
+
+/// Eigenvalue λ = ω² = (2πf)² of a frequency f (Hz) ≥ 0.
+pub fn hz_to_lambda(f: f64) -> f64 {
+    (2.0 * std::f64::consts::PI * f).powi(2)
+}

@@ -85,7 +85,7 @@ impl From<sparsemor::Error> for Failure {
                 SparsemorStatus::InvalidArgument
             }
             E::Singular { .. } => SparsemorStatus::Singular,
-            E::Factor(_) => SparsemorStatus::Numerical,
+            E::Factor(_) | E::NotConverged(_) => SparsemorStatus::Numerical,
             E::Cancelled => SparsemorStatus::Cancelled,
             E::Io { .. } | E::Parse { .. } => SparsemorStatus::Io,
         };

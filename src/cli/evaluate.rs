@@ -2,9 +2,10 @@
 //! one-to-one MAC pairing and stability.
 
 use super::args::{linspace, parse_band};
-use super::progress::with_progress;
+use super::progress::{with_progress, with_slice_progress};
 use sparsemor::body::Body;
-use sparsemor::eigen::{eigenpairs, EigenOptions, Request};
+use sparsemor::eigen::{eigenpairs_with_progress, EigenOptions, Request};
+use sparsemor::factor::count_eigenvalues_below_with;
 use sparsemor::io::{atomic, model_dir, rom_dir};
 use sparsemor::metrics::{
     modal_comparison, rom_eigenfrequencies, ErrorCurve, ModalComparison, Reference,
@@ -12,6 +13,7 @@ use sparsemor::metrics::{
 use sparsemor::reduce::Rom;
 use sparsemor::scene::{positive_band, Scene};
 use sparsemor::sweep::SweepOptions;
+use sparsemor::units::hz_to_lambda;
 use sparsemor::{Error, Result};
 use std::path::{Path, PathBuf};
 
@@ -33,6 +35,13 @@ pub struct EvaluateArgs {
     /// Worker threads (0 = all cores).
     #[arg(long, default_value_t = 0)]
     threads: usize,
+    /// Only the transfer-function error: no eigenpairs of the model, no modal table.
+    #[arg(long)]
+    no_modes: bool,
+    /// Skip the modal table (with a line saying so) when the band holds more modes than this
+    /// (counted by inertia, one factorization).
+    #[arg(long, default_value_t = 300)]
+    max_modes: usize,
 }
 
 /// The requested (or the scene's) band, starting above 0 Hz ([`positive_band`]).
@@ -66,9 +75,30 @@ pub fn evaluate(a: &EvaluateArgs) -> Result<()> {
     let curve = with_progress(freqs.len(), "evaluate", |cb| {
         Reference::compute(&body, &rom_scene, &freqs, &opts, cb)?.error(&rom)
     })?;
-    let full = eigenpairs(&body, Request::UpTo(band[1]), &EigenOptions::default())?;
-    let modal = modal_comparison(&rom, &full, rom.basis.as_ref().map(|v| v.as_ref()))?;
-    print_evaluation(&rom, &curve, &modal)?;
+    print_errors(&rom, &curve)?;
+    if a.no_modes {
+        println!("modes            not computed (--no-modes)");
+    } else {
+        let in_band =
+            count_eigenvalues_below_with(&body.symbolic()?, body.pencil(), hz_to_lambda(band[1]))?;
+        if in_band > a.max_modes {
+            println!(
+                "modes            not computed: {in_band} modes up to {} Hz exceed --max-modes {}",
+                band[1], a.max_modes
+            );
+        } else {
+            let full = with_slice_progress(|cb| {
+                eigenpairs_with_progress(
+                    &body,
+                    Request::UpTo(band[1]),
+                    &EigenOptions::default(),
+                    cb,
+                )
+            })?;
+            let modal = modal_comparison(&rom, &full, rom.basis.as_ref().map(|v| v.as_ref()))?;
+            print_modal(&rom, &modal);
+        }
+    }
     if let Some(path) = &a.csv {
         write_eps_csv(path, &curve)?;
         eprintln!("wrote {}", path.display());
@@ -76,7 +106,7 @@ pub fn evaluate(a: &EvaluateArgs) -> Result<()> {
     Ok(())
 }
 
-fn print_evaluation(rom: &Rom, curve: &ErrorCurve, modal: &ModalComparison) -> Result<()> {
+fn print_errors(rom: &Rom, curve: &ErrorCurve) -> Result<()> {
     let (emax, emean) = ErrorCurve::max_mean(&curve.eps_elastic);
     let (tmax, tmean) = ErrorCurve::max_mean(&curve.eps_total);
     println!(
@@ -113,6 +143,10 @@ fn print_evaluation(rom: &Rom, curve: &ErrorCurve, modal: &ModalComparison) -> R
             "NOT SPD"
         }
     );
+    Ok(())
+}
+
+fn print_modal(rom: &Rom, modal: &ModalComparison) {
     println!(
         "modes in band    (MAC {})",
         if modal.expanded {
@@ -133,7 +167,6 @@ fn print_evaluation(rom: &Rom, curve: &ErrorCurve, modal: &ModalComparison) -> R
             rom.order()
         );
     }
-    Ok(())
 }
 
 fn write_eps_csv(path: &Path, c: &ErrorCurve) -> Result<()> {

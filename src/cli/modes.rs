@@ -1,8 +1,9 @@
 //! `sparsemor modes`: eigenfrequencies counted exactly up to a bound, or the lowest c.
 
 use super::args::parse_band;
+use super::progress::with_slice_progress;
 use sparsemor::body::Body;
-use sparsemor::eigen::{eigenpairs, EigenOptions, Modes, Request};
+use sparsemor::eigen::{eigenpairs_with_progress, EigenOptions, Modes, Request};
 use sparsemor::io::{atomic, model_dir};
 use sparsemor::Result;
 use std::path::PathBuf;
@@ -12,7 +13,8 @@ use std::time::Instant;
 pub struct ModesArgs {
     /// Model directory.
     model: PathBuf,
-    /// All modes with f <= HI (counted exactly); LO only filters the printout.
+    /// Only the modes with LO <= f <= HI (counted exactly by inertia at both ends; LO <= 0
+    /// includes the rigid modes).
     #[arg(long, conflicts_with = "count")]
     band: Option<String>,
     /// The C lowest modes, rigid ones included.
@@ -21,40 +23,61 @@ pub struct ModesArgs {
     /// CSV: index,f_hz,kind,lambda (rigid modes at 0 Hz with their computed lambda).
     #[arg(long)]
     csv: Option<PathBuf>,
+    /// Target modes per spectrum slice.
+    #[arg(long, default_value_t = EigenOptions::default().slice_size)]
+    slice_size: usize,
+    /// Worker threads (0 = all cores).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
 }
 
 pub fn modes(a: &ModesArgs) -> Result<()> {
     let (model, scene, _) = model_dir::read(&a.model)?;
     let body = Body::new(&model)?;
-    let (req, lo) = match (&a.band, a.count) {
+    let req = match (&a.band, a.count) {
         (Some(b), _) => {
             let b = parse_band(b)?;
-            (Request::UpTo(b[1]), b[0])
+            Request::Band(b[0], b[1])
         }
-        (None, Some(c)) => (Request::Lowest(c), f64::NEG_INFINITY),
-        (None, None) => (Request::UpTo(scene.band_hz[1]), f64::NEG_INFINITY),
+        (None, Some(c)) => Request::Lowest(c),
+        (None, None) => Request::UpTo(scene.band_hz[1]),
+    };
+    let opts = EigenOptions {
+        slice_size: a.slice_size,
+        threads: a.threads,
+        ..EigenOptions::for_band(scene.band_hz[1])
     };
     let t = Instant::now();
-    let m = eigenpairs(&body, req, &EigenOptions::for_band(scene.band_hz[1]))?;
+    let m = with_slice_progress(|cb| eigenpairs_with_progress(&body, req, &opts, cb))?;
     let secs = t.elapsed().as_secs_f64();
-    print_modes(&m, lo);
+    print_modes(&m);
+    let st = &m.stats;
     println!(
-        "{} modes ({} rigid) in {secs:.3} s: Cholesky {:.3} s, inertia count {:.3} s, Krylov {:.3} s ({} solves, {} restarts, dim {})",
+        "{} modes ({} rigid) in {secs:.3} s: {} slices, {} factorizations; inertia counts {:.3} s, factor {:.3} s, Krylov {:.3} s \
+         (summed over slices; {} solves, {} restarts, dim <= {})",
         m.lambdas.len(),
         m.rigid,
-        m.stats.factor_s,
-        m.stats.count_s,
-        m.stats.iterate_s,
-        m.stats.solves,
-        m.stats.restarts,
-        m.stats.krylov_dim
+        st.slices.len(),
+        st.factorizations,
+        st.count_s,
+        st.factor_s,
+        st.iterate_s,
+        st.solves,
+        st.restarts,
+        st.krylov_dim
     );
+    if st.repaired_bounds > 0 {
+        println!(
+            "{} slice bounds needed a Rayleigh–Ritz step to make the vectors M-orthonormal across them",
+            st.repaired_bounds
+        );
+    }
     if let Some(path) = &a.csv {
         let mut s = String::from("index,f_hz,kind,lambda\n");
         for (k, f) in m.freqs_hz().iter().enumerate() {
             s.push_str(&format!(
                 "{},{:?},{},{:?}\n",
-                k + 1,
+                m.stats.modes_below + k + 1,
                 f,
                 if k < m.rigid { "rigid" } else { "elastic" },
                 m.lambdas[k]
@@ -65,21 +88,19 @@ pub fn modes(a: &ModesArgs) -> Result<()> {
     Ok(())
 }
 
-fn print_modes(m: &Modes, lo: f64) {
+fn print_modes(m: &Modes) {
     for (k, f) in m.freqs_hz().iter().enumerate() {
-        if *f >= lo || k < m.rigid {
-            println!(
-                "{:>4} {:>12.4} Hz  {:<8} backward error {:.1e}{}",
-                k + 1,
-                f,
-                if k < m.rigid { "rigid" } else { "elastic" },
-                m.residuals[k],
-                if k < m.rigid {
-                    format!("  (computed lambda {:.2e})", m.lambdas[k])
-                } else {
-                    String::new()
-                }
-            );
-        }
+        println!(
+            "{:>4} {:>12.4} Hz  {:<8} backward error {:.1e}{}",
+            m.stats.modes_below + k + 1,
+            f,
+            if k < m.rigid { "rigid" } else { "elastic" },
+            m.residuals[k],
+            if k < m.rigid {
+                format!("  (computed lambda {:.2e})", m.lambdas[k])
+            } else {
+                String::new()
+            }
+        );
     }
 }

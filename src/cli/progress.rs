@@ -5,11 +5,13 @@
 //! ([`sparsemor::Error::Cancelled`]) and nothing is written (every output is atomic). Ctrl-C
 //! outside such a computation ends the process at once, as usual.
 
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
+use sparsemor::eigen::EigenProgress;
 use sparsemor::sweep::{Progress, ProgressFn};
 use sparsemor::Result;
 use std::io::IsTerminal;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::Mutex;
 
 /// Set by Ctrl-C while a computation with a progress callback runs.
 static INTERRUPTED: AtomicBool = AtomicBool::new(false);
@@ -34,6 +36,19 @@ pub fn with_progress<T>(
     msg: &str,
     work: impl FnOnce(ProgressFn<'_>) -> Result<T>,
 ) -> Result<T> {
+    let pb = bar(total, msg);
+    ACTIVE.fetch_add(1, Ordering::SeqCst);
+    let out = work(&|_: Progress| {
+        pb.inc(1);
+        !INTERRUPTED.load(Ordering::SeqCst)
+    });
+    ACTIVE.fetch_sub(1, Ordering::SeqCst);
+    pb.finish_and_clear();
+    out
+}
+
+/// A bar of `total` steps labelled `msg` on stderr, hidden when stderr is not a terminal.
+fn bar(total: usize, msg: &str) -> ProgressBar {
     let pb = if std::io::stderr().is_terminal() {
         ProgressBar::new(total as u64)
     } else {
@@ -45,12 +60,46 @@ pub fn with_progress<T>(
             .progress_chars("=> "),
     );
     pb.set_message(msg.to_string());
+    pb
+}
+
+/// Runs an eigensolve with one bar per spectrum slice (modes converged of the slice's inertia
+/// count), created when the slice starts and cleared at the end; Ctrl-C cancels as in
+/// [`with_progress`].
+pub fn with_slice_progress<T>(
+    work: impl FnOnce(&(dyn Fn(EigenProgress) -> bool + Sync)) -> Result<T>,
+) -> Result<T> {
+    let multi = MultiProgress::new();
+    let bars: Mutex<Vec<Option<ProgressBar>>> = Mutex::new(Vec::new());
     ACTIVE.fetch_add(1, Ordering::SeqCst);
-    let out = work(&|_: Progress| {
-        pb.inc(1);
+    let out = work(&|p: EigenProgress| {
+        let mut bars = bars.lock().unwrap_or_else(|e| e.into_inner());
+        if bars.len() < p.slices {
+            bars.resize(p.slices, None);
+        }
+        let pb = bars[p.slice].get_or_insert_with(|| {
+            multi.add(bar(
+                p.wanted,
+                &format!(
+                    "slice {}/{} {:.0}-{:.0} Hz",
+                    p.slice + 1,
+                    p.slices,
+                    p.lo_hz,
+                    p.hi_hz
+                ),
+            ))
+        });
+        pb.set_position(p.found as u64);
         !INTERRUPTED.load(Ordering::SeqCst)
     });
     ACTIVE.fetch_sub(1, Ordering::SeqCst);
-    pb.finish_and_clear();
+    for pb in bars
+        .into_inner()
+        .unwrap_or_else(|e| e.into_inner())
+        .into_iter()
+        .flatten()
+    {
+        pb.finish_and_clear();
+    }
     out
 }

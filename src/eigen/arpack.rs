@@ -13,7 +13,9 @@
 //! so one process can run one ARPACK iteration at a time: a global lock serializes them.
 //! No Rust code is called from Fortran, so no panic can cross the FFI boundary.
 
-use super::{random_vector, EigenOptions, EigenStats, ShiftInvert};
+use super::krylov::Iteration;
+use super::operator::ShiftInvert;
+use super::{random_vector, EigenOptions};
 use crate::{Error, Result};
 use faer::{Mat, MatMut, MatRef};
 use std::ffi::c_char;
@@ -81,8 +83,8 @@ pub(super) fn solve(
     count: usize,
     m: usize,
     opts: &EigenOptions,
-    stats: &mut EigenStats,
-) -> Result<(Vec<f64>, Mat<f64>)> {
+) -> Result<(Vec<f64>, Mat<f64>, Iteration)> {
+    let mut stats = Iteration::default();
     let n = op.n();
     if count >= n {
         return Err(Error::InvalidSetting(format!(
@@ -192,7 +194,7 @@ pub(super) fn solve(
     }
     let nconv = iparam[4].max(0) as usize;
     if info == 1 || nconv < count {
-        return Err(Error::Factor(format!(
+        return Err(Error::NotConverged(format!(
             "ARPACK dsaupd: only {nconv} of {count} modes converged within {max_iter} Arnoldi update iterations (ncv = {ncv}); \
              increase the Krylov dimension or the restart limit"
         )));
@@ -243,7 +245,7 @@ pub(super) fn solve(
     }
     drop(v);
     let vectors = MatRef::from_column_major_slice(&z, n, count).to_owned();
-    Ok((d, vectors))
+    Ok((d, vectors, stats))
 }
 
 fn try_zeros(len: usize) -> Result<Vec<f64>> {

@@ -1,121 +1,376 @@
-//! Krylov–Schur on S = (K − σM)⁻¹ M in the M-inner product (the default backend).
+//! Krylov–Schur with locking on S = (K − σM)⁻¹ M in the M-inner product: the default
+//! iteration of one spectrum slice (docs/design.md §3.6).
 //!
-//! Each restart keeps the best Ritz vectors (thick restart): with full M-orthogonalization
-//! (two classical Gram–Schmidt passes) the basis Q (N × m) is M-orthonormal and
+//! The basis Q (N × (m+1)) is M-orthonormal. Its first `nl` columns are **locked**: converged
+//! Ritz vectors, deflated — every new vector is M-orthogonalized against them, and they take no
+//! further part in the Rayleigh–Ritz step. The active columns satisfy the Krylov–Schur relation
 //!
 //! ```text
-//! S Q_j = Q_j H_j + q_{j+1} h_{j+1}ᵀ,      residual of a Ritz pair (θ, Q y) = |h_{j+1}ᵀ y|.
+//! S Q_a = Q_a T_a + q b_aᵀ,      residual of the Ritz pair (θ_i, Q_a y_i): ‖S x − θ x‖_M = |b_aᵀ y_i|.
 //! ```
+//!
+//! Each restart sorts the Ritz values by |θ| (nearest to σ first), locks the leading run of
+//! converged ones, keeps the next best (thick restart) and expands the basis again. M Q is
+//! kept beside Q, so a step costs one solve, one product with M and the Gram–Schmidt passes
+//! (classical, a second pass only when the first cancelled more than half the norm — the
+//! DGKS criterion).
+//!
+//! **Convergence.** The pair i is converged when |b_aᵀ y_i| ≤ tol·|θ_i| + 4ε·θ_max, θ_max the
+//! largest active |θ| (the norm of S deflated of the locked pairs, on the Krylov space). The first term is ARPACK's
+//! criterion (`tol·|θ|`) and SLEPc's relative one; it bounds the relative error of θ, so of
+//! λ − σ, by tol. The second is the rounding floor of applying S in floating point: without it a
+//! pair with |θ_i| ≪ θ_max (an eigenvalue much farther from σ than the nearest one) could be
+//! asked for an accuracy no floating-point iteration reaches, and the iteration would never
+//! stop. With both, every wanted pair meets the test in floating point. The floor is taken
+//! over the active pairs only: the nearest eigenvalues (rigid modes, for a shift below the
+//! spectrum) converge and are locked first, and once deflated they no longer set the floor
+//! for the farther ones.
+//!
+//! **Counts and multiplicity.** A single-vector Krylov space holds, in exact arithmetic, one
+//! direction of each eigenspace only: the second copy of a multiple eigenvalue (the cube's
+//! symmetries make many) enters through rounding, slowly. The slice knows from the inertia how
+//! many eigenvalues lie in it, so it does not wait for rounding: when a converged pair beyond
+//! the slice's reach (farther from σ than any point of the slice) is locked while pairs of the
+//! slice are still missing, every nearer eigenvector the Krylov space can see has been
+//! found, and the iteration starts again from a fresh random vector M-orthogonal to the locked
+//! ones — which has a component along every missing eigenvector.
 
-use super::{random_vector, EigenOptions, EigenStats, ShiftInvert};
+use super::operator::ShiftInvert;
+use super::{random_vector, EigenOptions};
 use crate::{Error, Result};
 use faer::{Mat, MatRef, Side};
 
-/// The `count` eigenpairs of (K, M) closest to σ with a Krylov dimension `m` (count ≤ m ≤ N):
-/// (λ, M-orthonormal vectors), in no particular order.
+/// The eigenvalues one slice wants: those in (lower, upper] (λ; infinite ends allowed),
+/// `count` of them.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Target {
+    pub lower: f64,
+    pub upper: f64,
+    pub count: usize,
+}
+
+impl Target {
+    fn contains(&self, lambda: f64) -> bool {
+        lambda > self.lower && lambda <= self.upper
+    }
+
+    /// The largest distance from σ of an eigenvalue of the slice: the farther finite end (an
+    /// infinite lower end below σ < 0 holds no eigenvalue, K being semi-definite).
+    fn reach(&self, sigma: f64) -> f64 {
+        let up = if self.upper.is_finite() {
+            (self.upper - sigma).abs()
+        } else {
+            f64::INFINITY
+        };
+        let lo = if self.lower.is_finite() {
+            (sigma - self.lower).abs()
+        } else {
+            0.0
+        };
+        up.max(lo)
+    }
+}
+
+/// What one slice's iteration did.
+#[derive(Clone, Debug, Default)]
+pub(super) struct Iteration {
+    pub solves: usize,
+    pub restarts: usize,
+    /// Fresh starts after a missed copy of a multiple eigenvalue.
+    pub fresh_starts: usize,
+}
+
+/// The `target.count` eigenpairs of (K, M) in the target interval, by Krylov–Schur with
+/// locking on `op` with a basis of `m` vectors (count < m ≤ N, or m = N); (λ, M-orthonormal
+/// vectors) in the order they converged. `progress(found)` is called after each restart;
+/// `false` cancels.
 pub(super) fn solve(
     op: &mut ShiftInvert<'_>,
-    count: usize,
+    target: Target,
     m: usize,
     opts: &EigenOptions,
-    stats: &mut EigenStats,
-) -> Result<(Vec<f64>, Mat<f64>)> {
+    progress: &mut dyn FnMut(usize) -> bool,
+) -> Result<(Vec<f64>, Mat<f64>, Iteration)> {
     let n = op.n();
-    let mut q = Mat::<f64>::zeros(n, m + 1);
-    let mut h = Mat::<f64>::zeros(m + 1, m);
-    let (mut w, mut mw) = (Mat::<f64>::zeros(n, 1), Mat::<f64>::zeros(n, 1));
-    // M-norm of w (overwrites mw with M w)
-    let m_norm = |op: &ShiftInvert<'_>, w: MatRef<'_, f64>, mw: &mut Mat<f64>| -> f64 {
-        op.mass_mul(w, mw.as_mut());
-        (w.transpose() * mw.as_ref())[(0, 0)].max(0.0).sqrt()
-    };
-    w.copy_from(random_vector(n, 0));
-    let nrm = m_norm(op, w.as_ref(), &mut mw);
-    q.as_mut().col_mut(0).copy_from(w.col(0) / nrm);
-    let mut start = 0;
-    let (theta, y) = loop {
-        for j in start..m {
-            op.apply(q.as_ref().subcols(j, 1), w.as_mut());
-            stats.solves += 1;
-            let norm_w0 = m_norm(op, w.as_ref(), &mut mw);
-            let basis = q.as_ref().subcols(0, j + 1);
-            let c = orthogonalize(op, basis, &mut w, &mut mw);
-            for i in 0..=j {
-                h[(i, j)] = c[i];
+    let sigma = op.sigma;
+    let count = target.count;
+    let reach = target.reach(sigma);
+    let mut it = Iteration::default();
+    let mut basis = Basis::new(op, m)?;
+    // locked pairs: λ and whether they belong to the target
+    let mut locked: Vec<(f64, bool)> = Vec::new();
+    let mut found = 0usize;
+    let mut start = 0usize;
+    let (mut idle, mut fresh_idle) = (0usize, 0usize);
+    loop {
+        let nl = locked.len();
+        it.solves += basis.expand(op, nl, start)?;
+        let (theta, y, b) = basis.ritz(nl)?;
+        let ma = m - nl;
+        let Basis { q, mq, h, seed } = &mut basis;
+        let theta_max = theta[0].abs();
+        let exhausted = m == n && nl + ma == n;
+        let converged = |i: usize| {
+            exhausted || b[i].abs() <= opts.tol * theta[i].abs() + 4.0 * f64::EPSILON * theta_max
+        };
+        // lock the leading converged run
+        let (mut nc, mut beyond) = (0usize, false);
+        while nc < ma && found < count && converged(nc) {
+            let lambda = sigma + 1.0 / theta[nc];
+            let inside = target.contains(lambda);
+            found += usize::from(inside);
+            beyond |= !inside && (lambda - sigma).abs() > reach * (1.0 + 1e-9);
+            locked.push((lambda, inside));
+            nc += 1;
+        }
+        let done = found == count;
+        let ma_new = ma - nc;
+        if !done && ma_new == 0 {
+            return Err(Error::NotConverged(format!(
+                "{found} of {count} modes found in the slice {}: the basis of {m} vectors is full of converged pairs; \
+                 increase the Krylov dimension",
+                describe(&target)
+            )));
+        }
+        // thick restart: the locked run, then the best remaining Ritz vectors
+        let remaining = count - found;
+        // room for the continuation vector: at most ma_new − 1 kept
+        let keep_active = if done || ma_new < 2 {
+            0
+        } else {
+            (remaining + ma_new.saturating_sub(remaining) / 2).clamp(1, ma_new - 1)
+        };
+        let keep = nc + keep_active;
+        let qy = q.as_ref().subcols(nl, ma) * y.as_ref().subcols(0, keep);
+        let mqy = mq.as_ref().subcols(nl, ma) * y.as_ref().subcols(0, keep);
+        q.as_mut().subcols_mut(nl, keep).copy_from(&qy);
+        mq.as_mut().subcols_mut(nl, keep).copy_from(&mqy);
+        if done {
+            break;
+        }
+        let (a0, p) = (nl + nc, nl + keep);
+        let (last, mlast) = (q.col(m).to_owned(), mq.col(m).to_owned());
+        q.as_mut().col_mut(p).copy_from(&last);
+        mq.as_mut().col_mut(p).copy_from(&mlast);
+        h.fill(0.0);
+        for c in 0..keep_active {
+            h[(a0 + c, a0 + c)] = theta[nc + c];
+            h[(p, a0 + c)] = b[nc + c];
+        }
+        start = p;
+        it.restarts += 1;
+        idle = if nc == 0 { idle + 1 } else { 0 };
+        if beyond {
+            // every eigenvector this Krylov space sees nearer than the slice's reach is
+            // locked, yet the inertia counts more: start again beside the locked ones
+            fresh_idle += 1;
+            if fresh_idle > 3 {
+                return Err(Error::NotConverged(format!(
+                    "{found} of {count} modes found in the slice {}: three fresh starts found no further mode although the \
+                     inertia counts {count}; an eigenvalue may lie within rounding of a slice bound — move the band ends slightly",
+                    describe(&target)
+                )));
             }
-            let beta = m_norm(op, w.as_ref(), &mut mw);
-            if beta > 1e-12 * norm_w0 {
-                h[(j + 1, j)] = beta;
-                q.as_mut().col_mut(j + 1).copy_from(w.col(0) / beta);
+            it.fresh_starts += 1;
+            h.fill(0.0);
+            *seed += 1;
+            let a0 = locked.len();
+            fresh_vector(op, q, mq, a0, *seed)?;
+            start = a0;
+        } else if nc > 0 {
+            fresh_idle = 0;
+        }
+        if !progress(found) {
+            return Err(Error::Cancelled);
+        }
+        if it.restarts > opts.max_restarts || idle > opts.patience {
+            let worst = (nc..ma)
+                .take(remaining)
+                .map(|i| b[i].abs() / theta[i].abs())
+                .fold(0.0, f64::max);
+            return Err(Error::NotConverged(format!(
+                "{found} of {count} modes found in the slice {} after {} restarts ({} without a newly converged mode); \
+                 the largest relative Ritz residual of the rest is {worst:.1e} (tol {:.0e}); increase the Krylov dimension \
+                 (now {m}) or use more slices",
+                describe(&target),
+                it.restarts,
+                idle,
+                opts.tol
+            )));
+        }
+    }
+    let keep: Vec<usize> = (0..locked.len()).filter(|&i| locked[i].1).collect();
+    let lambdas = keep.iter().map(|&i| locked[i].0).collect();
+    let vectors = Mat::from_fn(n, keep.len(), |r, c| basis.q[(r, keep[c])]);
+    Ok((lambdas, vectors, it))
+}
+
+/// A rough λ of the k-th eigenvalue nearest σ: the k-th Ritz value of one Krylov space of
+/// dimension m > k from a random start (no restart). Used to place a first shift when
+/// nothing about the spectrum is known yet.
+pub(super) fn estimate(op: &mut ShiftInvert<'_>, k: usize, m: usize) -> Result<f64> {
+    let mut basis = Basis::new(op, m)?;
+    basis.expand(op, 0, 0)?;
+    let (theta, _, _) = basis.ritz(0)?;
+    Ok(op.sigma + 1.0 / theta[(k.max(1) - 1).min(m - 1)])
+}
+
+/// The Krylov–Schur basis: Q and M Q (N × (m+1)), the projected matrix H ((m+1) × m) and the
+/// seed of the next fresh random vector.
+struct Basis {
+    q: Mat<f64>,
+    mq: Mat<f64>,
+    h: Mat<f64>,
+    seed: u64,
+}
+
+impl Basis {
+    /// m + 1 columns, the first a random unit vector.
+    fn new(op: &ShiftInvert<'_>, m: usize) -> Result<Self> {
+        let n = op.n();
+        let mut b = Basis {
+            q: Mat::zeros(n, m + 1),
+            mq: Mat::zeros(n, m + 1),
+            h: Mat::zeros(m + 1, m),
+            seed: 0,
+        };
+        fresh_vector(op, &mut b.q, &mut b.mq, 0, 0)?;
+        Ok(b)
+    }
+
+    /// Krylov dimension m.
+    fn m(&self) -> usize {
+        self.h.ncols()
+    }
+
+    /// Expands columns `start`..m (each S q_j, M-orthogonalized against all previous columns,
+    /// locked ones included; coefficients recorded from column `nl` on). Returns the solves.
+    fn expand(&mut self, op: &mut ShiftInvert<'_>, nl: usize, start: usize) -> Result<usize> {
+        let (n, m) = (op.n(), self.m());
+        for j in start..m {
+            let mut w = self.mq.as_ref().subcols(j, 1).to_owned();
+            op.solve_in_place(w.as_mut());
+            let (c, norm0, beta, mw) = orthogonalize(
+                op,
+                self.q.as_ref().subcols(0, j + 1),
+                self.mq.as_ref().subcols(0, j + 1),
+                &mut w,
+            );
+            for i in nl..=j {
+                self.h[(i, j)] = c[i];
+            }
+            if beta > 1e-12 * norm0 {
+                self.h[(j + 1, j)] = beta;
+                self.q.as_mut().col_mut(j + 1).copy_from(w.col(0) / beta);
+                self.mq.as_mut().col_mut(j + 1).copy_from(mw.col(0) / beta);
             } else {
-                // invariant subspace found (S q_j ∈ span Q): h_{j+1,j} = 0, continue with a
-                // fresh direction M-orthogonal to Q
-                h[(j + 1, j)] = 0.0;
-                w.copy_from(random_vector(n, j as u64 + 1));
-                op.mass_mul(w.as_ref(), mw.as_mut());
-                orthogonalize(op, basis, &mut w, &mut mw);
-                // s = 0 only when Q already spans R^N (m = N, last step): q_{m} stays 0
-                let s = m_norm(op, w.as_ref(), &mut mw);
-                if s > 0.0 {
-                    q.as_mut().col_mut(j + 1).copy_from(w.col(0) / s);
+                // S q_j ∈ span Q: an invariant subspace; go on from a fresh direction
+                self.h[(j + 1, j)] = 0.0;
+                self.seed += 1;
+                if j + 1 < n {
+                    fresh_vector(op, &mut self.q, &mut self.mq, j + 1, self.seed)?;
                 }
             }
         }
-        let hm = Mat::from_fn(m, m, |i, j| 0.5 * (h[(i, j)] + h[(j, i)]));
-        let eig = hm
-            .self_adjoint_eigen(Side::Lower)
-            .map_err(|_| Error::Factor("dense Ritz eigenproblem did not converge".into()))?;
-        // descending θ
-        let theta: Vec<f64> = (0..m).rev().map(|i| eig.S()[i]).collect();
-        let y = Mat::from_fn(m, m, |r, c| eig.U()[(r, m - 1 - c)]);
-        let coupling = |c: usize| (0..m).map(|r| h[(m, r)] * y[(r, c)]).sum::<f64>();
-        let converged = (0..count).all(|c| coupling(c).abs() <= opts.tol * theta[c].abs());
-        if converged || m == n {
-            break (theta, y);
-        }
-        if stats.restarts >= opts.max_restarts {
-            return Err(Error::Factor(format!(
-                "eigensolver: {count} modes not converged after {} restarts (Krylov dimension {m}); increase the Krylov dimension or the restart limit",
-                stats.restarts
-            )));
-        }
-        stats.restarts += 1;
-        let keep = (count + (m - count) / 2).min(m - 1).max(count);
-        let qy = q.as_ref().subcols(0, m) * y.as_ref().subcols(0, keep);
-        let last = q.as_ref().col(m).to_owned();
-        let mut hn = Mat::<f64>::zeros(m + 1, m);
-        for c in 0..keep {
-            hn[(c, c)] = theta[c];
-            hn[(keep, c)] = coupling(c);
-        }
-        q.as_mut().subcols_mut(0, keep).copy_from(&qy);
-        q.as_mut().col_mut(keep).copy_from(&last);
-        h = hn;
-        start = keep;
-    };
-    let lambdas = theta[..count].iter().map(|&t| op.sigma + 1.0 / t).collect();
-    let vectors = q.as_ref().subcols(0, m) * y.as_ref().subcols(0, count);
-    Ok((lambdas, vectors))
+        Ok(m.saturating_sub(start))
+    }
+
+    /// Rayleigh–Ritz on the active block (columns nl..m): Ritz values θ by |θ| descending,
+    /// their vectors Y and the residual estimates b = h_{m+1}ᵀ Y.
+    fn ritz(&self, nl: usize) -> Result<(Vec<f64>, Mat<f64>, Vec<f64>)> {
+        let (m, h) = (self.m(), &self.h);
+        let ma = m - nl;
+        let t = Mat::from_fn(ma, ma, |i, j| {
+            0.5 * (h[(nl + i, nl + j)] + h[(nl + j, nl + i)])
+        });
+        let eig = t.self_adjoint_eigen(Side::Lower).map_err(|_| {
+            Error::NotConverged(
+                "the dense Ritz eigenproblem (LAPACK-style QR) did not converge".into(),
+            )
+        })?;
+        let mut order: Vec<usize> = (0..ma).collect();
+        order.sort_by(|&a, &b| eig.S()[b].abs().total_cmp(&eig.S()[a].abs()));
+        let theta: Vec<f64> = order.iter().map(|&i| eig.S()[i]).collect();
+        let y = Mat::from_fn(ma, ma, |r, c| eig.U()[(r, order[c])]);
+        let b = (0..ma)
+            .map(|c| (0..ma).map(|r| h[(m, nl + r)] * y[(r, c)]).sum::<f64>())
+            .collect();
+        Ok((theta, y, b))
+    }
 }
 
-/// Two classical Gram–Schmidt passes in the M-inner product: w ← w − Q c with c = Qᵀ M w,
-/// accumulated over both passes (returned). On entry `mw` holds M w; on exit it is stale.
+/// "(lo, hi] Hz" of a target, for messages.
+fn describe(t: &Target) -> String {
+    let hz = |l: f64| {
+        if l.is_finite() {
+            format!("{:.6e}", crate::units::lambda_to_hz(l))
+        } else if l < 0.0 {
+            "-inf".into()
+        } else {
+            "inf".into()
+        }
+    };
+    format!("({}, {}] Hz", hz(t.lower), hz(t.upper))
+}
+
+/// Writes at column `j` of (Q, MQ) a random unit vector M-orthogonal to columns 0..j.
+fn fresh_vector(
+    op: &ShiftInvert<'_>,
+    q: &mut Mat<f64>,
+    mq: &mut Mat<f64>,
+    j: usize,
+    seed: u64,
+) -> Result<()> {
+    let mut w = random_vector(op.n(), seed);
+    let (_, _, beta, mw) = orthogonalize(
+        op,
+        q.as_ref().subcols(0, j),
+        mq.as_ref().subcols(0, j),
+        &mut w,
+    );
+    if !(beta > 0.0) {
+        return Err(Error::NotConverged(
+            "no start vector M-orthogonal to the converged modes is left (the basis spans R^N)"
+                .into(),
+        ));
+    }
+    q.as_mut().col_mut(j).copy_from(w.col(0) / beta);
+    mq.as_mut().col_mut(j).copy_from(mw.col(0) / beta);
+    Ok(())
+}
+
+/// Classical Gram–Schmidt in the M-inner product against the M-orthonormal columns of `q`
+/// (with `mq` = M q): w ← w − Q c, c = (MQ)ᵀ w, a second pass when ‖w‖_M fell below 1/√2 of
+/// its size (DGKS). Returns (c summed over the passes, ‖w‖_M before, ‖w‖_M after, M w).
 fn orthogonalize(
     op: &ShiftInvert<'_>,
-    basis: MatRef<'_, f64>,
+    q: MatRef<'_, f64>,
+    mq: MatRef<'_, f64>,
     w: &mut Mat<f64>,
-    mw: &mut Mat<f64>,
-) -> Vec<f64> {
-    let mut total = vec![0.0; basis.ncols()];
-    for pass in 0..2 {
-        if pass > 0 {
-            op.mass_mul(w.as_ref(), mw.as_mut());
-        }
-        let c = basis.transpose() * &*mw;
-        *w -= basis * &c;
+) -> (Vec<f64>, f64, f64, Mat<f64>) {
+    let mut mw = Mat::<f64>::zeros(w.nrows(), 1);
+    let mut total = vec![0.0; q.ncols()];
+    let pass = |w: &mut Mat<f64>, total: &mut Vec<f64>| {
+        let c = mq.transpose() * &*w;
+        *w -= q * &c;
         for (t, i) in total.iter_mut().zip(0..) {
             *t += c[(i, 0)];
         }
+    };
+    let m_norm = |w: &Mat<f64>, mw: &mut Mat<f64>| {
+        op.mass_mul(w.as_ref(), mw.as_mut());
+        (w.transpose() * &*mw)[(0, 0)].max(0.0).sqrt()
+    };
+    let mut beta = if q.ncols() == 0 {
+        m_norm(w, &mut mw)
+    } else {
+        pass(w, &mut total);
+        m_norm(w, &mut mw)
+    };
+    let norm0 = (total.iter().map(|c| c * c).sum::<f64>() + beta * beta).sqrt();
+    if q.ncols() > 0 && beta < std::f64::consts::FRAC_1_SQRT_2 * norm0 {
+        pass(w, &mut total);
+        beta = m_norm(w, &mut mw);
     }
-    total
+    (total, norm0, beta, mw)
 }

@@ -155,7 +155,12 @@ impl Factor {
     }
 
     /// Solves A X = B in place with the last factorization.
-    fn solve_in_place(&mut self, sym: &SymbolicCholesky<usize>, rhs: MatMut<'_, f64>, par: Par) {
+    pub(super) fn solve_in_place(
+        &mut self,
+        sym: &SymbolicCholesky<usize>,
+        rhs: MatMut<'_, f64>,
+        par: Par,
+    ) {
         // SAFETY: `fwd` and `inv` have `sym.nrows()` entries (allocated in `new` for this
         // `sym`) and always hold a permutation and its inverse: the identity from `new`, then
         // only what faer's intranode LBLᵀ writes there, its pivoting permutation and inverse.

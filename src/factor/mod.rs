@@ -39,6 +39,7 @@ pub use inertia::{count_eigenvalues_below, count_eigenvalues_below_with};
 pub use lblt::PivotStats;
 
 pub(crate) use cholesky::Cholesky;
+pub(crate) use inertia::ShiftedLblt;
 
 use crate::pencil::Pencil;
 use crate::{Error, Result};

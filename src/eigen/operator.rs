@@ -1,0 +1,105 @@
+//! The shift-invert operator S = (K − σM)⁻¹ M of one spectrum slice (docs/design.md §3.6).
+//!
+//! S is self-adjoint in the M-inner product ⟨x, y⟩_M = xᵀMy; its eigenvalues θ = 1/(λ − σ)
+//! are largest in magnitude for the λ nearest σ, on either side. Two factorizations of the
+//! same AMD-ordered symbolic analysis:
+//! - σ below the spectrum (σ < 0: K − σM is positive definite even for a free body): sparse
+//!   Cholesky LLᵀ, the cheapest factor — the bottom slice and [`super::Request::Lowest`];
+//! - σ inside the spectrum (an interior slice): LBLᵀ with Bunch–Kaufman pivots, whose
+//!   inertia also gives ν(σ), the number of eigenvalues below σ (Sylvester).
+
+use crate::factor::{Cholesky, ShiftedLblt};
+use crate::model::Model;
+use crate::pencil::Pencil;
+use crate::{Error, Result};
+use faer::sparse::linalg::cholesky::SymbolicCholesky;
+use faer::sparse::linalg::matmul::sparse_dense_matmul;
+use faer::sparse::SparseColMatRef;
+use faer::{Accum, MatMut, MatRef, Par};
+use std::sync::Arc;
+
+enum Factor {
+    Definite(Cholesky),
+    Indefinite(ShiftedLblt),
+}
+
+/// S = (K − σM)⁻¹ M: the factor of K − σM and the mass matrix.
+pub(crate) struct ShiftInvert<'a> {
+    factor: Factor,
+    mass: SparseColMatRef<'a, usize, f64>,
+    pub(crate) sigma: f64,
+}
+
+impl<'a> ShiftInvert<'a> {
+    /// Factors K − σM on the symbolic analysis `sym` of the pencil's pattern: Cholesky for
+    /// σ < 0, LBLᵀ otherwise; `par` parallelizes the Cholesky factorization.
+    ///
+    /// # Errors
+    /// [`Error::Factor`] when K − σM (σ < 0) is not positive definite or memory is short;
+    /// [`Error::Singular`] when σ is an eigenvalue to working precision.
+    pub(crate) fn new(
+        model: &'a Model,
+        pencil: &Pencil,
+        sym: Arc<SymbolicCholesky<usize>>,
+        sigma: f64,
+        par: Par,
+    ) -> Result<Self> {
+        let factor = if sigma < 0.0 {
+            let mut chol = Cholesky::new(sym, par)?;
+            chol.factor(pencil, sigma, par).map_err(|e| {
+                Error::Factor(format!(
+                    "K - sigma M (sigma = {sigma:.3e}) is not positive definite ({e:?}): is M positive definite and K positive semi-definite?"
+                ))
+            })?;
+            Factor::Definite(chol)
+        } else {
+            Factor::Indefinite(ShiftedLblt::new(sym, pencil, sigma, 1)?)
+        };
+        Ok(ShiftInvert {
+            factor,
+            mass: model.mass.as_ref(),
+            sigma,
+        })
+    }
+
+    /// ν(σ) = #{λ < σ} when the factor is an LBLᵀ (0 below the spectrum).
+    pub(crate) fn below(&self) -> usize {
+        match &self.factor {
+            Factor::Definite(_) => 0,
+            Factor::Indefinite(f) => f.below(),
+        }
+    }
+
+    /// Entries of the factor L.
+    pub(crate) fn factor_nnz(&self) -> usize {
+        match &self.factor {
+            Factor::Definite(f) => f.factor_nnz(),
+            Factor::Indefinite(f) => f.factor_nnz(),
+        }
+    }
+
+    /// Dimension N.
+    pub(crate) fn n(&self) -> usize {
+        self.mass.nrows()
+    }
+
+    /// y ← M x.
+    pub(crate) fn mass_mul(&self, x: MatRef<'_, f64>, y: MatMut<'_, f64>) {
+        sparse_dense_matmul(y, Accum::Replace, self.mass, x, 1.0, Par::Seq);
+    }
+
+    /// x ← (K − σM)⁻¹ x.
+    pub(crate) fn solve_in_place(&mut self, x: MatMut<'_, f64>) {
+        match &mut self.factor {
+            Factor::Definite(f) => f.solve_in_place(x),
+            Factor::Indefinite(f) => f.solve_in_place(x),
+        }
+    }
+
+    /// y ← S x = (K − σM)⁻¹ M x (ARPACK's mode 3 asks for it without M x).
+    #[cfg(feature = "arpack")]
+    pub(crate) fn apply(&mut self, x: MatRef<'_, f64>, mut y: MatMut<'_, f64>) {
+        self.mass_mul(x, y.as_mut());
+        self.solve_in_place(y);
+    }
+}

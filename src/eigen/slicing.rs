@@ -1,0 +1,441 @@
+//! Spectrum slicing (docs/design.md §3.6): the wanted part of the spectrum is cut into
+//! slices, each counted exactly by inertia and solved on its own shift-invert factorization.
+//!
+//! - **Counts.** ν(x) = #{λ < x} is the number of negative pivots of an LBLᵀ factor of
+//!   K − xM (Sylvester). A slice (a, b] holds ν(b) − ν(a) eigenvalues; a bound that is an
+//!   eigenvalue to working precision (zero pivot) is moved by 10⁻⁷ relative.
+//! - **Bounds.** The count of a 3-D elastic body grows like λ^{3/2} (Weyl's law), so the
+//!   interior bounds are first placed at equal steps of λ^{3/2}, then counted; a slice that
+//!   holds more than twice the target size is halved (in λ^{3/2}) and recounted, adjacent
+//!   slices that hold together no more than the target are merged, empty ones dropped. Other
+//!   geometries (bars, plates) only cost a few extra counts.
+//! - **Shifts.** The bottom slice (−∞, b] is solved below the spectrum (σ = −b/100, a
+//!   Cholesky factor) where its eigenvalues are exactly the ones nearest σ; an interior slice
+//!   (a, b] at its midpoint, where the eigenvalues within (b − a)/2 of σ are exactly the
+//!   slice's (an LBLᵀ factor).
+//! - **Parallel.** Slices are independent: they run on a pool of worker threads, as many at a
+//!   time as cores and the memory budget allow (each holds its factor and a basis of 2·m
+//!   vectors); a lone slice gets the threads inside its Cholesky factorization instead.
+//! - **Across slices.** Vectors of one slice are M-orthonormal by construction; two
+//!   eigenvalues on either side of a bound come from different factorizations, so their
+//!   vectors are M-orthogonal only to the accuracy of the pair (residual / gap). Where the
+//!   M-Gram block of two neighbouring slices exceeds 10⁻¹³, a Rayleigh–Ritz step on the union
+//!   of their vectors restores M-orthonormality and sharpens the pairs.
+
+use super::krylov::{self, Target};
+use super::operator::ShiftInvert;
+use super::{EigenBackend, EigenOptions, EigenProgress, SliceStats};
+use crate::body::Body;
+use crate::factor::count_eigenvalues_below_with;
+use crate::sparse::mul_dense;
+use crate::units::{hz_to_lambda, lambda_to_hz};
+use crate::{Error, Result};
+use faer::sparse::linalg::cholesky::SymbolicCholesky;
+use faer::{Mat, Par, Side};
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
+
+/// The eigenpairs one slice found (ascending λ) and what it cost.
+pub(super) struct Solved {
+    pub lambdas: Vec<f64>,
+    pub vectors: Mat<f64>,
+    pub stats: SliceStats,
+}
+
+impl Solved {
+    /// Only the pairs with λ < `bound`.
+    pub(super) fn below(self, bound: f64) -> Solved {
+        let k = self.lambdas.iter().filter(|&&l| l < bound).count();
+        Solved {
+            lambdas: self.lambdas[..k].to_vec(),
+            vectors: self.vectors.as_ref().subcols(0, k).to_owned(),
+            stats: SliceStats {
+                count: k,
+                ..self.stats
+            },
+        }
+    }
+}
+
+/// The slicing context of one [`super::eigenpairs`] call.
+pub(super) struct Slicer<'b, 'm> {
+    body: &'b Body<'m>,
+    sym: Arc<SymbolicCholesky<usize>>,
+    opts: &'b EigenOptions,
+    pool: rayon::ThreadPool,
+    threads: usize,
+    budget: usize,
+    /// Seconds and factorizations of the inertia counts.
+    counts: Mutex<(f64, usize)>,
+}
+
+impl<'b, 'm> Slicer<'b, 'm> {
+    pub(super) fn new(body: &'b Body<'m>, opts: &'b EigenOptions) -> Result<Self> {
+        let threads = crate::sweep::resolve_threads(opts.threads);
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .map_err(|e| Error::InvalidSetting(format!("cannot start {threads} threads: {e}")))?;
+        let budget = opts
+            .memory_budget
+            .unwrap_or_else(|| crate::memory::available_bytes().unwrap_or(8 << 30) / 2);
+        Ok(Slicer {
+            body,
+            sym: body.symbolic()?,
+            opts,
+            pool,
+            threads,
+            budget,
+            counts: Mutex::new((0.0, 0)),
+        })
+    }
+
+    /// The body being solved.
+    pub(super) fn body(&self) -> &'b Body<'m> {
+        self.body
+    }
+
+    /// (seconds, factorizations) spent on inertia counts so far.
+    pub(super) fn count_cost(&self) -> (f64, usize) {
+        *self.counts.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// ν at bounds near `lambdas`: each (bound used, ν(bound)), counted in parallel.
+    pub(super) fn count(&self, lambdas: &[f64]) -> Result<Vec<(f64, usize)>> {
+        let one = |&l: &f64| -> Result<(f64, usize)> {
+            let t = Instant::now();
+            let mut bound = l;
+            let mut r = Err(Error::Factor("no count".into()));
+            for k in 0..4 {
+                r = count_eigenvalues_below_with(&self.sym, self.body.pencil(), bound);
+                if !matches!(r, Err(Error::Singular { .. })) {
+                    break;
+                }
+                bound = l * (1.0 + 1e-7 * f64::from(k + 1) * if k % 2 == 0 { 1.0 } else { -1.0 });
+            }
+            let mut c = self.counts.lock().unwrap_or_else(|p| p.into_inner());
+            c.0 += t.elapsed().as_secs_f64();
+            c.1 += 1;
+            Ok((bound, r?))
+        };
+        let workers = self.workers(lambdas.len(), 8 * self.sym.len_val() + 64 * self.body.n());
+        if workers > 1 {
+            self.pool.install(|| lambdas.par_iter().map(one).collect())
+        } else {
+            lambdas.iter().map(one).collect()
+        }
+    }
+
+    /// Slices of (lower, upper] (λ; `lower` = None: from below the spectrum) with the counts
+    /// ν(lower) and ν(upper) known: bounds placed, counted, refined (see the module doc).
+    pub(super) fn split(
+        &self,
+        lower: Option<(f64, usize)>,
+        upper: (f64, usize),
+    ) -> Result<Vec<Target>> {
+        let size = self.opts.slice_size.max(1);
+        let (lo, nu_lo) = lower.map_or((0.0, 0), |(l, c)| (l.max(0.0), c));
+        let total = upper.1.saturating_sub(nu_lo);
+        let u = |l: f64| l.max(0.0).powf(1.5);
+        let inv = |x: f64| x.powf(2.0 / 3.0);
+        let parts = total.div_ceil(size).max(1);
+        let interior: Vec<f64> = (1..parts)
+            .map(|k| inv(u(lo) + (u(upper.0) - u(lo)) * k as f64 / parts as f64))
+            .collect();
+        // (bound, ν) ascending, ends included; the lower end is −∞ when None
+        let mut bounds = vec![lower.unwrap_or((f64::NEG_INFINITY, 0))];
+        bounds.extend(self.count(&interior)?);
+        bounds.push(upper);
+        for _ in 0..6 {
+            let crowded: Vec<f64> = bounds
+                .windows(2)
+                .filter(|w| w[1].1 - w[0].1 > 2 * size)
+                .map(|w| inv(0.5 * (u(w[0].0.max(0.0)) + u(w[1].0))))
+                .collect();
+            if crowded.is_empty() {
+                break;
+            }
+            bounds.extend(self.count(&crowded)?);
+            bounds.sort_by(|a, b| a.0.total_cmp(&b.0));
+        }
+        // end a slice at a bound only when the next segment would overfill it (merges
+        // neighbours that together stay within the target size)
+        let mut kept = vec![bounds[0]];
+        for i in 1..bounds.len() - 1 {
+            let start = kept[kept.len() - 1];
+            if bounds[i + 1].1 - start.1 > size && bounds[i].1 > start.1 {
+                kept.push(bounds[i]);
+            }
+        }
+        kept.push(upper);
+        Ok(kept
+            .windows(2)
+            .filter(|w| w[1].1 > w[0].1)
+            .map(|w| Target {
+                lower: w[0].0,
+                upper: w[1].0,
+                count: w[1].1 - w[0].1,
+            })
+            .collect())
+    }
+
+    /// How many slices of `bytes` each may run at once.
+    fn workers(&self, jobs: usize, bytes: usize) -> usize {
+        let by_memory = (self.budget / bytes.max(1)).max(1);
+        self.threads.min(jobs).min(by_memory).max(1)
+    }
+
+    /// Krylov dimension of a slice of `count` eigenvalues.
+    fn krylov_dim(&self, count: usize) -> usize {
+        let n = self.body.n();
+        self.opts
+            .krylov_dim
+            .unwrap_or((2 * count).max(count + 40))
+            .max(count + 1)
+            .min(n)
+    }
+
+    /// Solves every target (in parallel when memory allows) and returns them in order.
+    pub(super) fn solve(
+        &self,
+        targets: &[Target],
+        progress: &(dyn Fn(EigenProgress) -> bool + Sync),
+    ) -> Result<Vec<Solved>> {
+        let n = self.body.n();
+        let widest = targets.iter().map(|t| t.count).max().unwrap_or(1);
+        let bytes = 8 * self.sym.len_val() + 16 * n * (self.krylov_dim(widest) + 1);
+        let workers = self.workers(targets.len(), bytes);
+        let par = if workers == 1 && self.threads > 1 {
+            Par::rayon(self.threads)
+        } else {
+            Par::Seq
+        };
+        let cancel = AtomicBool::new(false);
+        let run = |(k, t): (usize, &Target)| {
+            if cancel.load(Ordering::Relaxed) {
+                return Err(Error::Cancelled);
+            }
+            let r = self.solve_one(*t, k, targets.len(), par, &|p| {
+                let go = !cancel.load(Ordering::Relaxed) && progress(p);
+                if !go {
+                    cancel.store(true, Ordering::Relaxed);
+                }
+                go
+            });
+            if r.is_err() {
+                cancel.store(true, Ordering::Relaxed);
+            }
+            r
+        };
+        if workers > 1 {
+            self.pool.install(|| {
+                targets
+                    .par_iter()
+                    .enumerate()
+                    .with_max_len(1)
+                    .map(run)
+                    .collect()
+            })
+        } else if par == Par::Seq {
+            targets.iter().enumerate().map(run).collect()
+        } else {
+            self.pool
+                .install(|| targets.iter().enumerate().map(run).collect())
+        }
+    }
+
+    /// One slice: factor at its shift (moved slightly if it hits an eigenvalue), iterate.
+    fn solve_one(
+        &self,
+        target: Target,
+        index: usize,
+        slices: usize,
+        par: Par,
+        progress: &(dyn Fn(EigenProgress) -> bool + Sync),
+    ) -> Result<Solved> {
+        let model = self.body.model();
+        let base = if target.lower.is_finite() {
+            0.5 * (target.lower + target.upper)
+        } else {
+            let scale = if target.upper.is_finite() {
+                target.upper
+            } else {
+                hz_to_lambda(self.opts.band_end_hz.unwrap_or(1.0).max(1.0))
+            };
+            self.opts.sigma.unwrap_or(-0.01 * scale.abs())
+        };
+        if !base.is_finite() || (!target.lower.is_finite() && base >= 0.0) {
+            return Err(Error::InvalidSetting(format!(
+                "shift sigma = {base}: must be finite and < 0 so that K - sigma M is positive definite"
+            )));
+        }
+        let t = Instant::now();
+        let mut attempt = 0;
+        let mut op = loop {
+            let sigma = if attempt == 0 {
+                base
+            } else {
+                base + 1e-6 * attempt as f64 * (target.upper - target.lower)
+            };
+            match ShiftInvert::new(model, self.body.pencil(), self.sym.clone(), sigma, par) {
+                Err(Error::Singular { .. }) if attempt < 3 && target.lower.is_finite() => {
+                    attempt += 1
+                }
+                r => break r?,
+            }
+        };
+        let m = self.krylov_dim(target.count);
+        let mut extra_solves = 0;
+        if !target.upper.is_finite() && self.opts.sigma.is_none() {
+            // nothing is known of the spectrum yet: the shift came from the band end. One
+            // Krylov space estimates λ of the count-th mode; a shift far below it (|σ| <
+            // λ/1000) would leave K − σM badly conditioned in the wanted elastic directions
+            // next to the rigid ones, so factor again at −λ/100
+            let guess = krylov::estimate(&mut op, target.count, m)?;
+            extra_solves = m;
+            if op.sigma.abs() < 1e-3 * guess {
+                op = ShiftInvert::new(
+                    model,
+                    self.body.pencil(),
+                    self.sym.clone(),
+                    -0.01 * guess,
+                    par,
+                )?;
+            }
+        }
+        let factor_s = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let lo_hz = if target.lower.is_finite() {
+            lambda_to_hz(target.lower)
+        } else {
+            0.0
+        };
+        let hi_hz = if target.upper.is_finite() {
+            lambda_to_hz(target.upper)
+        } else {
+            f64::INFINITY
+        };
+        let mut report = |found: usize| {
+            progress(EigenProgress {
+                slice: index,
+                slices,
+                found,
+                wanted: target.count,
+                lo_hz,
+                hi_hz,
+            })
+        };
+        let (lambdas, vectors, it) = match self.opts.backend {
+            EigenBackend::Krylov => krylov::solve(&mut op, target, m, self.opts, &mut report)?,
+            #[cfg(feature = "arpack")]
+            EigenBackend::Arpack => {
+                let (l, v, it) = super::arpack::solve(&mut op, target.count, m, self.opts)?;
+                let inside = l
+                    .iter()
+                    .filter(|&&x| x > target.lower && x <= target.upper)
+                    .count();
+                if inside < target.count {
+                    return Err(Error::NotConverged(format!(
+                        "ARPACK found {inside} of the {} modes counted by inertia in the slice ({lo_hz:.6e}, {hi_hz:.6e}] Hz \
+                         (a multiple eigenvalue it did not resolve); use the krylov backend",
+                        target.count
+                    )));
+                }
+                report(target.count);
+                (l, v, it)
+            }
+            #[cfg(not(feature = "arpack"))]
+            EigenBackend::Arpack => unreachable!("rejected by eigenpairs"),
+        };
+        let iterate_s = t.elapsed().as_secs_f64();
+        let mut order: Vec<usize> = (0..lambdas.len()).collect();
+        order.sort_by(|&a, &b| lambdas[a].total_cmp(&lambdas[b]));
+        Ok(Solved {
+            lambdas: order.iter().map(|&c| lambdas[c]).collect(),
+            vectors: Mat::from_fn(vectors.nrows(), order.len(), |i, c| vectors[(i, order[c])]),
+            stats: SliceStats {
+                lo_hz,
+                hi_hz,
+                sigma: op.sigma,
+                below_sigma: op.below(),
+                count: target.count,
+                krylov_dim: m,
+                factor_nnz: op.factor_nnz(),
+                factor_s,
+                iterate_s,
+                solves: it.solves + extra_solves,
+                restarts: it.restarts,
+                fresh_starts: it.fresh_starts,
+            },
+        })
+    }
+}
+
+/// Concatenates the slices (ascending) and restores M-orthonormality across each bound
+/// where it is lost (module doc): returns (λ, vectors, bounds repaired).
+pub(super) fn join(body: &Body<'_>, slices: Vec<Solved>) -> Result<(Vec<f64>, Mat<f64>, usize)> {
+    let model = body.model();
+    let n = body.n();
+    let total: usize = slices.iter().map(|s| s.lambdas.len()).sum();
+    let mut lambdas = Vec::with_capacity(total);
+    let mut v = Mat::<f64>::zeros(n, total);
+    let mut starts = Vec::new();
+    for s in &slices {
+        starts.push(lambdas.len());
+        v.as_mut()
+            .subcols_mut(lambdas.len(), s.lambdas.len())
+            .copy_from(&s.vectors);
+        lambdas.extend_from_slice(&s.lambdas);
+    }
+    starts.push(total);
+    let mut repaired = 0;
+    for k in 1..slices.len() {
+        let (a, mid, b) = (starts[k - 1], starts[k], starts[k + 1]);
+        let (left, right) = (
+            v.as_ref().subcols(a, mid - a),
+            v.as_ref().subcols(mid, b - mid),
+        );
+        let gram = left.transpose() * mul_dense(model.mass.as_ref(), right);
+        let worst = (0..gram.nrows())
+            .flat_map(|i| (0..gram.ncols()).map(move |j| (i, j)))
+            .map(|(i, j)| gram[(i, j)].abs())
+            .fold(0.0, f64::max);
+        if worst <= 1e-13 {
+            continue;
+        }
+        let w = v.as_ref().subcols(a, b - a).to_owned();
+        let (l, x) = rayleigh_ritz(body, &w)?;
+        lambdas[a..b].copy_from_slice(&l);
+        v.as_mut().subcols_mut(a, b - a).copy_from(&x);
+        repaired += 1;
+    }
+    Ok((lambdas, v, repaired))
+}
+
+/// Rayleigh–Ritz of (K, M) on span W (W nearly M-orthonormal): B = WᵀMW = U D Uᵀ,
+/// B^{-1/2} = U D^{-1/2} Uᵀ, C = B^{-1/2} WᵀKW B^{-1/2} = Y Θ Yᵀ, X = W B^{-1/2} Y.
+fn rayleigh_ritz(body: &Body<'_>, w: &Mat<f64>) -> Result<(Vec<f64>, Mat<f64>)> {
+    let model = body.model();
+    let k = w.ncols();
+    let b = w.transpose() * mul_dense(model.mass.as_ref(), w.as_ref());
+    let a = w.transpose() * mul_dense(model.stiffness.as_ref(), w.as_ref());
+    let sym = |x: &Mat<f64>| Mat::from_fn(k, k, |i, j| 0.5 * (x[(i, j)] + x[(j, i)]));
+    let fail = |_| Error::NotConverged("dense Rayleigh–Ritz across slices did not converge".into());
+    let eb = sym(&b).self_adjoint_eigen(Side::Lower).map_err(fail)?;
+    if (0..k).any(|i| !(eb.S()[i] > 0.5)) {
+        return Err(Error::NotConverged(
+            "vectors of neighbouring slices are nearly dependent (M-Gram eigenvalue below 1/2): a mode was found twice".into(),
+        ));
+    }
+    let half = Mat::from_fn(k, k, |i, j| {
+        (0..k)
+            .map(|l| eb.U()[(i, l)] * eb.U()[(j, l)] / eb.S()[l].sqrt())
+            .sum::<f64>()
+    });
+    let c = &half * sym(&a) * &half;
+    let ec = sym(&c).self_adjoint_eigen(Side::Lower).map_err(fail)?;
+    let x = w * (&half * ec.U());
+    Ok(((0..k).map(|i| ec.S()[i]).collect(), x))
+}
