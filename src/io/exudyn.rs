@@ -7,14 +7,16 @@
 //! (`fem.massMatrix`, `fem.stiffnessMatrix`, scipy CSR: the body's inertia terms are integrals
 //! over all nodes) and the surface triangles (`fem.surface`). [`write`] puts exactly these
 //! into `flexible_body.npz`, with the DoF → (node, direction) map of the inputs and outputs
-//! for markers (`MarkerSuperElementPosition` on mesh node `node`), and the checks into
+//! for markers (`MarkerSuperElementPosition` on mesh node `node`), Rayleigh damping as
+//! `rayleigh` = [α, β] (EXUDYN's mass- and stiffness-proportional damping of the modal
+//! coordinates; an explicit D only as `dampingMatrixReduced`), and the checks into
 //! `export.toml`. `examples/exudyn_flexible_body.py` reads the directory.
 //!
 //! Surface triangles are written only when the model knows its elements; a model directory
 //! holds none (§4), so the export says so instead of inventing a surface.
 
 use crate::io::{atomic, npz};
-use crate::model::Model;
+use crate::model::{Damping, Model};
 use crate::reduce::flexible::ElasticBasis;
 use crate::sparse::Csc;
 use crate::{Error, Result};
@@ -122,6 +124,9 @@ pub fn write(
             z.matrix("Br", rom.br.as_ref())?;
             z.matrix("Cr", rom.cr.as_ref())?;
             z.vector("eigenfrequencies_hz", &body.eigenfrequencies_hz)?;
+            if let Damping::Rayleigh { alpha, beta } = model.damping {
+                z.vector("rayleigh", &[alpha, beta])?;
+            }
             for (name, dofs) in [("input", &rom.inputs), ("output", &rom.outputs)] {
                 z.indices(&format!("{name}s"), dofs)?;
                 let node: Vec<usize> = dofs.iter().map(|&d| d / 3).collect();
