@@ -48,8 +48,9 @@ struct Manifest<'a> {
     nodes: usize,
     dropped_columns: usize,
     dropped_rel_norms: &'a [f64],
-    /// Largest M-cosine between the rigid modes and the exported basis.
-    rigid_coupling: f64,
+    /// Largest M-cosine between the rigid modes and the exported basis (free bodies only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    rigid_coupling: Option<f64>,
     eigenfrequencies_hz: &'a [f64],
     surface: &'a str,
     inputs: &'a [usize],
@@ -103,7 +104,7 @@ pub fn write(
         nodes: nodes.len(),
         dropped_columns: body.dropped,
         dropped_rel_norms: &body.dropped_rel_norms,
-        rigid_coupling: body.rigid_coupling.unwrap_or(0.0),
+        rigid_coupling: body.rigid_coupling,
         eigenfrequencies_hz: &body.eigenfrequencies_hz,
         surface: NO_SURFACE,
         inputs: &rom.inputs,
