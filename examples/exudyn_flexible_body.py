@@ -51,7 +51,8 @@ def load_export(directory):
 
 
 def build(fem, velocity=(0, 0, 0), omega=(0, 0, 0), modal=None, damping=(0.0, 0.0)):
-    """A system with the free-floating body; returns (mbs, the body's item dictionary, cms)."""
+    """A system with the free-floating body; returns (system container, mbs, the body's item
+    dictionary, the ObjectFFRFreducedOrderInterface)."""
     cms = ObjectFFRFreducedOrderInterface(fem, rigidBodyNodeType="NodeType.RotationRotationVector")
     SC = exu.SystemContainer()
     mbs = SC.AddSystem()
@@ -106,8 +107,9 @@ def rayleigh(z):
 
 def momentum(mbs, body, fem_mass, nodes):
     """Linear and angular momentum (about the global origin) of the deformed moving body:
-    velocities of all mesh nodes (global frame) weighted with the full mass matrix, which is
-    M_s (x) I_3 for these elements, so it commutes with the frame rotation."""
+    velocities of all mesh nodes (global frame) weighted with the full mass matrix; valid when
+    M = M_s (x) I_3 (consistent mass of isotropic solid elements, equal lumped nodal masses),
+    which commutes with the frame rotation, as EXUDYN's body itself assumes."""
     obj = body["oFFRFreducedOrder"]
     nn = nodes.shape[0]
     v = np.array([mbs.GetObjectOutputSuperElement(obj, exu.OutputVariableType.Velocity, i)

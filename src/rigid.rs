@@ -182,7 +182,8 @@ impl RigidBody {
     }
 }
 
-fn sym(a: Mat<f64>) -> Mat<f64> {
+/// sym(A) = ½(A + Aᵀ) of a small dense matrix.
+pub(crate) fn sym(a: Mat<f64>) -> Mat<f64> {
     Mat::from_fn(a.nrows(), a.ncols(), |i, j| 0.5 * (a[(i, j)] + a[(j, i)]))
 }
 

@@ -5,7 +5,7 @@
 //! (`fem.nodes['Position']`, 3 translational DoFs per node, node-major), the mode basis
 //! (`fem.modeBasis['matrix']`, N × r, rigid-free), the full mass and stiffness matrices
 //! (`fem.massMatrix`, `fem.stiffnessMatrix`, scipy CSR: the body's inertia terms are integrals
-//! over all nodes) and the surface triangles (`fem.surface`). [`write`] puts exactly these
+//! over all nodes) and the surface triangles (`fem.surface`). [`write()`] puts exactly these
 //! into `flexible_body.npz`, with the DoF → (node, direction) map of the inputs and outputs
 //! for markers (`MarkerSuperElementPosition` on mesh node `node`), Rayleigh damping as
 //! `rayleigh` = [α, β] (EXUDYN's mass- and stiffness-proportional damping of the modal

@@ -1,6 +1,6 @@
 //! NumPy `.npz` archives (docs/design.md §4): a zip file of `.npy` arrays, stored without
 //! compression as `numpy.savez` writes them, so `numpy.load` reads every array back bit for
-//! bit. The `.npy` encoding is `npyz`'s, the archive `zip`'s; [`write`] goes through
+//! bit. The `.npy` encoding is `npyz`'s, the archive `zip`'s; [`write()`] goes through
 //! [`atomic::write_file`], so a failed write leaves no half archive.
 //!
 //! Matrices are written in Fortran (column) order, faer's layout, so `numpy.load(...)["Mr"]`

@@ -23,6 +23,7 @@
 use super::projection::{project, Definiteness};
 use super::rom::Rom;
 use crate::body::Body;
+use crate::rigid::sym;
 use crate::scene::Scene;
 use crate::sparse::mul_dense;
 use crate::units::lambda_to_hz;
@@ -60,10 +61,6 @@ fn max_eig(a: MatRef<'_, f64>) -> f64 {
         Ok(ev) => ev.last().copied().unwrap_or(0.0),
         Err(_) => f64::NAN,
     }
-}
-
-fn sym(a: Mat<f64>) -> Mat<f64> {
-    Mat::from_fn(a.nrows(), a.ncols(), |i, j| 0.5 * (a[(i, j)] + a[(j, i)]))
 }
 
 /// Eigenpairs of a small symmetric matrix, ascending.
