@@ -397,3 +397,30 @@ fn exudyn_simulates_an_exported_abaqus_block() {
     let rom = rom_dir::read(&w.join("rom")).unwrap();
     exudyn_check("blockC3D8", &model, &scene, &rom, 800.0, &w.join("ex"));
 }
+
+#[test]
+fn cli_export_without_the_basis_says_how_to_get_it_and_writes_nothing() {
+    let tmp = tempfile::tempdir().unwrap();
+    let w = tmp.path();
+    ok(w, &["generate", "bar", "--out", "bar"]);
+    ok(
+        w,
+        &[
+            "reduce",
+            "bar",
+            "--method",
+            "linefit",
+            "--extra-interface",
+            "5",
+            "--ref-freqs",
+            "50,100,200,400,800",
+            "--out",
+            "rom",
+        ],
+    );
+    let out = crate::cli::run(w, &["export", "rom", "--model", "bar", "--out", "ex"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("--keep-basis"), "{err}");
+    assert!(!w.join("ex").exists());
+}
