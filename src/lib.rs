@@ -18,7 +18,8 @@
 //! | SEREP | [`reduce::serep::reduce`] | §3.6 |
 //! | projection, the ROM | [`reduce::project`], [`reduce::Rom`] with its [`reduce::Provenance`] | §3.4 |
 //! | metrics | [`metrics::Reference`] (ε(f)), [`metrics::modal_comparison`] (frequency error, MAC) | §3.7 |
-//! | write a ROM | [`io::rom_dir::write`] | §4 |
+//! | write a ROM | [`io::rom_dir::write`] (`.mtx` + `rom.npz`) | §4 |
+//! | export a flexible body | [`reduce::flexible::elastic_basis`], [`io::exudyn::write`] | §3.9 |
 //!
 //! Library code never prints: progress goes through a callback ([`sweep::ProgressFn`]),
 //! results and diagnostics are returned, failures are a typed [`Error`].

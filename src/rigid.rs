@@ -159,6 +159,13 @@ impl RigidBody {
         apply_projector(self.v0.as_ref(), &self.m0_inv, self.mv0.as_ref(), x);
     }
 
+    /// x ← Pᵀ x for real columns (as [`Self::project_response`]), by three small products:
+    /// x − V0 (M0⁻¹ ((M V0)ᵀ x)).
+    pub fn project_response_real(&self, mut x: MatMut<'_, f64>) {
+        let t = &self.m0_inv * (self.mv0.transpose() * x.as_ref());
+        x -= &self.v0 * t;
+    }
+
     /// H0(iω) = C V0 (−ω²M0 + iωD0)⁻¹ V0ᵀ B for B, C selecting `inputs`, `outputs`
     /// (eq. 16 with K0 = 0). Infinite at ω = 0.
     pub fn h0(&self, omega: f64, inputs: &[usize], outputs: &[usize]) -> Mat<c64> {
@@ -175,7 +182,8 @@ impl RigidBody {
     }
 }
 
-fn sym(a: Mat<f64>) -> Mat<f64> {
+/// sym(A) = ½(A + Aᵀ) of a small dense matrix.
+pub(crate) fn sym(a: Mat<f64>) -> Mat<f64> {
     Mat::from_fn(a.nrows(), a.ncols(), |i, j| 0.5 * (a[(i, j)] + a[(j, i)]))
 }
 

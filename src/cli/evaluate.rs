@@ -45,7 +45,7 @@ pub struct EvaluateArgs {
 }
 
 /// The requested (or the scene's) band, starting above 0 Hz ([`positive_band`]).
-fn evaluation_band(scene: &Scene, band: Option<&str>) -> Result<[f64; 2]> {
+pub(super) fn evaluation_band(scene: &Scene, band: Option<&str>) -> Result<[f64; 2]> {
     Ok(positive_band(match band {
         Some(s) => parse_band(s)?,
         None => scene.band_hz,

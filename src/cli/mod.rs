@@ -5,6 +5,7 @@ mod args;
 mod bench;
 mod demo;
 mod evaluate;
+mod export;
 mod generate;
 mod import;
 mod info;
@@ -39,6 +40,7 @@ const EXAMPLES: &str = "Examples:
   sparsemor reduce bar --method linefit --extra-interface 5 --ref-freqs 50,100,200,400,800 --out rom
   sparsemor reduce bar --method serep --modes 9 --out rom9
   sparsemor evaluate bar rom --csv eps.csv
+  sparsemor export rom --model bar --format exudyn --out rom_exudyn
   sparsemor reduce bar --method linefit --extra-interface 5 --tol 1e-3 --max-order 24 --out rom3
   sparsemor tradeoff bar --tols 1e-1,1e-2,1e-3,1e-4 --csv tradeoff.csv --svg tradeoff.svg
   sparsemor modes bar --band 0:1000
@@ -103,6 +105,8 @@ enum Command {
     Reduce(reduce::ReduceArgs),
     /// Transfer-function error, eigenfrequency errors and MAC of a ROM against its model.
     Evaluate(evaluate::EvaluateArgs),
+    /// A ROM (reduced with --keep-basis) as a flexible body for a multibody code (EXUDYN).
+    Export(export::ExportArgs),
     /// Eigenfrequencies (partial, shift-invert Krylov; counted exactly up to a frequency).
     Modes(modes::ModesArgs),
     /// The paper's comparison on the built-in bar: line-fitting vs SEREP.
@@ -144,6 +148,7 @@ pub fn run() -> sparsemor::Result<Done> {
         Command::Sweep(args) => met(sweep::sweep(&args, cli.verbose)),
         Command::Reduce(args) => reduce::reduce(&args),
         Command::Evaluate(args) => met(evaluate::evaluate(&args)),
+        Command::Export(args) => met(export::export(&args)),
         Command::Modes(args) => met(modes::modes(&args)),
         Command::Demo { threads } => met(demo::demo(threads)),
         Command::Tradeoff(args) => met(tradeoff::tradeoff(&args)),

@@ -146,7 +146,7 @@ pub fn reduce(a: &ReduceArgs) -> Result<super::Done> {
         }
     };
     let secs = t.elapsed().as_secs_f64();
-    rom_dir::write(&a.out, &rom)?;
+    rom_dir::write_for_model(&a.out, &rom, &model)?;
     print_rom(&rom);
     eprintln!("reduced in {secs:.2} s -> {}", a.out.display());
     Ok(match rom.sampling() {

@@ -5,7 +5,9 @@
 pub mod abaqus;
 pub mod ansys;
 pub mod atomic;
+pub mod exudyn;
 pub mod import;
 pub mod matrix_market;
 pub mod model_dir;
+pub mod npz;
 pub mod rom_dir;

@@ -1,11 +1,13 @@
 //! The ROM directory (docs/design.md §4): `rom.toml` (method, order, DoFs, reference frequencies,
 //! fit numerics, definiteness, timings, version; for a tolerance-driven ROM a `[sampling]`
 //! table with the tolerance, the error reached, its kind and the loop's status) and `Mr.mtx Dr.mtx Kr.mtx Br.mtx Cr.mtx`
-//! (Matrix Market `array real general`, full double precision), optional `V.mtx`.
-//! Written atomically ([`atomic::write_dir`]).
+//! (Matrix Market `array real general`, full double precision), optional `V.mtx`, and the
+//! same ROM for Python users as `rom.npz` ([`npz`]). Written atomically ([`atomic::write_dir`]).
 
 use crate::io::model_dir::toml_error;
-use crate::io::{atomic, matrix_market};
+use crate::io::{atomic, matrix_market, npz};
+use crate::metrics::rom_eigenfrequencies;
+use crate::model::Model;
 use crate::reduce::linefit::{Outcome, SamplingReport, Verified};
 use crate::reduce::{Definiteness, FitReport, Provenance, Rom, Timing};
 use crate::{Error, Result};
@@ -71,11 +73,61 @@ fn outcome_name(o: &Outcome) -> &'static str {
     }
 }
 
-/// Writes `rom` into a new directory.
+/// Writes `rom` into a new directory (`rom.npz` without node data; see [`write_for_model`]).
 ///
 /// # Errors
 /// [`Error::InvalidSetting`] if `dir` exists and is not empty; I/O errors.
 pub fn write(dir: &Path, rom: &Rom) -> Result<()> {
+    write_dir(dir, rom, None)
+}
+
+/// [`write()`], with the node data of `model` in `rom.npz`: `nodes` (coordinates, one row per
+/// node) and `dof_node`, `dof_dir` (node and direction of each ROM coordinate's DoF).
+///
+/// # Errors
+/// As [`write()`].
+pub fn write_for_model(dir: &Path, rom: &Rom, model: &Model) -> Result<()> {
+    write_dir(dir, rom, Some(model))
+}
+
+/// `rom.npz`: the matrices exactly as in the `.mtx` files, `V` when kept, the DoF lists,
+/// reference frequencies, SEREP modes, the ROM's eigenfrequencies (when Mr is positive
+/// definite), node data of `model`, and `rom.toml`'s text as `metadata`.
+fn write_npz(path: &Path, rom: &Rom, model: Option<&Model>, manifest: &str) -> Result<()> {
+    npz::write(path, |z| {
+        for (name, m) in [
+            ("Mr", &rom.mr),
+            ("Dr", &rom.dr),
+            ("Kr", &rom.kr),
+            ("Br", &rom.br),
+            ("Cr", &rom.cr),
+        ] {
+            z.matrix(name, m.as_ref())?;
+        }
+        if let Some(v) = &rom.basis {
+            z.matrix("V", v.as_ref())?;
+        }
+        z.indices("dofs", &rom.dofs)?;
+        z.indices("inputs", &rom.inputs)?;
+        z.indices("outputs", &rom.outputs)?;
+        z.vector("ref_freqs_hz", rom.ref_freqs_hz())?;
+        z.indices("modes", rom.modes())?;
+        if let Ok(f) = rom_eigenfrequencies(rom) {
+            z.vector("eigenfrequencies_hz", &f)?;
+        }
+        if let Some((model, nodes)) = model.and_then(|m| m.nodes.as_ref().map(|n| (m, n))) {
+            z.rows("nodes", nodes.as_flattened(), 3)?;
+            let dpn = model.dofs_per_node;
+            let (node, dir): (Vec<usize>, Vec<usize>) =
+                rom.dofs.iter().map(|&d| (d / dpn, d % dpn)).unzip();
+            z.indices("dof_node", &node)?;
+            z.indices("dof_dir", &dir)?;
+        }
+        z.text("metadata", manifest)
+    })
+}
+
+fn write_dir(dir: &Path, rom: &Rom, model: Option<&Model>) -> Result<()> {
     atomic::write_dir(dir, |tmp| {
         for (name, m) in [
             ("Mr", &rom.mr),
@@ -128,6 +180,7 @@ pub fn write(dir: &Path, rom: &Rom) -> Result<()> {
         };
         let text = toml::to_string(&man)
             .map_err(|e| Error::InvalidSetting(format!("cannot serialize rom.toml: {e}")))?;
+        write_npz(&tmp.join("rom.npz"), rom, model, &text)?;
         atomic::write_bytes(&tmp.join("rom.toml"), text)
     })
 }

@@ -3,8 +3,10 @@
 //! [`Definiteness`]),
 //! and the methods that build V: [`linefit`] (§3.3, §3.5) and [`serep`] (§3.6). Every
 //! reductor takes a prepared [`crate::body::Body`] and a [`crate::scene::Scene`] and ends in
-//! [`project`].
+//! [`project`]. [`flexible`] turns any ROM's basis into the rigid-free elastic basis a
+//! floating-frame multibody code needs (§3.9).
 
+pub mod flexible;
 pub mod linefit;
 pub(crate) mod projection;
 pub(crate) mod rom;

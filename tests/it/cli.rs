@@ -352,7 +352,9 @@ fn reduce_linefit_then_evaluate() {
             .any(|l| l.starts_with("order") && l.ends_with(" 14")),
         "reduce:\n{out}"
     );
-    let mut expected = vec!["Br.mtx", "Cr.mtx", "Dr.mtx", "Kr.mtx", "Mr.mtx", "rom.toml"];
+    let mut expected = vec![
+        "Br.mtx", "Cr.mtx", "Dr.mtx", "Kr.mtx", "Mr.mtx", "rom.npz", "rom.toml",
+    ];
     expected.sort();
     assert_eq!(entries(&work.join("ROM")), expected);
     assert_eq!(

@@ -204,7 +204,7 @@ fn ansys_rotor() -> Option<Vec<PathBuf>> {
     )
 }
 
-fn abaqus_set(job: &str, sep: &str) -> Option<Vec<PathBuf>> {
+pub(crate) fn abaqus_set(job: &str, sep: &str) -> Option<Vec<PathBuf>> {
     let d = data("abaqus_exudyn")?;
     Some(vec![
         d.join(format!("{job}{sep}STIF1.mtx")),

@@ -4,6 +4,7 @@
 mod cli;
 mod common;
 mod eigen;
+mod export;
 mod fe_bar;
 mod import;
 mod linefit;

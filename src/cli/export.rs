@@ -1,0 +1,133 @@
+//! `sparsemor export`: a ROM as a flexible body for a multibody code (docs/design.md §3.9).
+//! The elastic basis and the checks are library calls; this module prints them.
+
+use super::args::linspace;
+use super::evaluate::evaluation_band;
+use super::progress::with_progress;
+use sparsemor::body::Body;
+use sparsemor::io::exudyn::{self, TransferCheck, NO_SURFACE};
+use sparsemor::io::{model_dir, rom_dir};
+use sparsemor::metrics::{ErrorCurve, Reference};
+use sparsemor::reduce::flexible::{elastic_basis, DEPENDENT_RTOL};
+use sparsemor::scene::Scene;
+use sparsemor::sweep::SweepOptions;
+use sparsemor::{Error, Result};
+use std::path::PathBuf;
+
+/// Export targets.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+pub enum Format {
+    /// EXUDYN's ObjectFFRFreducedOrder (flexible_body.npz + export.toml).
+    Exudyn,
+}
+
+#[derive(clap::Args)]
+pub struct ExportArgs {
+    /// ROM directory (reduced with --keep-basis: the export needs V).
+    rom: PathBuf,
+    /// The model directory the ROM was reduced from.
+    #[arg(long)]
+    model: PathBuf,
+    /// Target format.
+    #[arg(long, value_enum, default_value = "exudyn")]
+    format: Format,
+    /// Output directory (must not exist or be empty).
+    #[arg(long)]
+    out: PathBuf,
+    /// Band LO:HI in Hz of the ε check before/after the projection (default: the model's).
+    #[arg(long)]
+    band: Option<String>,
+    /// Grid points of the ε check (0 skips it).
+    #[arg(long, default_value_t = 200)]
+    points: usize,
+    /// Worker threads (0 = all cores).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+}
+
+pub fn export(a: &ExportArgs) -> Result<()> {
+    let (model, scene, _) = model_dir::read(&a.model)?;
+    let rom = rom_dir::read(&a.rom)?;
+    rom.check_model(&model)
+        .map_err(|e| Error::InvalidSetting(format!("{}: {e}", a.rom.display())))?;
+    let body = Body::new(&model)?;
+    let rom_scene = Scene {
+        inputs: rom.inputs.clone(),
+        outputs: rom.outputs.clone(),
+        band_hz: evaluation_band(&scene, a.band.as_deref())?,
+    };
+    let flex = elastic_basis(&body, &rom_scene, &rom)
+        .map_err(|e| Error::InvalidSetting(format!("{}: {e}", a.rom.display())))?;
+    let check = match a.points {
+        0 => None,
+        1 => return Err(Error::InvalidSetting("--points must be 0 or >= 2".into())),
+        points => {
+            let freqs = linspace(rom_scene.band_hz, points);
+            let opts = SweepOptions {
+                threads: a.threads,
+                ..Default::default()
+            };
+            let reference = with_progress(freqs.len(), "export check", |cb| {
+                Reference::compute(&body, &rom_scene, &freqs, &opts, cb)
+            })?;
+            let max_mean = |r| -> Result<[f64; 2]> {
+                let (max, mean) = ErrorCurve::max_mean(&reference.error(r)?.eps_elastic);
+                Ok([max, mean])
+            };
+            Some(TransferCheck {
+                band_hz: rom_scene.band_hz,
+                points,
+                eps_before: max_mean(&rom)?,
+                eps_after: max_mean(&flex.rom)?,
+            })
+        }
+    };
+    match a.format {
+        Format::Exudyn => exudyn::write(&a.out, &model, &flex, check.as_ref())?,
+    }
+    println!(
+        "elastic basis    {} modes from {} columns of V",
+        flex.phi.ncols(),
+        rom.order()
+    );
+    if flex.dropped > 0 {
+        println!(
+            "dropped          {} columns: after removing the rigid part their M-norm² was \
+             below {DEPENDENT_RTOL:e} of the largest ({}): V spans rigid motion there",
+            flex.dropped,
+            flex.dropped_rel_norms
+                .iter()
+                .map(|x| format!("{x:.1e}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    match flex.rigid_coupling {
+        Some(c) => println!("rigid coupling   max M-cosine(V0, Phi) = {c:.2e}"),
+        None => println!("rigid coupling   none: the body is constrained (no rigid modes)"),
+    }
+    println!(
+        "eigenfreqs       {} Hz",
+        flex.eigenfrequencies_hz
+            .iter()
+            .map(|f| format!("{f:.2}"))
+            .collect::<Vec<_>>()
+            .join(" ")
+    );
+    if let Some(c) = &check {
+        println!(
+            "eps elastic      before max {:.3e} mean {:.3e}   after max {:.3e} mean {:.3e}   \
+             ({} points in [{}, {}] Hz)",
+            c.eps_before[0],
+            c.eps_before[1],
+            c.eps_after[0],
+            c.eps_after[1],
+            c.points,
+            c.band_hz[0],
+            c.band_hz[1]
+        );
+    }
+    println!("surface          {NO_SURFACE}");
+    eprintln!("wrote {}", a.out.display());
+    Ok(())
+}
