@@ -84,6 +84,7 @@ fn child(case: usize, backend: EigenBackend) -> Result<(), String> {
     let req_s = match req {
         Request::UpTo(f) => format!("≤ {f} Hz"),
         Request::Lowest(c) => format!("lowest {c}"),
+        Request::Band(lo, hi) => format!("{lo}–{hi} Hz"),
     };
     println!(
         "ROW|{}|{:?}|{req_s}|{backend}|{}|{} ({old_rigid})|{:.1}–{:.1}|{secs:.2}|{:.2}|{:.2}|{:.2}|{}|{}|{:.1}|{:.0e}|{}|{}",

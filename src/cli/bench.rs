@@ -19,7 +19,8 @@ use std::time::Instant;
 
 #[derive(clap::Args)]
 pub struct BenchArgs {
-    /// What to measure: `sweep` (factorization phases) or `reduce` (line-fitting phases).
+    /// What to measure: `sweep` (factorization phases), `reduce` (line-fitting phases) or
+    /// `modes` (the eigensolver against SciPy's eigsh).
     what: String,
     /// Largest N to include (the 10⁶ bar takes minutes and ~10 GB).
     #[arg(long, default_value_t = 1_100_000)]
@@ -30,6 +31,9 @@ pub struct BenchArgs {
     /// Largest N for faer LU (its COLAMD fill explodes on 3-D pencils).
     #[arg(long, default_value_t = 20_000)]
     lu_max_n: usize,
+    /// `modes`: largest N for the SciPy reference (its SuperLU fill grows fast).
+    #[arg(long, default_value_t = 50_000)]
+    scipy_max_n: usize,
 }
 
 struct Case {
@@ -70,9 +74,10 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     match a.what.as_str() {
         "sweep" => {}
         "reduce" => return reduce_table(a),
+        "modes" => return super::bench_modes::run(a.max_n, a.scipy_max_n, &[1, 2]),
         w => {
             return Err(Error::InvalidSetting(format!(
-                "bench '{w}': available: sweep, reduce"
+                "bench '{w}': available: sweep, reduce, modes"
             )))
         }
     }

@@ -3,6 +3,7 @@
 
 mod args;
 mod bench;
+mod bench_modes;
 mod demo;
 mod evaluate;
 mod export;

@@ -1,0 +1,138 @@
+//! `sparsemor bench modes`: the eigensolver table of docs/design.md §8 — the lowest c modes
+//! of generated bodies (cubes with repeated eigenvalues, a slender bar), per phase, with the
+//! peak memory and SciPy's `eigsh` (ARPACK + SuperLU shift-invert, `benches/eigsh_reference.py`)
+//! measured in the same run on the same files. SciPy is a reference, not a dependency: when
+//! `python3 -c "import scipy"` fails its columns say so. Timings are single runs.
+
+use super::args::human_bytes;
+use sparsemor::body::Body;
+use sparsemor::eigen::{eigenpairs, EigenOptions, Modes, Request};
+use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
+use sparsemor::io::model_dir;
+use sparsemor::{memory, Error, Result};
+use std::path::Path;
+use std::process::Command;
+
+/// (name, elements, size, mode counts).
+type Case = (&'static str, [usize; 3], [f64; 3], &'static [usize]);
+
+const CASES: [Case; 4] = [
+    ("cube 10^3", [10, 10, 10], [0.1; 3], &[106, 306]),
+    ("cube 14^3", [14, 14, 14], [0.1; 3], &[106, 306]),
+    ("bar 3x4x200", [3, 4, 200], [0.006, 0.008, 0.3], &[20, 106]),
+    ("bar 4x6x9520", [4, 6, 9520], [0.006, 0.008, 3.0], &[20]),
+];
+
+/// SciPy's result for one case: seconds and ascending eigenvalues.
+struct Reference {
+    seconds: f64,
+    lambdas: Vec<f64>,
+}
+
+/// Prints the table for every case with N ≤ `max_n`; SciPy runs for N ≤ `scipy_max_n`.
+pub fn run(max_n: usize, scipy_max_n: usize, threads: &[usize]) -> Result<()> {
+    let scipy = Command::new("python3")
+        .args(["-c", "import scipy"])
+        .status()
+        .is_ok_and(|s| s.success());
+    println!("| model | N | modes | threads | slices | factorizations | inertia counts s | factor s | Krylov s | wall s | peak RSS | SciPy eigsh s | sparsemor ÷ SciPy | max rel. λ diff vs SciPy |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let tmp = std::env::temp_dir().join(format!("sparsemor-bench-modes-{}", std::process::id()));
+    for (name, elements, size_m, counts) in CASES {
+        let spec = BoxSpec {
+            elements,
+            size_m,
+            ..BoxSpec::paper_bar()
+        };
+        if spec.n_dofs() > max_n {
+            continue;
+        }
+        let model = bar_model(&spec)?;
+        let dir = tmp.join(name.replace([' ', '^'], "_"));
+        let use_scipy = scipy && model.n() <= scipy_max_n;
+        if use_scipy {
+            model_dir::write(&dir, &model, &paper_scene(&spec))?;
+        }
+        let body = Body::new(&model)?;
+        for &c in counts {
+            let reference = if use_scipy { Some(eigsh(&dir, c)?) } else { None };
+            for &t in threads {
+                memory::reset_peak_rss();
+                // as `modes` does: the first shift from the scene's band end
+                let opts = EigenOptions {
+                    threads: t,
+                    ..EigenOptions::for_band(paper_scene(&spec).band_hz[1])
+                };
+                let m = eigenpairs(&body, Request::Lowest(c), &opts)?;
+                let peak = memory::peak_rss_bytes().unwrap_or(0);
+                let st = &m.stats;
+                let (scipy_s, ratio, diff) = match &reference {
+                    Some(r) => (
+                        format!("{:.2}", r.seconds),
+                        format!("{:.3}", st.wall_s / r.seconds),
+                        format!("{:.1e}", max_rel_diff(&m, &r.lambdas)),
+                    ),
+                    None => ("—".into(), "—".into(), "—".into()),
+                };
+                println!(
+                    "| {name} | {} | {c} | {t} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {} | {scipy_s} | {ratio} | {diff} |",
+                    model.n(),
+                    st.slices.len(),
+                    st.factorizations,
+                    st.count_s,
+                    st.factor_s,
+                    st.iterate_s,
+                    st.wall_s,
+                    human_bytes(peak as f64),
+                );
+            }
+        }
+    }
+    let _ = std::fs::remove_dir_all(&tmp);
+    Ok(())
+}
+
+/// Largest relative difference of the deformation eigenvalues (rigid ones excluded).
+fn max_rel_diff(m: &Modes, reference: &[f64]) -> f64 {
+    (m.rigid..m.lambdas.len().min(reference.len()))
+        .map(|k| (m.lambdas[k] - reference[k]).abs() / reference[k].abs())
+        .fold(0.0, f64::max)
+}
+
+/// Runs `benches/eigsh_reference.py` on the model directory for the lowest `c` modes.
+fn eigsh(dir: &Path, c: usize) -> Result<Reference> {
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/eigsh_reference.py");
+    let out = dir.join("eigsh.txt");
+    let run = Command::new("python3")
+        .arg(&script)
+        .arg(dir)
+        .arg(c.to_string())
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .map_err(|e| Error::io(&script, e))?;
+    let fail = |what: &str| {
+        Error::InvalidSetting(format!(
+            "{}: {what}: {}",
+            script.display(),
+            String::from_utf8_lossy(&run.stderr)
+        ))
+    };
+    if !run.status.success() {
+        return Err(fail("failed"));
+    }
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    let seconds = stdout
+        .split("\"seconds\": ")
+        .nth(1)
+        .and_then(|s| s.split([',', '}']).next())
+        .and_then(|s| s.trim().parse::<f64>().ok())
+        .ok_or_else(|| fail("no \"seconds\" in its output"))?;
+    let text = std::fs::read_to_string(&out).map_err(|e| Error::io(&out, e))?;
+    let lambdas = text
+        .lines()
+        .map(|l| l.trim().parse::<f64>())
+        .collect::<std::result::Result<Vec<_>, _>>()
+        .map_err(|_| fail("unreadable eigenvalues"))?;
+    Ok(Reference { seconds, lambdas })
+}
