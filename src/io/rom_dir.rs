@@ -7,7 +7,7 @@
 use crate::io::model_dir::toml_error;
 use crate::io::{atomic, matrix_market};
 use crate::reduce::linefit::{Outcome, SamplingReport, Verified};
-use crate::reduce::{Definiteness, FitReport, Provenance, Rom, Timing};
+use crate::reduce::{CraigBamptonReport, Definiteness, FitReport, Provenance, Rom, Timing};
 use crate::{Error, Result};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -41,6 +41,9 @@ struct Manifest {
     has_basis: bool,
     #[serde(default)]
     serep_cond: Option<f64>,
+    /// Craig–Bampton numerics (absent for other methods and older directories).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    craig_bampton: Option<CraigBamptonReport>,
     /// The request of a tolerance-driven line-fitting ROM and what was reached.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     sampling: Option<SamplingToml>,
@@ -115,6 +118,7 @@ pub fn write(dir: &Path, rom: &Rom) -> Result<()> {
                 .collect(),
             has_basis: rom.basis.is_some(),
             serep_cond: rom.serep_cond(),
+            craig_bampton: rom.craig_bampton().cloned(),
             sampling: rom.sampling().map(|r| SamplingToml {
                 tol: r.tol,
                 status: outcome_name(&r.outcome).into(),
@@ -210,6 +214,16 @@ pub fn read(dir: &Path) -> Result<Rom> {
         ("serep", _, None) => {
             return Err(Error::parse(&path, 0, "method serep without serep_cond"))
         }
+        ("craig-bampton", _, _) => match man.craig_bampton {
+            Some(r) => Provenance::CraigBampton(r),
+            None => {
+                return Err(Error::parse(
+                    &path,
+                    0,
+                    "method craig-bampton without a [craig_bampton] table",
+                ))
+            }
+        },
         (m, _, _) => return Err(Error::parse(&path, 0, format!("unknown method '{m}'"))),
     };
     let basis = if man.has_basis { Some(rd("V")?) } else { None };

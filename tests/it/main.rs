@@ -3,6 +3,7 @@
 
 mod cli;
 mod common;
+mod craig_bampton;
 mod eigen;
 mod fe_bar;
 mod import;
