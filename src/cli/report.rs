@@ -400,7 +400,10 @@ fn table(html: &mut String, roms: &[Evaluated]) {
             ),
             (None, Method::LineFit) => r.ref_freqs_hz().len().to_string(),
             (None, Method::Serep) => "1 (eigensolver)".into(),
-            (None, Method::CraigBampton) => "2 (K_ii, eigensolver)".into(),
+            (None, Method::CraigBampton) => match r.craig_bampton() {
+                Some(cb) if cb.fixed_interface_hz.is_empty() => "1 (K_ii)".into(),
+                _ => "2 (K_ii, eigensolver)".into(),
+            },
         };
         let cond = match (r.fit(), r.serep_cond()) {
             (Some(f), _) => format!(
