@@ -248,7 +248,12 @@ fn check_holds_rigid_motion(body: &Body<'_>, boundary: &[usize]) -> Result<()> {
     let s = v0b
         .singular_values()
         .map_err(|_| Error::Factor("SVD of the boundary rows of V0 did not converge".into()))?;
-    let (smax, smin) = (s[0], if s.len() < 6 { 0.0 } else { s[5] });
+    let smax = s.iter().copied().fold(0.0, f64::max);
+    let smin = if s.len() < 6 {
+        0.0
+    } else {
+        s.iter().copied().fold(f64::INFINITY, f64::min)
+    };
     if !(smin > RIGID_HOLD_RTOL * smax) {
         return Err(Error::InvalidSetting(format!(
             "the {} boundary DoFs do not hold the free body's rigid motions (rank of V0 on them < 6, \
