@@ -16,6 +16,7 @@
 //! | line-fitting | [`reduce::linefit::reduce`] with [`reduce::linefit::References`] (explicit, count, tolerance: the adaptive loop) | §3.3–§3.5 |
 //! | eigenpairs | [`eigen::eigenpairs`] (shift-invert Krylov–Schur; ARPACK feature) | §3.6 |
 //! | SEREP | [`reduce::serep::reduce`] | §3.6 |
+//! | Craig–Bampton | [`reduce::craig_bampton::reduce`] | §3.8 |
 //! | projection, the ROM | [`reduce::project`], [`reduce::Rom`] with its [`reduce::Provenance`] | §3.4 |
 //! | metrics | [`metrics::Reference`] (ε(f)), [`metrics::modal_comparison`] (frequency error, MAC) | §3.7 |
 //! | write a ROM | [`io::rom_dir::write`] (`.mtx` + `rom.npz`) | §4 |

@@ -217,7 +217,13 @@ pub fn mac_matrix(rom: &Rom, full: &Modes, basis: Option<MatRef<'_, f64>>) -> Re
         for (b_idx, &j) in rom_elastic.iter().enumerate() {
             let b = match &expanded_modes {
                 Some(e) => e.as_ref().col(j).as_mat().to_owned(),
-                None => phi_r.as_ref().col(j).as_mat().to_owned(),
+                // the ROM's physical coordinates (for Craig–Bampton the boundary rows only)
+                None => phi_r
+                    .as_ref()
+                    .col(j)
+                    .subrows(0, rom.dofs.len())
+                    .as_mat()
+                    .to_owned(),
             };
             values[(a_idx, b_idx)] = mac(a.as_ref(), b.as_ref());
         }

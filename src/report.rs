@@ -342,7 +342,7 @@ fn draw_heat_map(root: &DrawingArea<SVGBackend<'_>, Shift>, h: &HeatMap) -> Draw
 /// One row of `sparsemor tradeoff --csv`: a reduction and its verified accuracy.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TradeoffRow {
-    /// `linefit` or `serep`.
+    /// `linefit`, `serep` or `craig-bampton`.
     pub method: String,
     /// What was asked: "tol 1e-3", "9 modes".
     pub setting: String,
@@ -439,6 +439,7 @@ pub fn tradeoff_svg(title: &str, rows: &[TradeoffRow]) -> Result<String> {
                 name: match *m {
                     "linefit" => "line-fitting (sampling loop)".to_string(),
                     "serep" => "SEREP".to_string(),
+                    "craig-bampton" => "Craig–Bampton".to_string(),
                     m => m.to_string(),
                 },
                 points: of.iter().map(|r| (r.seconds, r.max_eps)).collect(),

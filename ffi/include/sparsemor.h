@@ -91,6 +91,11 @@
 #define SPARSEMOR_METHOD_SEREP 1
 
 /**
+ * `sparsemor_rom_method`: Craig–Bampton.
+ */
+#define SPARSEMOR_METHOD_CRAIG_BAMPTON 2
+
+/**
  * Result code of every `sparsemor_*` function that can fail.
  *
  * `SPARSEMOR_STATUS_OK` (0) means success; on any other value the function's outputs are
@@ -168,7 +173,8 @@ typedef struct SparsemorOptions SparsemorOptions;
 
 /**
  * Opaque reduced-model handle: Mr q̈ + Dr q̇ + Kr q = Br u, y = Cr q and the diagnostics
- * of its construction. Made by `sparsemor_reduce_linefit` or `sparsemor_reduce_serep`,
+ * of its construction. Made by `sparsemor_reduce_linefit`, `sparsemor_reduce_serep` or
+ * `sparsemor_reduce_craig_bampton`,
  * released by `sparsemor_rom_free`. Independent of the model handle it came from.
  */
 typedef struct SparsemorRom SparsemorRom;
@@ -262,6 +268,36 @@ typedef struct SparsemorFitReport {
      */
     size_t rows;
 } SparsemorFitReport;
+
+/**
+ * Numerics of a Craig–Bampton ROM (docs/design.md §3.8).
+ */
+typedef struct SparsemorCraigBamptonReport {
+    /**
+     * Number of boundary DoFs n_b (the first n_b ROM coordinates).
+     */
+    size_t boundary;
+    /**
+     * Number of fixed-interface modes c (the last c coordinates).
+     */
+    size_t modes;
+    /**
+     * 1 when K_ii was factored by Cholesky (positive definite), 0 for LBLᵀ.
+     */
+    int32_t cholesky;
+    /**
+     * min/max |pivot| of the LBLᵀ factorization; NaN for Cholesky.
+     */
+    double pivot_ratio;
+    /**
+     * Largest relative residual ‖K_ii ψ_j + K_ib e_j‖ / ‖K_ib e_j‖ of the constraint modes.
+     */
+    double static_residual;
+    /**
+     * Largest backward error of the fixed-interface modes (0 for c = 0).
+     */
+    double mode_residual_max;
+} SparsemorCraigBamptonReport;
 
 /**
  * Definiteness of a symmetric reduced matrix (Cholesky test and extreme eigenvalues).
@@ -535,6 +571,17 @@ enum SparsemorStatus sparsemor_options_set_serep_retained(struct SparsemorOption
                                                           size_t n_dofs);
 
 /**
+ * Craig–Bampton (`sparsemor_reduce_craig_bampton`) keeps the `c` lowest fixed-interface
+ * modes; `c = 0` is static (Guyan) condensation. The boundary DoFs are the interface
+ * (`sparsemor_options_set_interface` / `_interface_outputs_plus`; default: the outputs).
+ *
+ * # Safety
+ * `options` a live handle.
+ */
+enum SparsemorStatus sparsemor_options_set_craig_bampton_modes(struct SparsemorOptions *options,
+                                                               size_t c);
+
+/**
  * Keep the basis V (N×n) in the ROM (nonzero) so `sparsemor_rom_copy_matrix` can return
  * it with `SPARSEMOR_MATRIX_V`; default 0 (V is N×n doubles: only ask when needed).
  *
@@ -590,6 +637,29 @@ enum SparsemorStatus sparsemor_reduce_serep(const struct SparsemorModel *model,
                                             struct SparsemorRom **rom_out);
 
 /**
+ * Reduces the model by Craig–Bampton (docs/design.md §3.8): V = [I 0; Ψ Φ_c] with the static
+ * constraint modes Ψ = −K_ii⁻¹K_ib of the boundary DoFs and the c lowest fixed-interface
+ * modes Φ_c, then Galerkin projection. The ROM's coordinates are the boundary DoFs
+ * (`sparsemor_rom_dofs`) followed by the c modal amplitudes.
+ *
+ * Uses the model's scene (the band sets the eigensolver's shift) and from `options`: c
+ * (`sparsemor_options_set_craig_bampton_modes`, required), the boundary = the interface
+ * (default: the outputs; a free body needs a boundary that holds its rigid motions, e.g.
+ * `sparsemor_options_set_interface_outputs_plus(options, 1)` when the outputs lie on one
+ * line), keep-basis, threads (the factorization of K_ii and its block solves).
+ *
+ * Progress as for `sparsemor_reduce_serep`: (0, 1, 0.0) before, (1, 1, 0.0) after.
+ *
+ * # Safety
+ * As `sparsemor_reduce_linefit`.
+ */
+enum SparsemorStatus sparsemor_reduce_craig_bampton(const struct SparsemorModel *model,
+                                                    const struct SparsemorOptions *options,
+                                                    SparsemorProgressFn progress,
+                                                    void *user_data,
+                                                    struct SparsemorRom **rom_out);
+
+/**
  * Releases a ROM. NULL is a no-op.
  *
  * # Safety
@@ -598,7 +668,8 @@ enum SparsemorStatus sparsemor_reduce_serep(const struct SparsemorModel *model,
 enum SparsemorStatus sparsemor_rom_free(struct SparsemorRom *rom);
 
 /**
- * How the ROM was built: `SPARSEMOR_METHOD_LINEFIT` or `SPARSEMOR_METHOD_SEREP`.
+ * How the ROM was built: `SPARSEMOR_METHOD_LINEFIT`, `SPARSEMOR_METHOD_SEREP` or
+ * `SPARSEMOR_METHOD_CRAIG_BAMPTON`.
  *
  * # Safety
  * `rom` a live handle; `method_out` writable.
@@ -660,8 +731,9 @@ enum SparsemorStatus sparsemor_rom_copy_matrix(const struct SparsemorRom *rom,
                                                size_t *required_len);
 
 /**
- * The full-model DoF of each ROM coordinate (line-fitting interface or SEREP retained DoFs,
- * in ROM order), copied into `buf` (same length protocol as `sparsemor_rom_copy_matrix`).
+ * The full-model DoF of each physical ROM coordinate (line-fitting interface, SEREP retained
+ * DoFs, Craig–Bampton boundary DoFs — its modal coordinates follow them and have no DoF),
+ * in ROM order, copied into `buf` (same length protocol as `sparsemor_rom_copy_matrix`).
  *
  * # Safety
  * `rom` a live handle; `buf` NULL or valid for `buf_len` values; `required_len` NULL or
@@ -701,6 +773,29 @@ enum SparsemorStatus sparsemor_rom_fit_report(const struct SparsemorRom *rom,
  * `rom` a live handle; `cond_out` writable.
  */
 enum SparsemorStatus sparsemor_rom_serep_cond(const struct SparsemorRom *rom, double *cond_out);
+
+/**
+ * The Craig–Bampton report; `SPARSEMOR_STATUS_NOT_AVAILABLE` for other methods. The
+ * fixed-interface frequencies: `sparsemor_rom_fixed_interface_frequencies`.
+ *
+ * # Safety
+ * `rom` a live handle; `report_out` writable.
+ */
+enum SparsemorStatus sparsemor_rom_craig_bampton_report(const struct SparsemorRom *rom,
+                                                        struct SparsemorCraigBamptonReport *report_out);
+
+/**
+ * The frequencies (Hz, ascending) of a Craig–Bampton ROM's fixed-interface modes, copied
+ * into `buf` (same length protocol as `sparsemor_rom_copy_matrix`);
+ * `SPARSEMOR_STATUS_NOT_AVAILABLE` for other methods.
+ *
+ * # Safety
+ * As `sparsemor_rom_dofs`.
+ */
+enum SparsemorStatus sparsemor_rom_fixed_interface_frequencies(const struct SparsemorRom *rom,
+                                                               double *buf,
+                                                               size_t buf_len,
+                                                               size_t *required_len);
 
 /**
  * Definiteness of Mr and Kr (a stable ROM has both positive definite). Either out pointer

@@ -1,5 +1,5 @@
 //! Options handle: threads, tolerance and sampling limits, interface, reference frequencies, SEREP
-//! modes and retained DoFs, keep-basis flag.
+//! modes and retained DoFs, Craig–Bampton modes, keep-basis flag.
 
 use crate::error::{ffi_body, Failure, SparsemorStatus};
 use crate::util::{obj_mut, slice_in, write_out};
@@ -28,6 +28,9 @@ pub struct SparsemorOptions {
     pub(crate) ref_freqs: RefFreqs,
     pub(crate) serep_modes: Option<ModeChoice>,
     pub(crate) serep_retain: Option<Vec<usize>>,
+    /// Craig–Bampton's number of fixed-interface modes; unset until
+    /// `sparsemor_options_set_craig_bampton_modes`.
+    pub(crate) cb_modes: Option<usize>,
     pub(crate) keep_basis: bool,
 }
 
@@ -42,6 +45,7 @@ impl Default for SparsemorOptions {
             ref_freqs: RefFreqs::Unset,
             serep_modes: None,
             serep_retain: None,
+            cb_modes: None,
             keep_basis: false,
         }
     }
@@ -365,6 +369,24 @@ pub unsafe extern "C" fn sparsemor_options_set_serep_retained(
     ffi_body!({
         let o = unsafe { obj_mut(options, "options")? };
         o.serep_retain = Some(unsafe { dof_list(dofs, n_dofs, "SEREP retained DoFs")? });
+        Ok(())
+    })
+}
+
+/// Craig–Bampton (`sparsemor_reduce_craig_bampton`) keeps the `c` lowest fixed-interface
+/// modes; `c = 0` is static (Guyan) condensation. The boundary DoFs are the interface
+/// (`sparsemor_options_set_interface` / `_interface_outputs_plus`; default: the outputs).
+///
+/// # Safety
+/// `options` a live handle.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_options_set_craig_bampton_modes(
+    options: *mut SparsemorOptions,
+    c: usize,
+) -> SparsemorStatus {
+    ffi_body!({
+        let o = unsafe { obj_mut(options, "options")? };
+        o.cb_modes = Some(c);
         Ok(())
     })
 }

@@ -1,4 +1,4 @@
-//! Reductions (line-fitting, SEREP) and the ROM handle with its queries.
+//! Reductions (line-fitting, SEREP, Craig–Bampton) and the ROM handle with its queries.
 
 use crate::error::{ffi_body, Failure, SparsemorStatus};
 use crate::model::SparsemorModel;
@@ -9,7 +9,8 @@ use faer::MatRef;
 use sparsemor::body::Body;
 use sparsemor::eigen::EigenOptions;
 use sparsemor::metrics::Reference;
-use sparsemor::reduce::linefit::{self, Outcome};
+use sparsemor::reduce::craig_bampton::{self, CraigBamptonOptions};
+use sparsemor::reduce::linefit::{self, Interface, Outcome};
 use sparsemor::reduce::serep::{self, ModeChoice, SerepOptions};
 use sparsemor::reduce::{Method, Rom};
 use sparsemor::scene::Scene;
@@ -35,6 +36,8 @@ pub const SPARSEMOR_MATRIX_V: u32 = 5;
 pub const SPARSEMOR_METHOD_LINEFIT: u32 = 0;
 /// `sparsemor_rom_method`: SEREP.
 pub const SPARSEMOR_METHOD_SEREP: u32 = 1;
+/// `sparsemor_rom_method`: Craig–Bampton.
+pub const SPARSEMOR_METHOD_CRAIG_BAMPTON: u32 = 2;
 
 /// Progress callback: called after each finished frequency of a sweep with the number of
 /// frequencies done, their total, the frequency just finished (Hz) and the caller's
@@ -50,7 +53,8 @@ pub type SparsemorProgressFn = Option<
 >;
 
 /// Opaque reduced-model handle: Mr q̈ + Dr q̇ + Kr q = Br u, y = Cr q and the diagnostics
-/// of its construction. Made by `sparsemor_reduce_linefit` or `sparsemor_reduce_serep`,
+/// of its construction. Made by `sparsemor_reduce_linefit`, `sparsemor_reduce_serep` or
+/// `sparsemor_reduce_craig_bampton`,
 /// released by `sparsemor_rom_free`. Independent of the model handle it came from.
 pub struct SparsemorRom {
     pub(crate) rom: Rom,
@@ -177,23 +181,84 @@ pub unsafe extern "C" fn sparsemor_reduce_serep(
             keep_basis: o.keep_basis,
             eigen: EigenOptions::for_band(scene.band_hz[1]),
         };
-        let cb = Callback::new(progress, user_data);
-        let cancelled = || {
-            Failure::new(
-                SparsemorStatus::Cancelled,
-                sparsemor::Error::Cancelled.to_string(),
+        let rom = bracketed(
+            progress,
+            user_data,
+            resolve_threads(o.threads),
+            m,
+            |body: &Body<'_>| serep::reduce(body, scene, &opts, None),
+        )?;
+        unsafe { emit(rom, rom_out) }
+    })
+}
+
+/// Runs a reduction without a progress hook inside on `m` in the call's thread pool;
+/// `progress` (may be NULL) is called with (0, 1, 0.0) before the work and (1, 1, 0.0) after
+/// it, nonzero cancels (`SPARSEMOR_STATUS_CANCELLED`, no ROM).
+fn bracketed(
+    progress: SparsemorProgressFn,
+    user_data: *mut c_void,
+    threads: usize,
+    m: &sparsemor::model::Model,
+    reduce: impl FnOnce(&Body<'_>) -> sparsemor::Result<Rom> + Send,
+) -> Result<Rom, Failure> {
+    let cb = Callback::new(progress, user_data);
+    let cancelled = || {
+        Failure::new(
+            SparsemorStatus::Cancelled,
+            sparsemor::Error::Cancelled.to_string(),
+        )
+    };
+    if cb.as_ref().is_some_and(|c| !c.call(0, 1, 0.0)) {
+        return Err(cancelled());
+    }
+    let rom = in_pool(threads, || reduce(&Body::new(m)?))??;
+    if cb.as_ref().is_some_and(|c| !c.call(1, 1, 0.0)) {
+        return Err(cancelled());
+    }
+    Ok(rom)
+}
+
+/// Reduces the model by Craig–Bampton (docs/design.md §3.8): V = [I 0; Ψ Φ_c] with the static
+/// constraint modes Ψ = −K_ii⁻¹K_ib of the boundary DoFs and the c lowest fixed-interface
+/// modes Φ_c, then Galerkin projection. The ROM's coordinates are the boundary DoFs
+/// (`sparsemor_rom_dofs`) followed by the c modal amplitudes.
+///
+/// Uses the model's scene (the band sets the eigensolver's shift) and from `options`: c
+/// (`sparsemor_options_set_craig_bampton_modes`, required), the boundary = the interface
+/// (default: the outputs; a free body needs a boundary that holds its rigid motions, e.g.
+/// `sparsemor_options_set_interface_outputs_plus(options, 1)` when the outputs lie on one
+/// line), keep-basis, threads (the factorization of K_ii and its block solves).
+///
+/// Progress as for `sparsemor_reduce_serep`: (0, 1, 0.0) before, (1, 1, 0.0) after.
+///
+/// # Safety
+/// As `sparsemor_reduce_linefit`.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_reduce_craig_bampton(
+    model: *const SparsemorModel,
+    options: *const SparsemorOptions,
+    progress: SparsemorProgressFn,
+    user_data: *mut c_void,
+    rom_out: *mut *mut SparsemorRom,
+) -> SparsemorStatus {
+    ffi_body!({
+        unsafe { write_out(rom_out, std::ptr::null_mut(), "rom_out")? };
+        let (m, scene) = unsafe { obj(model, "model")? }.with_scene()?;
+        let o = unsafe { obj(options, "options")? };
+        let c = o.cb_modes.ok_or_else(|| {
+            Failure::arg(
+                "Craig–Bampton needs the number of fixed-interface modes: call sparsemor_options_set_craig_bampton_modes",
             )
-        };
-        if cb.as_ref().is_some_and(|c| !c.call(0, 1, 0.0)) {
-            return Err(cancelled());
-        }
-        let rom = in_pool(resolve_threads(o.threads), || {
-            let body = Body::new(m)?;
-            serep::reduce(&body, scene, &opts, None)
-        })??;
-        if cb.as_ref().is_some_and(|c| !c.call(1, 1, 0.0)) {
-            return Err(cancelled());
-        }
+        })?;
+        let threads = resolve_threads(o.threads);
+        let interface = o.interface.clone().unwrap_or(Interface::OutputsPlus(0));
+        let mut opts = CraigBamptonOptions::new(interface, c, scene.band_hz[1]);
+        opts.keep_basis = o.keep_basis;
+        opts.threads = threads;
+        let rom = bracketed(progress, user_data, threads, m, |body: &Body<'_>| {
+            craig_bampton::reduce(body, scene, &opts)
+        })?;
         unsafe { emit(rom, rom_out) }
     })
 }
@@ -213,7 +278,8 @@ pub unsafe extern "C" fn sparsemor_rom_free(rom: *mut SparsemorRom) -> Sparsemor
     })
 }
 
-/// How the ROM was built: `SPARSEMOR_METHOD_LINEFIT` or `SPARSEMOR_METHOD_SEREP`.
+/// How the ROM was built: `SPARSEMOR_METHOD_LINEFIT`, `SPARSEMOR_METHOD_SEREP` or
+/// `SPARSEMOR_METHOD_CRAIG_BAMPTON`.
 ///
 /// # Safety
 /// `rom` a live handle; `method_out` writable.
@@ -227,6 +293,7 @@ pub unsafe extern "C" fn sparsemor_rom_method(
         let m = match r.rom.method() {
             Method::LineFit => SPARSEMOR_METHOD_LINEFIT,
             Method::Serep => SPARSEMOR_METHOD_SEREP,
+            Method::CraigBampton => SPARSEMOR_METHOD_CRAIG_BAMPTON,
         };
         unsafe { write_out(method_out, m, "method_out") }
     })
@@ -367,8 +434,9 @@ pub unsafe extern "C" fn sparsemor_rom_copy_matrix(
     })
 }
 
-/// The full-model DoF of each ROM coordinate (line-fitting interface or SEREP retained DoFs,
-/// in ROM order), copied into `buf` (same length protocol as `sparsemor_rom_copy_matrix`).
+/// The full-model DoF of each physical ROM coordinate (line-fitting interface, SEREP retained
+/// DoFs, Craig–Bampton boundary DoFs — its modal coordinates follow them and have no DoF),
+/// in ROM order, copied into `buf` (same length protocol as `sparsemor_rom_copy_matrix`).
 ///
 /// # Safety
 /// `rom` a live handle; `buf` NULL or valid for `buf_len` values; `required_len` NULL or
@@ -484,6 +552,86 @@ pub unsafe extern "C" fn sparsemor_rom_serep_cond(
             )
         })?;
         unsafe { write_out(cond_out, c, "cond_out") }
+    })
+}
+
+/// Numerics of a Craig–Bampton ROM (docs/design.md §3.8).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SparsemorCraigBamptonReport {
+    /// Number of boundary DoFs n_b (the first n_b ROM coordinates).
+    pub boundary: usize,
+    /// Number of fixed-interface modes c (the last c coordinates).
+    pub modes: usize,
+    /// 1 when K_ii was factored by Cholesky (positive definite), 0 for LBLᵀ.
+    pub cholesky: i32,
+    /// min/max |pivot| of the LBLᵀ factorization; NaN for Cholesky.
+    pub pivot_ratio: f64,
+    /// Largest relative residual ‖K_ii ψ_j + K_ib e_j‖ / ‖K_ib e_j‖ of the constraint modes.
+    pub static_residual: f64,
+    /// Largest backward error of the fixed-interface modes (0 for c = 0).
+    pub mode_residual_max: f64,
+}
+
+/// The Craig–Bampton report; `SPARSEMOR_STATUS_NOT_AVAILABLE` for other methods. The
+/// fixed-interface frequencies: `sparsemor_rom_fixed_interface_frequencies`.
+///
+/// # Safety
+/// `rom` a live handle; `report_out` writable.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_rom_craig_bampton_report(
+    rom: *const SparsemorRom,
+    report_out: *mut SparsemorCraigBamptonReport,
+) -> SparsemorStatus {
+    ffi_body!({
+        let r = unsafe { obj(rom, "rom")? };
+        let cb = craig_bampton_of(&r.rom)?;
+        let rep = SparsemorCraigBamptonReport {
+            boundary: r.rom.dofs.len(),
+            modes: cb.fixed_interface_hz.len(),
+            cholesky: i32::from(cb.factorization == "cholesky"),
+            pivot_ratio: cb.pivot_ratio.unwrap_or(f64::NAN),
+            static_residual: cb.static_residual,
+            mode_residual_max: cb.mode_residuals.iter().copied().fold(0.0, f64::max),
+        };
+        unsafe { write_out(report_out, rep, "report_out") }
+    })
+}
+
+/// The frequencies (Hz, ascending) of a Craig–Bampton ROM's fixed-interface modes, copied
+/// into `buf` (same length protocol as `sparsemor_rom_copy_matrix`);
+/// `SPARSEMOR_STATUS_NOT_AVAILABLE` for other methods.
+///
+/// # Safety
+/// As `sparsemor_rom_dofs`.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_rom_fixed_interface_frequencies(
+    rom: *const SparsemorRom,
+    buf: *mut f64,
+    buf_len: usize,
+    required_len: *mut usize,
+) -> SparsemorStatus {
+    ffi_body!({
+        let r = unsafe { obj(rom, "rom")? };
+        let cb = craig_bampton_of(&r.rom)?;
+        unsafe {
+            copy_to_buffer(
+                &cb.fixed_interface_hz,
+                buf,
+                buf_len,
+                required_len,
+                "fixed-interface frequencies",
+            )
+        }
+    })
+}
+
+fn craig_bampton_of(rom: &Rom) -> Result<&sparsemor::reduce::CraigBamptonReport, Failure> {
+    rom.craig_bampton().ok_or_else(|| {
+        Failure::new(
+            SparsemorStatus::NotAvailable,
+            "Craig–Bampton numerics exist only for Craig–Bampton ROMs",
+        )
     })
 }
 

@@ -40,6 +40,7 @@ const EXAMPLES: &str = "Examples:
   sparsemor sweep bar --band 1:1000 --points 500 --part elastic --out frf.csv
   sparsemor reduce bar --method linefit --extra-interface 5 --ref-freqs 50,100,200,400,800 --out rom
   sparsemor reduce bar --method serep --modes 9 --out rom9
+  sparsemor reduce bar --method craig-bampton --extra-interface 1 --modes 4 --out cb14
   sparsemor evaluate bar rom --csv eps.csv
   sparsemor export rom --model bar --format exudyn --out rom_exudyn
   sparsemor reduce bar --method linefit --extra-interface 5 --tol 1e-3 --max-order 24 --out rom3
@@ -102,7 +103,7 @@ enum Command {
     },
     /// Transfer functions H(iω) over a band or a list of frequencies, written as CSV.
     Sweep(sweep::SweepArgs),
-    /// Reduce a model: line-fitting or SEREP, written as a ROM directory.
+    /// Reduce a model: line-fitting, SEREP or Craig–Bampton, written as a ROM directory.
     Reduce(reduce::ReduceArgs),
     /// Transfer-function error, eigenfrequency errors and MAC of a ROM against its model.
     Evaluate(evaluate::EvaluateArgs),
@@ -110,13 +111,14 @@ enum Command {
     Export(export::ExportArgs),
     /// Eigenfrequencies (partial, shift-invert Krylov; counted exactly up to a frequency).
     Modes(modes::ModesArgs),
-    /// The paper's comparison on the built-in bar: line-fitting vs SEREP.
+    /// The paper's comparison on the built-in bar: line-fitting vs SEREP and Craig–Bampton.
     Demo {
         /// Worker threads (0 = all cores).
         #[arg(long, default_value_t = 0)]
         threads: usize,
     },
-    /// Speed vs accuracy: the sampling loop per tolerance and SEREP per mode count.
+    /// Speed vs accuracy: the sampling loop per tolerance, SEREP and Craig–Bampton per mode
+    /// count.
     Tradeoff(tradeoff::TradeoffArgs),
     /// A model directory from the files ANSYS or Abaqus wrote (.full, APDL Math, *MATRIX OUTPUT).
     Import(import::ImportArgs),

@@ -1,4 +1,5 @@
-//! `sparsemor reduce`: line-fitting (explicit frequencies or a tolerance) or SEREP, written
+//! `sparsemor reduce`: line-fitting (explicit frequencies or a tolerance), SEREP or
+//! Craig–Bampton, written
 //! as a ROM directory; exit status 3 when a requested tolerance was not met.
 
 use super::args::parse_list;
@@ -6,6 +7,7 @@ use super::progress::with_progress;
 use sparsemor::body::Body;
 use sparsemor::eigen::EigenOptions;
 use sparsemor::io::{model_dir, rom_dir};
+use sparsemor::reduce::craig_bampton::{self, CraigBamptonOptions};
 use sparsemor::reduce::linefit::{
     self, Growth, Interface, LineFitOptions, Outcome, References, SamplingOptions, SamplingReport,
     Step,
@@ -21,14 +23,15 @@ use std::time::Instant;
 pub struct ReduceArgs {
     /// Model directory.
     model: PathBuf,
-    /// linefit or serep.
+    /// linefit, serep or craig-bampton.
     #[arg(long)]
     method: String,
-    /// Interface DoFs D1,D2,... (line-fitting; must contain the outputs).
+    /// Interface DoFs D1,D2,... (line-fitting: must contain the outputs; Craig–Bampton: the
+    /// boundary DoFs).
     #[arg(long, conflicts_with = "extra_interface")]
     interface: Option<String>,
-    /// Interface = outputs + K DoFs spread along the body (line-fitting; with --tol the
-    /// default is K = ⌈outputs/2⌉).
+    /// Interface = outputs + K DoFs spread along the body (line-fitting, Craig–Bampton's
+    /// boundary; with --tol the default is K = ⌈outputs/2⌉).
     #[arg(long)]
     extra_interface: Option<usize>,
     /// Reference frequencies F1,F2,... in Hz (line-fitting; with --tol they are extra seeds).
@@ -51,7 +54,8 @@ pub struct ReduceArgs {
     /// Interface growth rule of --tol: residual or qdeim.
     #[arg(long, default_value = "residual")]
     growth: String,
-    /// Number of modes c (SEREP: the c lowest deformation modes).
+    /// Number of modes c (SEREP: the c lowest deformation modes; Craig–Bampton: the c lowest
+    /// fixed-interface modes, 0 = static condensation).
     #[arg(long)]
     modes: Option<usize>,
     /// Retained DoFs (SEREP; default: the outputs).
@@ -139,9 +143,23 @@ pub fn reduce(a: &ReduceArgs) -> Result<super::Done> {
             };
             serep::reduce(&body, &scene, &opts, None)?
         }
+        "craig-bampton" => {
+            let c = a
+                .modes
+                .ok_or_else(|| Error::InvalidSetting("craig-bampton needs --modes C".into()))?;
+            let interface = match (&a.interface, a.extra_interface) {
+                (Some(i), _) => Interface::Explicit(parse_list(i, "--interface")?),
+                (None, Some(k)) => Interface::OutputsPlus(k),
+                (None, None) => Interface::Auto,
+            };
+            let mut opts = CraigBamptonOptions::new(interface, c, scene.band_hz[1]);
+            opts.keep_basis = a.keep_basis;
+            opts.threads = a.threads;
+            craig_bampton::reduce(&body, &scene, &opts)?
+        }
         m => {
             return Err(Error::InvalidSetting(format!(
-                "--method '{m}': choose linefit or serep"
+                "--method '{m}': choose linefit, serep or craig-bampton"
             )))
         }
     };
@@ -189,6 +207,27 @@ fn print_rom(rom: &Rom) {
     }
     if let Some(c) = rom.serep_cond() {
         println!("cond(U_cr)       {c:.2e}");
+    }
+    if let Some(cb) = rom.craig_bampton() {
+        println!(
+            "boundary         {} DoFs; K_ii by {}{}, constraint-mode residual {:.2e}",
+            rom.dofs.len(),
+            cb.factorization,
+            cb.pivot_ratio
+                .map(|r| format!(" (pivot ratio {r:.2e})"))
+                .unwrap_or_default(),
+            cb.static_residual
+        );
+        let eta = cb.mode_residuals.iter().copied().fold(0.0, f64::max);
+        println!(
+            "fixed-interface  {} modes, {} Hz, max backward error {eta:.2e}",
+            cb.fixed_interface_hz.len(),
+            cb.fixed_interface_hz
+                .iter()
+                .map(|f| format!("{f:.1}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
     }
     for (name, d) in [
         ("Mr", &rom.mass_definiteness),

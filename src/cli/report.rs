@@ -400,6 +400,10 @@ fn table(html: &mut String, roms: &[Evaluated]) {
             ),
             (None, Method::LineFit) => r.ref_freqs_hz().len().to_string(),
             (None, Method::Serep) => "1 (eigensolver)".into(),
+            (None, Method::CraigBampton) => match r.craig_bampton() {
+                Some(cb) if cb.fixed_interface_hz.is_empty() => "1 (K_ii)".into(),
+                _ => "2 (K_ii, eigensolver)".into(),
+            },
         };
         let cond = match (r.fit(), r.serep_cond()) {
             (Some(f), _) => format!(
@@ -407,7 +411,15 @@ fn table(html: &mut String, roms: &[Evaluated]) {
                 f.cond_raw, f.cond_equilibrated, f.rank
             ),
             (None, Some(c)) => format!("cond(U_cr) {c:.2e}"),
-            (None, None) => String::new(),
+            (None, None) => r
+                .craig_bampton()
+                .map(|cb| {
+                    format!(
+                        "K_ii by {}, constraint-mode residual {:.1e}",
+                        cb.factorization, cb.static_residual
+                    )
+                })
+                .unwrap_or_default(),
         };
         let spd = |d: &Definiteness| {
             if d.positive_definite {

@@ -1,5 +1,6 @@
-//! `sparsemor tradeoff`: speed vs accuracy — the sampling loop per tolerance and SEREP per
-//! mode count, each verified on one fine grid of full solves.
+//! `sparsemor tradeoff`: speed vs accuracy — the sampling loop per tolerance, SEREP per
+//! mode count and Craig–Bampton per number of fixed-interface modes, each verified on one
+//! fine grid of full solves.
 
 use super::args::{linspace, parse_list};
 use super::progress::with_progress;
@@ -8,6 +9,7 @@ use sparsemor::body::Body;
 use sparsemor::eigen::EigenOptions;
 use sparsemor::io::{atomic, model_dir};
 use sparsemor::metrics::{ErrorCurve, Reference};
+use sparsemor::reduce::craig_bampton::{self, CraigBamptonOptions};
 use sparsemor::reduce::linefit::{
     self, Interface, LineFitOptions, Outcome, References, SamplingOptions,
 };
@@ -38,6 +40,14 @@ pub struct TradeoffArgs {
     /// SEREP mode counts c to compare (c retained DoFs: the outputs first, then spread DoFs).
     #[arg(long, default_value = "3,6,9,12,15,20")]
     serep_modes: String,
+    /// Craig–Bampton fixed-interface mode counts c to compare (boundary: the outputs +
+    /// --cb-extra-boundary spread DoFs).
+    #[arg(long, default_value = "0,2,4,8,16,32")]
+    cb_modes: String,
+    /// Craig–Bampton boundary: outputs + K spread DoFs (a free body needs a boundary that
+    /// holds its rigid motions).
+    #[arg(long, default_value_t = 1)]
+    cb_extra_boundary: usize,
     /// Verification grid points over the band (full solves).
     #[arg(long, default_value_t = 2000)]
     points: usize,
@@ -60,6 +70,7 @@ pub fn tradeoff(a: &TradeoffArgs) -> Result<()> {
     let outputs = &scene.outputs;
     let tols: Vec<f64> = parse_list(&a.tols, "--tols")?;
     let modes: Vec<usize> = parse_list(&a.serep_modes, "--serep-modes")?;
+    let cb_modes: Vec<usize> = parse_list(&a.cb_modes, "--cb-modes")?;
     let sweep = SweepOptions {
         threads: a.threads,
         ..Default::default()
@@ -126,6 +137,27 @@ pub fn tradeoff(a: &TradeoffArgs) -> Result<()> {
             setting: format!("{c} modes"),
             seconds: secs,
             factorizations: 1,
+            order: rom.order(),
+            max_eps: e,
+        });
+    }
+    for &c in &cb_modes {
+        let mut opts = CraigBamptonOptions::new(
+            Interface::OutputsPlus(a.cb_extra_boundary),
+            c,
+            scene.band_hz[1],
+        );
+        opts.threads = a.threads;
+        let t = Instant::now();
+        let rom = craig_bampton::reduce(&body, &scene, &opts)?;
+        let secs = t.elapsed().as_secs_f64();
+        let e = ErrorCurve::max_mean(&reference.error(&rom)?.eps_elastic).0;
+        rows.push(TradeoffRow {
+            method: "craig-bampton".into(),
+            setting: format!("{c} modes"),
+            seconds: secs,
+            // K_ii, and K_ii − σM_ii of the eigensolver when c > 0
+            factorizations: if c == 0 { 1 } else { 2 },
             order: rom.order(),
             max_eps: e,
         });

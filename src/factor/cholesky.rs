@@ -67,10 +67,23 @@ impl Cholesky {
     /// # Errors
     /// [`Error::Factor`] when the memory cannot be allocated.
     pub(crate) fn new(sym: Arc<SymbolicCholesky<usize>>, par: Par) -> Result<Self> {
+        Self::with_rhs(sym, par, 1)
+    }
+
+    /// As [`Self::new`], with the workspace of solves of blocks of up to `rhs` columns
+    /// ([`Self::solve_block`]).
+    ///
+    /// # Errors
+    /// [`Error::Factor`] when the memory cannot be allocated.
+    pub(crate) fn with_rhs(
+        sym: Arc<SymbolicCholesky<usize>>,
+        par: Par,
+        rhs: usize,
+    ) -> Result<Self> {
         let l = try_vec(sym.len_val())?;
         let stack = workspace(
             sym.factorize_numeric_llt_scratch::<f64>(par, Default::default())
-                .or(sym.solve_in_place_scratch::<f64>(1, Par::Seq)),
+                .or(sym.solve_in_place_scratch::<f64>(rhs.max(1), par)),
         )?;
         Ok(Cholesky { sym, l, stack })
     }
@@ -106,10 +119,15 @@ impl Cholesky {
 
     /// x ← (K − σM)⁻¹ x (sequential).
     pub(crate) fn solve_in_place(&mut self, x: MatMut<'_, f64>) {
+        self.solve_block(x, Par::Seq);
+    }
+
+    /// X ← (K − σM)⁻¹ X for a block of at most the `rhs` columns of [`Self::with_rhs`].
+    pub(crate) fn solve_block(&mut self, x: MatMut<'_, f64>, par: Par) {
         LltRef::new(&self.sym, &self.l).solve_in_place_with_conj(
             Conj::No,
             x,
-            Par::Seq,
+            par,
             MemStack::new(&mut self.stack),
         );
     }

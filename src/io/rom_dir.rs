@@ -9,7 +9,7 @@ use crate::io::{atomic, matrix_market, npz};
 use crate::metrics::rom_eigenfrequencies;
 use crate::model::Model;
 use crate::reduce::linefit::{Outcome, SamplingReport, Verified};
-use crate::reduce::{Definiteness, FitReport, Provenance, Rom, Timing};
+use crate::reduce::{CraigBamptonReport, Definiteness, FitReport, Provenance, Rom, Timing};
 use crate::{Error, Result};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -43,6 +43,9 @@ struct Manifest {
     has_basis: bool,
     #[serde(default)]
     serep_cond: Option<f64>,
+    /// Craig–Bampton numerics (absent for other methods and older directories).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    craig_bampton: Option<CraigBamptonReport>,
     /// The request of a tolerance-driven line-fitting ROM and what was reached.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     sampling: Option<SamplingToml>,
@@ -167,6 +170,7 @@ fn write_dir(dir: &Path, rom: &Rom, model: Option<&Model>) -> Result<()> {
                 .collect(),
             has_basis: rom.basis.is_some(),
             serep_cond: rom.serep_cond(),
+            craig_bampton: rom.craig_bampton().cloned(),
             sampling: rom.sampling().map(|r| SamplingToml {
                 tol: r.tol,
                 status: outcome_name(&r.outcome).into(),
@@ -263,6 +267,16 @@ pub fn read(dir: &Path) -> Result<Rom> {
         ("serep", _, None) => {
             return Err(Error::parse(&path, 0, "method serep without serep_cond"))
         }
+        ("craig-bampton", _, _) => match man.craig_bampton {
+            Some(r) => Provenance::CraigBampton(r),
+            None => {
+                return Err(Error::parse(
+                    &path,
+                    0,
+                    "method craig-bampton without a [craig_bampton] table",
+                ))
+            }
+        },
         (m, _, _) => return Err(Error::parse(&path, 0, format!("unknown method '{m}'"))),
     };
     let basis = if man.has_basis { Some(rd("V")?) } else { None };

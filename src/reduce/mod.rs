@@ -1,11 +1,13 @@
 //! Reduced models (docs/design.md §3.4): the [`Rom`] type with its [`Provenance`]
 //! (`rom.rs`), the shared Galerkin projection with its definiteness check ([`project`],
 //! [`Definiteness`]),
-//! and the methods that build V: [`linefit`] (§3.3, §3.5) and [`serep`] (§3.6). Every
+//! and the methods that build V: [`linefit`] (§3.3, §3.5), [`serep`] (§3.6) and
+//! [`craig_bampton`] (§3.8). Every
 //! reductor takes a prepared [`crate::body::Body`] and a [`crate::scene::Scene`] and ends in
 //! [`project`]. [`flexible`] turns any ROM's basis into the rigid-free elastic basis a
 //! floating-frame multibody code needs (§3.9).
 
+pub mod craig_bampton;
 pub mod flexible;
 pub mod linefit;
 pub(crate) mod projection;
@@ -13,4 +15,4 @@ pub(crate) mod rom;
 pub mod serep;
 
 pub use projection::{project, Definiteness, Projected};
-pub use rom::{FitReport, Method, Provenance, Rom, Timing};
+pub use rom::{CraigBamptonReport, FitReport, Method, Provenance, Rom, Timing};

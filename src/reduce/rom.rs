@@ -16,6 +16,8 @@ pub enum Method {
     LineFit,
     /// SEREP (docs/design.md §3.6).
     Serep,
+    /// Craig–Bampton (docs/design.md §3.8).
+    CraigBampton,
 }
 
 impl std::fmt::Display for Method {
@@ -23,6 +25,7 @@ impl std::fmt::Display for Method {
         f.write_str(match self {
             Method::LineFit => "linefit",
             Method::Serep => "serep",
+            Method::CraigBampton => "craig-bampton",
         })
     }
 }
@@ -57,6 +60,23 @@ pub struct FitReport {
     pub rows: usize,
 }
 
+/// Numerics of a Craig–Bampton reduction (docs/design.md §3.8), reported to the user and
+/// stored in `rom.toml` (`[craig_bampton]`).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct CraigBamptonReport {
+    /// Frequencies (Hz) of the c fixed-interface modes, ascending.
+    pub fixed_interface_hz: Vec<f64>,
+    /// Their normwise backward errors η (as [`crate::eigen::Modes::residuals`]).
+    pub mode_residuals: Vec<f64>,
+    /// The factorization of K_ii: `cholesky` (positive definite) or `lblt`.
+    pub factorization: String,
+    /// min/max |pivot| of the LBLᵀ factorization (none for Cholesky).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pivot_ratio: Option<f64>,
+    /// Largest relative residual ‖K_ii ψ_j + K_ib e_j‖ / ‖K_ib e_j‖ of the constraint modes.
+    pub static_residual: f64,
+}
+
 /// Where a ROM came from: the method and what it was built from.
 #[derive(Clone, Debug)]
 pub enum Provenance {
@@ -77,6 +97,8 @@ pub enum Provenance {
         /// cond(U_cr).
         cond: f64,
     },
+    /// Craig–Bampton (docs/design.md §3.8); the boundary DoFs are [`Rom::dofs`].
+    CraigBampton(CraigBamptonReport),
 }
 
 /// A reduced second-order model Mr q̈ + Dr q̇ + Kr q = Br u, y = Cr q (docs/design.md §3.4).
@@ -97,7 +119,9 @@ pub struct Rom {
     pub br: Mat<f64>,
     /// Reduced output matrix C V (q×n).
     pub cr: Mat<f64>,
-    /// The full-model DoF of each reduced coordinate (interface / retained DoFs).
+    /// The full-model DoF of each physical reduced coordinate (interface / retained /
+    /// boundary DoFs): the first `dofs.len()` coordinates. Only Craig–Bampton has more
+    /// coordinates than DoFs: after the boundary come its modal amplitudes.
     pub dofs: Vec<usize>,
     /// Input DoFs (columns of B).
     pub inputs: Vec<usize>,
@@ -126,6 +150,7 @@ impl Rom {
         match self.provenance {
             Provenance::LineFit { .. } => Method::LineFit,
             Provenance::Serep { .. } => Method::Serep,
+            Provenance::CraigBampton(_) => Method::CraigBampton,
         }
     }
 
@@ -165,6 +190,14 @@ impl Rom {
     pub fn serep_cond(&self) -> Option<f64> {
         match self.provenance {
             Provenance::Serep { cond, .. } => Some(cond),
+            _ => None,
+        }
+    }
+
+    /// The numerics of a Craig–Bampton ROM.
+    pub fn craig_bampton(&self) -> Option<&CraigBamptonReport> {
+        match &self.provenance {
+            Provenance::CraigBampton(r) => Some(r),
             _ => None,
         }
     }

@@ -398,8 +398,60 @@ fn reduce_linefit_then_evaluate() {
 }
 
 #[test]
+fn reduce_craig_bampton_then_evaluate() {
+    let work = scratch("reduce_cb");
+    let out = ok(
+        &work,
+        &[
+            "reduce",
+            bar_str(),
+            "--method",
+            "craig-bampton",
+            "--extra-interface",
+            "1",
+            "--modes",
+            "32",
+            "--threads",
+            "2",
+            "--out",
+            "ROM",
+        ],
+    );
+    assert!(
+        out.contains("method           craig-bampton") && out.contains("K_ii by cholesky"),
+        "reduce:\n{out}"
+    );
+    let toml = std::fs::read_to_string(work.join("ROM/rom.toml")).unwrap();
+    assert!(
+        toml.contains("[craig_bampton]") && toml.contains("order = 42"),
+        "{toml}"
+    );
+    let out = ok(
+        &work,
+        &[
+            "evaluate",
+            bar_str(),
+            "ROM",
+            "--points",
+            "50",
+            "--threads",
+            "2",
+            "--csv",
+            "eps.csv",
+        ],
+    );
+    let rows = csv(&work.join("eps.csv"), "f_hz,eps_elastic,eps_total");
+    let worst = rows.iter().map(|r| num(&r[1])).fold(0.0, f64::max);
+    // c = 32: 9.8e-3 on 2000 points (README, tradeoff)
+    assert!(
+        worst < 2e-2,
+        "Craig–Bampton c = 32: eps up to {worst:.3e}\n{out}"
+    );
+}
+
+#[test]
 fn reduce_bad_settings_fail_cleanly_without_output() {
-    let cases: [(&str, &[&str], &[&str]); 6] = [
+    let cases: [(&str, &[&str], &[&str]); 8] = [
         (
             "interface_without_outputs",
             &[
@@ -459,6 +511,24 @@ fn reduce_bad_settings_fail_cleanly_without_output() {
             "serep_fewer_modes_than_masters",
             &["--method", "serep", "--modes", "3"],
             &["c = 3 modes < r = 9", "at least 9 modes"],
+        ),
+        (
+            "craig_bampton_without_modes",
+            &["--method", "craig-bampton", "--extra-interface", "1"],
+            &["craig-bampton needs --modes"],
+        ),
+        // the 9 outputs sit at three nodes on one edge: they do not hold the free bar
+        (
+            "craig_bampton_collinear_boundary",
+            &[
+                "--method",
+                "craig-bampton",
+                "--extra-interface",
+                "0",
+                "--modes",
+                "4",
+            ],
+            &["do not hold the free body", "non-collinear"],
         ),
     ];
     for (name, extra, needles) in cases {

@@ -3,6 +3,7 @@
 
 mod cli;
 mod common;
+mod craig_bampton;
 mod eigen;
 mod export;
 mod fe_bar;

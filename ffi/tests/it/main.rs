@@ -3,6 +3,7 @@
 mod bad_input;
 mod c_client;
 mod common;
+mod craig_bampton;
 mod discipline;
 mod header;
 mod python;

@@ -8,7 +8,6 @@
 //! ```
 
 use super::options::Interface;
-use super::placement::spread_dofs;
 use crate::body::Body;
 use crate::lsq::{LsqOptions, StreamedQr};
 use crate::reduce::projection::{project, Definiteness};
@@ -39,19 +38,7 @@ impl Partition {
     pub fn new(body: &Body<'_>, scene: &Scene, interface: &Interface) -> Result<Self> {
         let n_full = body.n();
         let outputs = &scene.outputs;
-        let extra = match interface {
-            Interface::Explicit(_) => 0,
-            Interface::OutputsPlus(k) => *k,
-            Interface::Auto => Interface::auto_extra(outputs.len()),
-        };
-        let interface = match interface {
-            Interface::Explicit(i) => i.clone(),
-            Interface::OutputsPlus(_) | Interface::Auto => {
-                let mut i = outputs.to_vec();
-                i.extend(spread_dofs(body.model(), extra, outputs)?);
-                i
-            }
-        };
+        let interface = interface.resolve(body.model(), outputs)?;
         check_dofs(&interface, n_full, "interface")?;
         if let Some(o) = outputs.iter().find(|o| !interface.contains(o)) {
             return Err(Error::InvalidSetting(format!(

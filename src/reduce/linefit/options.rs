@@ -2,7 +2,9 @@
 //! (explicit, a count placed beside the resonances, or a tolerance for the adaptive loop of
 //! docs/design.md §3.5) and how the loop may grow the interface.
 
+use super::placement::spread_dofs;
 use crate::lsq::LsqOptions;
+use crate::model::Model;
 use crate::sweep::SweepOptions;
 
 /// How the interface (the ROM's DoFs, order n) is chosen.
@@ -21,6 +23,23 @@ impl Interface {
     /// The number of spread DoFs [`Interface::Auto`] adds to q outputs: ⌈q/2⌉.
     pub fn auto_extra(outputs: usize) -> usize {
         outputs.div_ceil(2)
+    }
+
+    /// The DoF list of this setting for the given outputs: the explicit list, or the
+    /// outputs followed by the spread DoFs ([`spread_dofs`]). Shared by line-fitting (the
+    /// interface) and Craig–Bampton (the boundary); the callers check the list.
+    ///
+    /// # Errors
+    /// As [`spread_dofs`].
+    pub fn resolve(&self, model: &Model, outputs: &[usize]) -> crate::Result<Vec<usize>> {
+        let extra = match self {
+            Interface::Explicit(i) => return Ok(i.clone()),
+            Interface::OutputsPlus(k) => *k,
+            Interface::Auto => Interface::auto_extra(outputs.len()),
+        };
+        let mut i = outputs.to_vec();
+        i.extend(spread_dofs(model, extra, outputs)?);
+        Ok(i)
     }
 }
 
