@@ -90,7 +90,9 @@ def harmonic(fem, z, freq_hz):
     mbs.Assemble()
     M, K, D = mbs.ComputeLinearizedSystem()
     solver = exu.MainSolverImplicitSecondOrder()
-    solver.InitializeSolver(mbs, exu.SimulationSettings())
+    settings = exu.SimulationSettings()
+    settings.solution.file.write = False  # no solution/ in the working directory
+    solver.InitializeSolver(mbs, settings)
     solver.ComputeODE2RHS(mbs)
     f = np.array(solver.GetSystemResidual())[: M.shape[0]]
     w = 2 * np.pi * freq_hz

@@ -119,8 +119,14 @@ def test_linefit_transfer_function_matches_dense_solve():
           f"{np.round(fn[:4], 2)} Hz: max eps vs dense solve {e.max():.3e} (mean {e.mean():.3e}); "
           f"library eps agrees to {np.max(np.abs(lib_el - e)):.1e} (absolute)")
     assert e.max() < 3e-2
-    # same quantity, sparse vs dense solves: agree to rounding amplified by 1/eps
-    np.testing.assert_allclose(lib_el, e, rtol=1e-6, atol=1e-9)
+    # same quantity, sparse vs dense solves of A(iω): each H carries a relative error up to
+    # about ε·κ(A(iω)), which enters eps additively; allow 10 ε κ per grid point on top of a
+    # relative 1e-6 (measured: at most 0.12 ε κ)
+    w = 2 * np.pi * grid
+    kappa = np.array([np.linalg.cond(K.toarray() - x * x * M.toarray() + 1j * x * D.toarray()) for x in w])
+    bound = 1e-6 * e + 10 * np.finfo(float).eps * kappa
+    print(f"largest |lib - dense| / bound: {np.max(np.abs(lib_el - e) / bound):.2e}")
+    assert np.all(np.abs(lib_el - e) <= bound)
     np.testing.assert_array_equal(lib_el, lib_tot)  # constrained body: one variant
 
 

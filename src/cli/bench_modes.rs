@@ -55,7 +55,11 @@ pub fn run(max_n: usize, scipy_max_n: usize, threads: &[usize]) -> Result<()> {
         }
         let body = Body::new(&model)?;
         for &c in counts {
-            let reference = if use_scipy { Some(eigsh(&dir, c)?) } else { None };
+            let reference = if use_scipy {
+                Some(eigsh(&dir, c)?)
+            } else {
+                None
+            };
             for &t in threads {
                 memory::reset_peak_rss();
                 // as `modes` does: the first shift from the scene's band end

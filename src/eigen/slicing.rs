@@ -64,7 +64,9 @@ pub(super) struct Slicer<'b, 'm> {
     body: &'b Body<'m>,
     sym: Arc<SymbolicCholesky<usize>>,
     opts: &'b EigenOptions,
-    pool: rayon::ThreadPool,
+    /// Worker pool when more than one thread is wanted and the caller is not already in a
+    /// pool of that size (a C caller's process must not keep idle threads).
+    pool: Option<rayon::ThreadPool>,
     threads: usize,
     budget: usize,
     /// Seconds and factorizations of the inertia counts.
@@ -74,10 +76,20 @@ pub(super) struct Slicer<'b, 'm> {
 impl<'b, 'm> Slicer<'b, 'm> {
     pub(super) fn new(body: &'b Body<'m>, opts: &'b EigenOptions) -> Result<Self> {
         let threads = crate::sweep::resolve_threads(opts.threads);
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .map_err(|e| Error::InvalidSetting(format!("cannot start {threads} threads: {e}")))?;
+        let in_pool =
+            rayon::current_thread_index().is_some() && rayon::current_num_threads() == threads;
+        let pool = if threads > 1 && !in_pool {
+            Some(
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .map_err(|e| {
+                        Error::InvalidSetting(format!("cannot start {threads} threads: {e}"))
+                    })?,
+            )
+        } else {
+            None
+        };
         let budget = opts
             .memory_budget
             .unwrap_or_else(|| crate::memory::available_bytes().unwrap_or(8 << 30) / 2);
@@ -122,7 +134,7 @@ impl<'b, 'm> Slicer<'b, 'm> {
         };
         let workers = self.workers(lambdas.len(), 8 * self.sym.len_val() + 64 * self.body.n());
         if workers > 1 {
-            self.pool.install(|| lambdas.par_iter().map(one).collect())
+            self.install(|| lambdas.par_iter().map(one).collect())
         } else {
             lambdas.iter().map(one).collect()
         }
@@ -181,6 +193,14 @@ impl<'b, 'm> Slicer<'b, 'm> {
             .collect())
     }
 
+    /// Runs `f` in the worker pool (or in the caller's pool, or sequentially).
+    fn install<T: Send>(&self, f: impl FnOnce() -> T + Send) -> T {
+        match &self.pool {
+            Some(pool) => pool.install(f),
+            None => f(),
+        }
+    }
+
     /// How many slices of `bytes` each may run at once.
     fn workers(&self, jobs: usize, bytes: usize) -> usize {
         let by_memory = (self.budget / bytes.max(1)).max(1);
@@ -230,7 +250,7 @@ impl<'b, 'm> Slicer<'b, 'm> {
             r
         };
         if workers > 1 {
-            self.pool.install(|| {
+            self.install(|| {
                 targets
                     .par_iter()
                     .enumerate()
@@ -238,11 +258,9 @@ impl<'b, 'm> Slicer<'b, 'm> {
                     .map(run)
                     .collect()
             })
-        } else if par == Par::Seq {
-            targets.iter().enumerate().map(run).collect()
         } else {
-            self.pool
-                .install(|| targets.iter().enumerate().map(run).collect())
+            // a lone slice: the pool's threads work inside its factorization
+            self.install(|| targets.iter().enumerate().map(run).collect())
         }
     }
 
