@@ -26,6 +26,9 @@ pub struct ModesArgs {
     /// Target modes per spectrum slice.
     #[arg(long, default_value_t = EigenOptions::default().slice_size)]
     slice_size: usize,
+    /// Block size of the Krylov–Schur iteration (vectors solved at once).
+    #[arg(long, default_value_t = EigenOptions::default().block)]
+    block: usize,
     /// Worker threads (0 = all cores).
     #[arg(long, default_value_t = 0)]
     threads: usize,
@@ -44,6 +47,7 @@ pub fn modes(a: &ModesArgs) -> Result<()> {
     };
     let opts = EigenOptions {
         slice_size: a.slice_size,
+        block: a.block,
         threads: a.threads,
         ..EigenOptions::for_band(scene.band_hz[1])
     };

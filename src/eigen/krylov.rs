@@ -96,7 +96,7 @@ pub(super) fn solve(
     let count = target.count;
     let reach = target.reach(sigma);
     let mut it = Iteration::default();
-    let mut basis = Basis::new(op, m)?;
+    let mut basis = Basis::new(op, m, block_size(opts, m, n))?;
     // locked pairs: λ and whether they belong to the target
     let mut locked: Vec<(f64, bool)> = Vec::new();
     let mut found = 0usize;
@@ -104,14 +104,19 @@ pub(super) fn solve(
     let (mut idle, mut fresh_idle) = (0usize, 0usize);
     loop {
         let nl = locked.len();
-        it.solves += basis.expand(op, nl, start)?;
-        let (theta, y, b) = basis.ritz(nl)?;
-        let ma = m - nl;
-        let Basis { q, mq, h, seed } = &mut basis;
+        let (solves, me) = basis.expand(op, nl, start)?;
+        it.solves += solves;
+        let (theta, y, coupling) = basis.ritz(nl, me)?;
+        let b: Vec<f64> = (0..coupling.ncols())
+            .map(|i| coupling.col(i).norm_l2())
+            .collect();
+        let ma = me - nl;
+        let bs = basis.block;
+        let Basis { q, mq, h, seed, .. } = &mut basis;
         let theta_max = theta[0].abs();
-        let exhausted = m == n && nl + ma == n;
+        let exhausted = me == n && nl + ma == n;
         let converged = |i: usize| {
-            exhausted || b[i].abs() <= opts.tol * theta[i].abs() + 4.0 * f64::EPSILON * theta_max
+            exhausted || b[i] <= opts.tol * theta[i].abs() + 4.0 * f64::EPSILON * theta_max
         };
         // lock the leading converged run
         let (mut nc, mut beyond) = (0usize, false);
@@ -124,8 +129,9 @@ pub(super) fn solve(
             nc += 1;
         }
         let done = found == count;
-        let ma_new = ma - nc;
-        if !done && ma_new == 0 {
+        // columns left after the locked ones; a restart needs room for the continuation block
+        let room = m - (nl + nc);
+        if !done && room < bs + 1 {
             return Err(Error::NotConverged(format!(
                 "{found} of {count} modes found in the slice {}: the basis of {m} vectors is full of converged pairs; \
                  increase the Krylov dimension",
@@ -134,11 +140,14 @@ pub(super) fn solve(
         }
         // thick restart: the locked run, then the best remaining Ritz vectors
         let remaining = count - found;
-        // room for the continuation vector: at most ma_new − 1 kept
-        let keep_active = if done || ma_new < 2 {
+        // room for the continuation block: at most room − bs kept
+        let ma_new = ma - nc;
+        let keep_active = if done {
             0
         } else {
-            (remaining + ma_new.saturating_sub(remaining) / 2).clamp(1, ma_new - 1)
+            (remaining + ma_new.saturating_sub(remaining) / 2)
+                .clamp(1, room - bs)
+                .min(ma_new)
         };
         let keep = nc + keep_active;
         let qy = q.as_ref().subcols(nl, ma) * y.as_ref().subcols(0, keep);
@@ -149,13 +158,16 @@ pub(super) fn solve(
             break;
         }
         let (a0, p) = (nl + nc, nl + keep);
-        let (last, mlast) = (q.col(m).to_owned(), mq.col(m).to_owned());
-        q.as_mut().col_mut(p).copy_from(&last);
-        mq.as_mut().col_mut(p).copy_from(&mlast);
+        let last = q.as_ref().subcols(me, bs).to_owned();
+        let mlast = mq.as_ref().subcols(me, bs).to_owned();
+        q.as_mut().subcols_mut(p, bs).copy_from(&last);
+        mq.as_mut().subcols_mut(p, bs).copy_from(&mlast);
         h.fill(0.0);
         for c in 0..keep_active {
             h[(a0 + c, a0 + c)] = theta[nc + c];
-            h[(p, a0 + c)] = b[nc + c];
+            for r in 0..bs {
+                h[(p + r, a0 + c)] = coupling[(r, nc + c)];
+            }
         }
         start = p;
         it.restarts += 1;
@@ -173,9 +185,11 @@ pub(super) fn solve(
             }
             it.fresh_starts += 1;
             h.fill(0.0);
-            *seed += 1;
             let a0 = locked.len();
-            fresh_vector(op, q, mq, a0, *seed)?;
+            for r in 0..bs {
+                *seed += 1;
+                fresh_vector(op, q, mq, a0 + r, *seed)?;
+            }
             start = a0;
         } else if nc > 0 {
             fresh_idle = 0;
@@ -186,7 +200,7 @@ pub(super) fn solve(
         if it.restarts > opts.max_restarts || idle > opts.patience {
             let worst = (nc..ma)
                 .take(remaining)
-                .map(|i| b[i].abs() / theta[i].abs())
+                .map(|i| b[i] / theta[i].abs())
                 .fold(0.0, f64::max);
             return Err(Error::NotConverged(format!(
                 "{found} of {count} modes found in the slice {} after {} restarts ({} without a newly converged mode); \
@@ -208,33 +222,55 @@ pub(super) fn solve(
 /// A rough λ of the k-th eigenvalue nearest σ: the k-th Ritz value of one Krylov space of
 /// dimension m > k from a random start (no restart). Used to place a first shift when
 /// nothing about the spectrum is known yet.
-pub(super) fn estimate(op: &mut ShiftInvert<'_>, k: usize, m: usize) -> Result<f64> {
-    let mut basis = Basis::new(op, m)?;
-    basis.expand(op, 0, 0)?;
-    let (theta, _, _) = basis.ritz(0)?;
-    Ok(op.sigma + 1.0 / theta[(k.max(1) - 1).min(m - 1)])
+pub(super) fn estimate(
+    op: &mut ShiftInvert<'_>,
+    k: usize,
+    m: usize,
+    opts: &EigenOptions,
+) -> Result<(f64, usize)> {
+    let mut basis = Basis::new(op, m, block_size(opts, m, op.n()))?;
+    let (solves, me) = basis.expand(op, 0, 0)?;
+    let (theta, _, _) = basis.ritz(0, me)?;
+    Ok((op.sigma + 1.0 / theta[(k.max(1) - 1).min(me - 1)], solves))
 }
 
-/// The Krylov–Schur basis: Q and M Q (N × (m+1)), the projected matrix H ((m+1) × m) and the
-/// seed of the next fresh random vector.
+/// The block size: [`EigenOptions::block`], or 1 when m + block vectors do not fit in R^N
+/// (the Krylov space may then be all of R^N, which one vector at a time handles exactly).
+fn block_size(opts: &EigenOptions, m: usize, n: usize) -> usize {
+    let b = opts.block.max(1);
+    if m + b <= n {
+        b
+    } else {
+        1
+    }
+}
+
+/// The block Krylov–Schur basis: Q and M Q (N × (m+b)), the projected matrix H
+/// ((m+b) × m, banded upper Hessenberg with b sub-diagonals), the block size b and the seed of
+/// the next fresh random vector.
 struct Basis {
     q: Mat<f64>,
     mq: Mat<f64>,
     h: Mat<f64>,
+    block: usize,
     seed: u64,
 }
 
 impl Basis {
-    /// m + 1 columns, the first a random unit vector.
-    fn new(op: &ShiftInvert<'_>, m: usize) -> Result<Self> {
+    /// m + b columns, the first b random and M-orthonormal.
+    fn new(op: &ShiftInvert<'_>, m: usize, block: usize) -> Result<Self> {
         let n = op.n();
         let mut b = Basis {
-            q: Mat::zeros(n, m + 1),
-            mq: Mat::zeros(n, m + 1),
-            h: Mat::zeros(m + 1, m),
+            q: Mat::zeros(n, m + block),
+            mq: Mat::zeros(n, m + block),
+            h: Mat::zeros(m + block, m),
+            block,
             seed: 0,
         };
-        fresh_vector(op, &mut b.q, &mut b.mq, 0, 0)?;
+        for j in 0..block {
+            b.seed = j as u64;
+            fresh_vector(op, &mut b.q, &mut b.mq, j, b.seed)?;
+        }
         Ok(b)
     }
 
@@ -243,43 +279,56 @@ impl Basis {
         self.h.ncols()
     }
 
-    /// Expands columns `start`..m (each S q_j, M-orthogonalized against all previous columns,
-    /// locked ones included; coefficients recorded from column `nl` on). Returns the solves.
-    fn expand(&mut self, op: &mut ShiftInvert<'_>, nl: usize, start: usize) -> Result<usize> {
-        let (n, m) = (op.n(), self.m());
-        for j in start..m {
-            let mut w = self.mq.as_ref().subcols(j, 1).to_owned();
+    /// Expands from column `start` in blocks of b: the b columns j..j+b go through one block
+    /// solve S Q_j, each result is M-orthogonalized against all previous columns (locked ones
+    /// included; coefficients recorded from column `nl` on) and becomes column j + b + c.
+    /// Stops at m_e = start + b⌊(m − start)/b⌋; returns (solves, m_e).
+    fn expand(
+        &mut self,
+        op: &mut ShiftInvert<'_>,
+        nl: usize,
+        start: usize,
+    ) -> Result<(usize, usize)> {
+        let (n, m, bs) = (op.n(), self.m(), self.block);
+        let me = start + bs * ((m - start) / bs);
+        for j in (start..me).step_by(bs) {
+            let mut w = self.mq.as_ref().subcols(j, bs).to_owned();
             op.solve_in_place(w.as_mut());
-            let (c, norm0, beta, mw) = orthogonalize(
-                op,
-                self.q.as_ref().subcols(0, j + 1),
-                self.mq.as_ref().subcols(0, j + 1),
-                &mut w,
-            );
-            for i in nl..=j {
-                self.h[(i, j)] = c[i];
-            }
-            if beta > 1e-12 * norm0 {
-                self.h[(j + 1, j)] = beta;
-                self.q.as_mut().col_mut(j + 1).copy_from(w.col(0) / beta);
-                self.mq.as_mut().col_mut(j + 1).copy_from(mw.col(0) / beta);
-            } else {
-                // S q_j ∈ span Q: an invariant subspace; go on from a fresh direction
-                self.h[(j + 1, j)] = 0.0;
-                self.seed += 1;
-                if j + 1 < n {
-                    fresh_vector(op, &mut self.q, &mut self.mq, j + 1, self.seed)?;
+            for c in 0..bs {
+                let mut wc = w.as_ref().subcols(c, 1).to_owned();
+                let top = j + bs + c;
+                let (coef, norm0, beta, mw) = orthogonalize(
+                    op,
+                    self.q.as_ref().subcols(0, top),
+                    self.mq.as_ref().subcols(0, top),
+                    &mut wc,
+                );
+                for i in nl..top {
+                    self.h[(i, j + c)] = coef[i];
+                }
+                if beta > 1e-12 * norm0 {
+                    self.h[(top, j + c)] = beta;
+                    self.q.as_mut().col_mut(top).copy_from(wc.col(0) / beta);
+                    self.mq.as_mut().col_mut(top).copy_from(mw.col(0) / beta);
+                } else {
+                    // S q ∈ span Q: an invariant subspace; go on from a fresh direction
+                    self.h[(top, j + c)] = 0.0;
+                    self.seed += 1;
+                    if top < n {
+                        fresh_vector(op, &mut self.q, &mut self.mq, top, self.seed)?;
+                    }
                 }
             }
         }
-        Ok(m.saturating_sub(start))
+        Ok((me - start, me))
     }
 
-    /// Rayleigh–Ritz on the active block (columns nl..m): Ritz values θ by |θ| descending,
-    /// their vectors Y and the residual estimates b = h_{m+1}ᵀ Y.
-    fn ritz(&self, nl: usize) -> Result<(Vec<f64>, Mat<f64>, Vec<f64>)> {
-        let (m, h) = (self.m(), &self.h);
-        let ma = m - nl;
+    /// Rayleigh–Ritz on the active block (columns nl..m_e): Ritz values θ by |θ| descending,
+    /// their vectors Y and the coupling H[m_e..m_e+b, nl..m_e]·Y (b × active), whose column
+    /// norms are the residuals ‖S x − θ x‖_M.
+    fn ritz(&self, nl: usize, me: usize) -> Result<(Vec<f64>, Mat<f64>, Mat<f64>)> {
+        let (h, bs) = (&self.h, self.block);
+        let ma = me - nl;
         let t = Mat::from_fn(ma, ma, |i, j| {
             0.5 * (h[(nl + i, nl + j)] + h[(nl + j, nl + i)])
         });
@@ -292,10 +341,8 @@ impl Basis {
         order.sort_by(|&a, &b| eig.S()[b].abs().total_cmp(&eig.S()[a].abs()));
         let theta: Vec<f64> = order.iter().map(|&i| eig.S()[i]).collect();
         let y = Mat::from_fn(ma, ma, |r, c| eig.U()[(r, order[c])]);
-        let b = (0..ma)
-            .map(|c| (0..ma).map(|r| h[(m, nl + r)] * y[(r, c)]).sum::<f64>())
-            .collect();
-        Ok((theta, y, b))
+        let coupling = h.as_ref().submatrix(me, nl, bs, ma) * &y;
+        Ok((theta, y, coupling))
     }
 }
 

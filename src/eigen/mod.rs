@@ -100,6 +100,10 @@ pub struct EigenOptions {
     pub patience: usize,
     /// Target number of modes per slice.
     pub slice_size: usize,
+    /// Block size of the Krylov–Schur iteration: vectors solved at once (a block solve costs
+    /// far less than as many single ones) and the largest multiplicity resolved without a
+    /// fresh start.
+    pub block: usize,
     /// Worker threads (slices at once, or threads inside a lone factorization); 0 = all cores.
     pub threads: usize,
     /// Memory the concurrent slices may use (bytes); `None` = half of MemAvailable.
@@ -128,6 +132,7 @@ impl Default for EigenOptions {
             max_restarts: 500,
             patience: 60,
             slice_size: 48,
+            block: 4,
             threads: 0,
             memory_budget: None,
             backend: EigenBackend::Krylov,

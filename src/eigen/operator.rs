@@ -32,7 +32,8 @@ pub(crate) struct ShiftInvert<'a> {
 
 impl<'a> ShiftInvert<'a> {
     /// Factors K − σM on the symbolic analysis `sym` of the pencil's pattern: Cholesky for
-    /// σ < 0, LBLᵀ otherwise; `par` parallelizes the Cholesky factorization.
+    /// σ < 0, LBLᵀ otherwise; `par` parallelizes the Cholesky factorization; solves take up
+    /// to `rhs` columns at once.
     ///
     /// # Errors
     /// [`Error::Factor`] when K − σM (σ < 0) is not positive definite or memory is short;
@@ -43,9 +44,10 @@ impl<'a> ShiftInvert<'a> {
         sym: Arc<SymbolicCholesky<usize>>,
         sigma: f64,
         par: Par,
+        rhs: usize,
     ) -> Result<Self> {
         let factor = if sigma < 0.0 {
-            let mut chol = Cholesky::new(sym, par)?;
+            let mut chol = Cholesky::with_rhs(sym, par, rhs)?;
             chol.factor(pencil, sigma, par).map_err(|e| {
                 Error::Factor(format!(
                     "K - sigma M (sigma = {sigma:.3e}) is not positive definite ({e:?}): is M positive definite and K positive semi-definite?"
@@ -53,7 +55,7 @@ impl<'a> ShiftInvert<'a> {
             })?;
             Factor::Definite(chol)
         } else {
-            Factor::Indefinite(ShiftedLblt::new(sym, pencil, sigma, 1)?)
+            Factor::Indefinite(ShiftedLblt::new(sym, pencil, sigma, rhs)?)
         };
         Ok(ShiftInvert {
             factor,
@@ -88,10 +90,10 @@ impl<'a> ShiftInvert<'a> {
         sparse_dense_matmul(y, Accum::Replace, self.mass, x, 1.0, Par::Seq);
     }
 
-    /// x ← (K − σM)⁻¹ x.
+    /// X ← (K − σM)⁻¹ X (at most the `rhs` columns of [`Self::new`]).
     pub(crate) fn solve_in_place(&mut self, x: MatMut<'_, f64>) {
         match &mut self.factor {
-            Factor::Definite(f) => f.solve_in_place(x),
+            Factor::Definite(f) => f.solve_block(x, Par::Seq),
             Factor::Indefinite(f) => f.solve_in_place(x),
         }
     }

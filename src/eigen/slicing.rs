@@ -297,7 +297,14 @@ impl<'b, 'm> Slicer<'b, 'm> {
             } else {
                 base + 1e-6 * attempt as f64 * (target.upper - target.lower)
             };
-            match ShiftInvert::new(model, self.body.pencil(), self.sym.clone(), sigma, par) {
+            match ShiftInvert::new(
+                model,
+                self.body.pencil(),
+                self.sym.clone(),
+                sigma,
+                par,
+                self.opts.block,
+            ) {
                 Err(Error::Singular { .. }) if attempt < 3 && target.lower.is_finite() => {
                     attempt += 1
                 }
@@ -311,8 +318,8 @@ impl<'b, 'm> Slicer<'b, 'm> {
             // Krylov space estimates λ of the count-th mode; a shift far below it (|σ| <
             // λ/1000) would leave K − σM badly conditioned in the wanted elastic directions
             // next to the rigid ones, so factor again at −λ/100
-            let guess = krylov::estimate(&mut op, target.count, m)?;
-            extra_solves = m;
+            let (guess, solves) = krylov::estimate(&mut op, target.count, m, self.opts)?;
+            extra_solves = solves;
             if op.sigma.abs() < 1e-3 * guess {
                 op = ShiftInvert::new(
                     model,
@@ -320,6 +327,7 @@ impl<'b, 'm> Slicer<'b, 'm> {
                     self.sym.clone(),
                     -0.01 * guess,
                     par,
+                    self.opts.block,
                 )?;
             }
         }

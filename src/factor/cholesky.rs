@@ -53,7 +53,7 @@ pub(super) fn supernodal_params() -> CholeskySymbolicParams<'static> {
 
 /// A numeric Cholesky factor of K − σM on a [`symbolic_cholesky`] of the pencil: allocate
 /// once ([`Cholesky::new`]), factor ([`Cholesky::factor`]), solve in place
-/// ([`Cholesky::solve_in_place`], one column at a time, sequential).
+/// ([`Cholesky::solve_block`], a block of columns at a time).
 pub(crate) struct Cholesky {
     sym: Arc<SymbolicCholesky<usize>>,
     l: Vec<f64>,
@@ -115,11 +115,6 @@ impl Cholesky {
             Default::default(),
         )?;
         Ok(())
-    }
-
-    /// x ← (K − σM)⁻¹ x (sequential).
-    pub(crate) fn solve_in_place(&mut self, x: MatMut<'_, f64>) {
-        self.solve_block(x, Par::Seq);
     }
 
     /// X ← (K − σM)⁻¹ X for a block of at most the `rhs` columns of [`Self::with_rhs`].

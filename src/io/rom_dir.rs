@@ -98,13 +98,7 @@ pub fn write_for_model(dir: &Path, rom: &Rom, model: &Model) -> Result<()> {
 /// definite), node data of `model`, and `rom.toml`'s text as `metadata`.
 fn write_npz(path: &Path, rom: &Rom, model: Option<&Model>, manifest: &str) -> Result<()> {
     npz::write(path, |z| {
-        for (name, m) in [
-            ("Mr", &rom.mr),
-            ("Dr", &rom.dr),
-            ("Kr", &rom.kr),
-            ("Br", &rom.br),
-            ("Cr", &rom.cr),
-        ] {
+        for (name, m) in rom.matrices() {
             z.matrix(name, m.as_ref())?;
         }
         if let Some(v) = &rom.basis {
@@ -132,13 +126,7 @@ fn write_npz(path: &Path, rom: &Rom, model: Option<&Model>, manifest: &str) -> R
 
 fn write_dir(dir: &Path, rom: &Rom, model: Option<&Model>) -> Result<()> {
     atomic::write_dir(dir, |tmp| {
-        for (name, m) in [
-            ("Mr", &rom.mr),
-            ("Dr", &rom.dr),
-            ("Kr", &rom.kr),
-            ("Br", &rom.br),
-            ("Cr", &rom.cr),
-        ] {
+        for (name, m) in rom.matrices() {
             matrix_market::write_array(&tmp.join(format!("{name}.mtx")), m.as_ref())?;
         }
         if let Some(v) = &rom.basis {

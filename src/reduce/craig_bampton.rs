@@ -20,7 +20,7 @@
 //! Entry point: [`reduce`].
 
 use super::linefit::Interface;
-use super::projection::{project, Definiteness};
+use super::projection::project;
 use super::rom::{CraigBamptonReport, Provenance, Rom, Timing};
 use crate::body::Body;
 use crate::eigen::{eigenpairs, EigenOptions, Request};
@@ -178,62 +178,54 @@ pub fn reduce(body: &Body<'_>, scene: &Scene, opts: &CraigBamptonOptions) -> Res
             statics.pivot_ratio.unwrap_or(0.0)
         ));
     }
-    let (mass_definiteness, stiffness_definiteness) =
-        Definiteness::of_projection(&pr, &mut warnings);
-    if body.rigid().is_some() {
-        // span V holds the rigid motions, so Kr has exactly their 6 zero eigenvalues: say so
-        // instead of the generic "not positive definite" warning, or what is wrong
-        warnings.retain(|w| !w.starts_with("Kr "));
-        let ev = pr
-            .kr
-            .self_adjoint_eigenvalues(faer::Side::Lower)
-            .map_err(|_| Error::Factor("eigenvalues of Kr did not converge".into()))?;
-        let top = ev.last().copied().unwrap_or(0.0);
-        let zero = ev.iter().filter(|&&l| l.abs() <= 1e-10 * top).count();
-        if zero != 6 || ev[0] < -1e-10 * top {
-            warnings.push(format!(
-                "Kr of a free body should be positive semi-definite with exactly the 6 rigid modes in its null space; \
-                 it has {zero} eigenvalues within 1e-10 of zero and the smallest is {:.3e} (largest {top:.3e})",
-                ev[0]
-            ));
-        }
-    }
-    Ok(Rom {
-        provenance: Provenance::CraigBampton(CraigBamptonReport {
+    let mut rom = Rom::from_projection(
+        Provenance::CraigBampton(CraigBamptonReport {
             fixed_interface_hz,
             mode_residuals,
             factorization: statics.factorization.into(),
             pivot_ratio: statics.pivot_ratio,
             static_residual: statics.residual,
         }),
-        full_n: n_full,
-        mr: pr.mr,
-        dr: pr.dr,
-        kr: pr.kr,
-        br: pr.br,
-        cr: pr.cr,
-        dofs: boundary,
-        inputs: scene.inputs.clone(),
-        outputs: scene.outputs.clone(),
-        mass_definiteness,
-        stiffness_definiteness,
-        timings: vec![
-            Timing {
-                phase: "constraint modes (K_ii factor + solves)".into(),
-                seconds: statics_s,
-            },
-            Timing {
-                phase: "fixed-interface modes".into(),
-                seconds: eigen_s,
-            },
-            Timing {
-                phase: "projection".into(),
-                seconds: proj_s,
-            },
-        ],
+        n_full,
+        pr,
+        boundary,
+        scene,
         warnings,
-        basis: opts.keep_basis.then_some(v),
-    })
+        opts.keep_basis.then_some(v),
+    );
+    if body.rigid().is_some() {
+        // span V holds the rigid motions, so Kr has exactly their 6 zero eigenvalues: say so
+        // instead of the generic "not positive definite" warning, or what is wrong
+        rom.warnings.retain(|w| !w.starts_with("Kr "));
+        let ev = rom
+            .kr
+            .self_adjoint_eigenvalues(faer::Side::Lower)
+            .map_err(|_| Error::Factor("eigenvalues of Kr did not converge".into()))?;
+        let top = ev.last().copied().unwrap_or(0.0);
+        let zero = ev.iter().filter(|&&l| l.abs() <= 1e-10 * top).count();
+        if zero != 6 || ev[0] < -1e-10 * top {
+            rom.warnings.push(format!(
+                "Kr of a free body should be positive semi-definite with exactly the 6 rigid modes in its null space; \
+                 it has {zero} eigenvalues within 1e-10 of zero and the smallest is {:.3e} (largest {top:.3e})",
+                ev[0]
+            ));
+        }
+    }
+    rom.timings = vec![
+        Timing {
+            phase: "constraint modes (K_ii factor + solves)".into(),
+            seconds: statics_s,
+        },
+        Timing {
+            phase: "fixed-interface modes".into(),
+            seconds: eigen_s,
+        },
+        Timing {
+            phase: "projection".into(),
+            seconds: proj_s,
+        },
+    ];
+    Ok(rom)
 }
 
 /// On a free body, the boundary must hold the rigid motions: V0 (N×6) restricted to the

@@ -20,7 +20,7 @@
 //!
 //! Entry point: [`elastic_basis`].
 
-use super::projection::{project, Definiteness};
+use super::projection::project;
 use super::rom::Rom;
 use crate::body::Body;
 use crate::rigid::sym;
@@ -120,31 +120,20 @@ pub fn elastic_basis(body: &Body<'_>, scene: &Scene, rom: &Rom) -> Result<Elasti
         }
     });
     let pr = project(body, scene, phi.as_ref());
-    let mut warnings = Vec::new();
-    let (mass_definiteness, stiffness_definiteness) =
-        Definiteness::of_projection(&pr, &mut warnings);
     Ok(ElasticBasis {
         eigenfrequencies_hz: lambdas.iter().map(|&l| lambda_to_hz(l)).collect(),
         dropped: s.len() - keep.len(),
         dropped_rel_norms,
         rigid_coupling,
-        rom: Rom {
-            provenance: rom.provenance.clone(),
-            full_n: rom.full_n,
-            mr: pr.mr,
-            dr: pr.dr,
-            kr: pr.kr,
-            br: pr.br,
-            cr: pr.cr,
-            dofs: Vec::new(),
-            inputs: scene.inputs.clone(),
-            outputs: scene.outputs.clone(),
-            mass_definiteness,
-            stiffness_definiteness,
-            timings: Vec::new(),
-            warnings,
-            basis: None,
-        },
+        rom: Rom::from_projection(
+            rom.provenance.clone(),
+            rom.full_n,
+            pr,
+            Vec::new(),
+            scene,
+            Vec::new(),
+            None,
+        ),
         phi,
     })
 }

@@ -3,8 +3,9 @@
 //! modes — everything a front end reports and writes to `rom.toml`.
 
 use super::linefit::report::SamplingReport;
-use super::projection::Definiteness;
+use super::projection::{Definiteness, Projected};
 use crate::model::Model;
+use crate::scene::Scene;
 use crate::{Error, Result};
 use faer::linalg::solvers::Solve;
 use faer::{c64, Mat};
@@ -140,6 +141,50 @@ pub struct Rom {
 }
 
 impl Rom {
+    /// The ROM of a projection (docs/design.md §3.4) with the scene's inputs and outputs:
+    /// the definiteness of Mr and Kr is checked here (a warning for each that is not positive
+    /// definite, appended to `warnings`); no timings yet.
+    pub fn from_projection(
+        provenance: Provenance,
+        full_n: usize,
+        pr: Projected,
+        dofs: Vec<usize>,
+        scene: &Scene,
+        mut warnings: Vec<String>,
+        basis: Option<Mat<f64>>,
+    ) -> Rom {
+        let (mass_definiteness, stiffness_definiteness) =
+            Definiteness::of_projection(&pr, &mut warnings);
+        Rom {
+            provenance,
+            full_n,
+            mr: pr.mr,
+            dr: pr.dr,
+            kr: pr.kr,
+            br: pr.br,
+            cr: pr.cr,
+            dofs,
+            inputs: scene.inputs.clone(),
+            outputs: scene.outputs.clone(),
+            mass_definiteness,
+            stiffness_definiteness,
+            timings: Vec::new(),
+            warnings,
+            basis,
+        }
+    }
+
+    /// The five matrices by their file names: Mr, Dr, Kr, Br, Cr.
+    pub fn matrices(&self) -> [(&'static str, &Mat<f64>); 5] {
+        [
+            ("Mr", &self.mr),
+            ("Dr", &self.dr),
+            ("Kr", &self.kr),
+            ("Br", &self.br),
+            ("Cr", &self.cr),
+        ]
+    }
+
     /// Order n.
     pub fn order(&self) -> usize {
         self.mr.nrows()

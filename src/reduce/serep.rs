@@ -16,7 +16,7 @@
 //!
 //! Entry point: [`reduce`].
 
-use super::projection::{project, Definiteness, Projected};
+use super::projection::{project, Projected};
 use super::rom::{Provenance, Rom, Timing};
 use crate::body::Body;
 use crate::eigen::{eigenpairs, EigenOptions, Modes, Request};
@@ -207,35 +207,27 @@ pub fn reduce(
     let basis = opts.keep_basis.then(|| &u_c * &pinv);
     drop(u_c);
     let proj_s = t.elapsed().as_secs_f64();
-    let (mass_definiteness, stiffness_definiteness) =
-        Definiteness::of_projection(&pr, &mut warnings);
-    Ok(Rom {
-        provenance: Provenance::Serep {
+    let mut rom = Rom::from_projection(
+        Provenance::Serep {
             modes: chosen.iter().map(|k| k + 1).collect(),
             cond,
         },
-        full_n: n_full,
-        mr: pr.mr,
-        dr: pr.dr,
-        kr: pr.kr,
-        br: pr.br,
-        cr: pr.cr,
-        dofs: retain,
-        inputs: inputs.to_vec(),
-        outputs: outputs.to_vec(),
-        mass_definiteness,
-        stiffness_definiteness,
-        timings: vec![
-            Timing {
-                phase: "eigenpairs".into(),
-                seconds: eigen_s,
-            },
-            Timing {
-                phase: "pseudo-inverse + projection".into(),
-                seconds: proj_s,
-            },
-        ],
+        n_full,
+        pr,
+        retain,
+        scene,
         warnings,
         basis,
-    })
+    );
+    rom.timings = vec![
+        Timing {
+            phase: "eigenpairs".into(),
+            seconds: eigen_s,
+        },
+        Timing {
+            phase: "pseudo-inverse + projection".into(),
+            seconds: proj_s,
+        },
+    ];
+    Ok(rom)
 }

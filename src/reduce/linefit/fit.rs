@@ -10,7 +10,7 @@
 use super::options::Interface;
 use crate::body::Body;
 use crate::lsq::{LsqOptions, StreamedQr};
-use crate::reduce::projection::{project, Definiteness};
+use crate::reduce::projection::project;
 use crate::reduce::rom::{FitReport, Provenance, Rom};
 use crate::scene::{check_dofs, Scene};
 use crate::{Error, Result};
@@ -138,10 +138,8 @@ impl Partition {
                 sol.rank, sol.cond_equilibrated
             ));
         }
-        let (mass_definiteness, stiffness_definiteness) =
-            Definiteness::of_projection(&pr, &mut warnings);
-        Ok(Rom {
-            provenance: Provenance::LineFit {
+        Ok(Rom::from_projection(
+            Provenance::LineFit {
                 ref_freqs_hz: ref_freqs_hz.to_vec(),
                 fit: FitReport {
                     cond_raw: sol.cond_raw,
@@ -155,21 +153,13 @@ impl Partition {
                 },
                 sampling: None,
             },
-            full_n: body.n(),
-            mr: pr.mr,
-            dr: pr.dr,
-            kr: pr.kr,
-            br: pr.br,
-            cr: pr.cr,
-            dofs: self.interface.clone(),
-            inputs: scene.inputs.clone(),
-            outputs: scene.outputs.clone(),
-            mass_definiteness,
-            stiffness_definiteness,
-            timings: Vec::new(),
+            body.n(),
+            pr,
+            self.interface.clone(),
+            scene,
             warnings,
-            basis: Some(v),
-        })
+            Some(v),
+        ))
     }
 }
 
