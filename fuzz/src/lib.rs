@@ -159,7 +159,11 @@ pub fn declared_bytes(text: &[u8], dense: bool) -> usize {
     let Some((r, c)) = mtx_dims(&plain(text)) else {
         return 0;
     };
-    let bytes = if dense { 8 * r * c } else { 8 * (c + 1) };
+    let bytes = if dense {
+        r.saturating_mul(c).saturating_mul(8)
+    } else {
+        c.saturating_add(1).saturating_mul(8)
+    };
     usize::try_from(bytes).unwrap_or(usize::MAX)
 }
 

@@ -4,7 +4,9 @@
 mod cli;
 mod common;
 mod eigen;
+mod extremes;
 mod fe_bar;
+mod fuzz_regressions;
 mod import;
 mod linefit;
 mod lsq;
