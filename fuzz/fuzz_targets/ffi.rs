@@ -25,9 +25,9 @@ struct Input {
     beta: f64,
     nodes: Option<Vec<[f64; 3]>>,
     dofs_per_node: u8,
-    inputs: Vec<u16>,
-    outputs: Vec<u16>,
-    band: (f64, f64),
+    inputs: Vec<u8>,
+    outputs: Vec<u8>,
+    band: Band,
     options: Vec<Opt>,
     serep: bool,
 }
@@ -43,11 +43,19 @@ enum Matrix {
         lower: bool,
     },
     Triplets(Vec<(u8, u8, f64)>, bool),
+    /// `scale` = 10^(e % 25 − 12): finite and positive, from 1e-12 to 1e12.
     Chain {
         springs: Vec<u8>,
-        scale: f64,
+        scale: u8,
         ground: u8,
     },
+}
+
+/// Mostly plausible bands (so the reductions run), sometimes arbitrary values.
+#[derive(Arbitrary, Debug)]
+enum Band {
+    Hz(u16, u16),
+    Raw(f64, f64),
 }
 
 #[derive(Arbitrary, Debug)]
@@ -127,6 +135,7 @@ fn build(m: &Matrix, n: usize) -> Owned {
             scale,
             ground,
         } => {
+            let scale = 10f64.powi(i32::from(*scale % 25) - 12);
             let k = |e: usize| f64::from(springs.get(e).copied().unwrap_or(1)) * scale;
             let mut cols = vec![Vec::<(usize, f64)>::new(); n];
             for (j, col) in cols.iter_mut().enumerate() {
@@ -268,15 +277,22 @@ fn run(inp: &Input) {
             assert!(model.is_null());
             return;
         }
-        let (i, o) = (dofs(&inp.inputs), dofs(&inp.outputs));
+        // DoFs mostly in range: 0..n+2
+        let near =
+            |v: &[u8]| -> Vec<usize> { v.iter().take(32).map(|&d| d as usize % (n + 2)).collect() };
+        let (i, o) = (near(&inp.inputs), near(&inp.outputs));
+        let band = match inp.band {
+            Band::Hz(a, b) => (f64::from(a), f64::from(b)),
+            Band::Raw(a, b) => (a, b),
+        };
         let s = sparsemor_model_set_scene(
             model,
             i.as_ptr(),
             i.len(),
             o.as_ptr(),
             o.len(),
-            inp.band.0,
-            inp.band.1,
+            band.0,
+            band.1,
         );
         let mut opts = null_mut();
         assert_eq!(sparsemor_options_new(&mut opts), SparsemorStatus::Ok);
