@@ -135,7 +135,7 @@ impl MtxMatrix {
 /// Symmetric files are expanded to full storage; see the [module documentation](self) for the
 /// accepted formats and the conventions.
 pub fn read(path: &Path) -> Result<MtxMatrix> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = super::read_regular(path)?;
     // Each buffer is dropped as soon as the next stage no longer needs it, so the peak memory
     // is max(file + entries, entries + matrix), not their sum.
     let parsed = if bytes.starts_with(&GZIP_MAGIC) {

@@ -76,3 +76,27 @@ fn rom_directory_with_inconsistent_dof_list_or_basis_is_refused() {
         "{e}"
     );
 }
+
+/// `model_dir`: a `model.toml` naming `/dev/zero` (or any device or directory) as a matrix or
+/// node file made the reader allocate until the process was killed.
+#[test]
+fn model_files_must_be_regular_files() {
+    use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
+    let spec = BoxSpec {
+        elements: [1, 1, 2],
+        ..BoxSpec::paper_bar()
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().join("m");
+    sparsemor::io::model_dir::write(&d, &bar_model(&spec).unwrap(), &paper_scene(&spec)).unwrap();
+    let toml = std::fs::read_to_string(d.join("model.toml")).unwrap();
+    for (from, to) in [
+        ("mass = \"M.mtx\"", "mass = \"/dev/zero\""),
+        ("nodes = \"nodes.csv\"", "nodes = \".\""),
+    ] {
+        assert!(toml.contains(from), "{toml}");
+        std::fs::write(d.join("model.toml"), toml.replace(from, to)).unwrap();
+        let e = sparsemor::io::model_dir::read(&d).unwrap_err().to_string();
+        assert!(e.contains("not a regular file"), "{to}: {e}");
+    }
+}
