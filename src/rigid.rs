@@ -82,18 +82,33 @@ fn sparse_frob(a: &Csc) -> f64 {
     a.val().iter().map(|v| v * v).sum::<f64>().sqrt()
 }
 
+/// ‖K V0‖_F / (‖K‖_F ‖V0‖_F): 0 for a free body (docs/design.md §3.2).
+fn stiffness_residual(model: &Model, v0: &Mat<f64>) -> f64 {
+    let kv0 = mul_dense(model.stiffness.as_ref(), v0.as_ref());
+    frob(kv0.as_ref()) / (sparse_frob(&model.stiffness) * frob(v0.as_ref())).max(f64::MIN_POSITIVE)
+}
+
 impl RigidBody {
     /// Builds V0 from the model's nodes and the projections; `None` when the model has no
     /// nodes or K V0 ≠ 0 (a constrained body: nothing to separate).
     ///
     /// # Errors
     /// [`Error::InvalidModel`] when M0 = V0ᵀMV0 is not positive definite.
+    ///
+    /// K V0 is tested first: a constrained body needs no M0, which is singular when the nodes
+    /// are one point or lie on a line (found by the extremes table, `tests/it/extremes.rs`:
+    /// a constrained single node and a chain of node pairs were refused as "not positive
+    /// definite").
     pub fn detect(model: &Model) -> Result<Option<Self>> {
         let Some(nodes) = &model.nodes else {
             return Ok(None);
         };
-        let rb = Self::from_nodes(model, nodes)?;
-        Ok((rb.stiffness_residual <= FREE_BODY_RTOL).then_some(rb))
+        let v0 = rigid_modes(nodes, model.dofs_per_node);
+        let residual = stiffness_residual(model, &v0);
+        if residual > FREE_BODY_RTOL {
+            return Ok(None);
+        }
+        Self::with_modes(model, v0, residual).map(Some)
     }
 
     /// Builds V0 from `nodes` for `model` (does not check K V0 = 0; see [`Self::detect`]).
@@ -102,10 +117,13 @@ impl RigidBody {
     /// [`Error::InvalidModel`] when M0 = V0ᵀMV0 is not positive definite.
     pub fn from_nodes(model: &Model, nodes: &[[f64; 3]]) -> Result<Self> {
         let v0 = rigid_modes(nodes, model.dofs_per_node);
+        let residual = stiffness_residual(model, &v0);
+        Self::with_modes(model, v0, residual)
+    }
+
+    /// The projections for rigid modes `v0` whose relative K V0 is `stiffness_residual`.
+    fn with_modes(model: &Model, v0: Mat<f64>, stiffness_residual: f64) -> Result<Self> {
         let mv0 = mul_dense(model.mass.as_ref(), v0.as_ref());
-        let kv0 = mul_dense(model.stiffness.as_ref(), v0.as_ref());
-        let stiffness_residual = frob(kv0.as_ref())
-            / (sparse_frob(&model.stiffness) * frob(v0.as_ref())).max(f64::MIN_POSITIVE);
         let m0 = sym(v0.transpose() * &mv0);
         // K V0 = 0 on a free body, so the stiffness part of Rayleigh damping drops out
         let d0 = model.damping.combine(&m0, &Mat::zeros(6, 6), |d| {

@@ -11,3 +11,30 @@ pub mod matrix_market;
 pub mod model_dir;
 pub mod npz;
 pub mod rom_dir;
+
+/// The bytes of `path`, which must be a regular file (after symlinks): a file name from
+/// `model.toml` naming a device such as `/dev/zero` made the reader allocate until the
+/// process was killed (found by the `model_dir` fuzz target's memory limit).
+pub(crate) fn read_regular(path: &std::path::Path) -> crate::Result<Vec<u8>> {
+    let meta = std::fs::metadata(path).map_err(|e| crate::Error::io(path, e))?;
+    if !meta.is_file() {
+        return Err(crate::Error::io(
+            path,
+            std::io::Error::new(
+                std::io::ErrorKind::InvalidInput,
+                "not a regular file (a directory, device or pipe); name a file",
+            ),
+        ));
+    }
+    std::fs::read(path).map_err(|e| crate::Error::io(path, e))
+}
+
+/// [`read_regular`] as UTF-8 text.
+pub(crate) fn read_regular_text(path: &std::path::Path) -> crate::Result<String> {
+    String::from_utf8(read_regular(path)?).map_err(|e| {
+        crate::Error::io(
+            path,
+            std::io::Error::new(std::io::ErrorKind::InvalidData, e.utf8_error()),
+        )
+    })
+}

@@ -138,7 +138,7 @@ pub fn read_dof_map(dir: &Path) -> Result<Option<Vec<Dof>>> {
         return Ok(None);
     };
     let path = dir.join(&src.dof_map);
-    let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
+    let text = super::read_regular_text(&path)?;
     text.lines()
         .enumerate()
         .skip(1)
@@ -240,7 +240,7 @@ pub fn read(dir: &Path) -> Result<(Model, Scene, ValidationReport)> {
 /// # Errors
 /// [`Error::Parse`] naming the line for a bad header, a wrong column count or a bad number.
 pub fn read_nodes(path: &Path) -> Result<Vec<[f64; 3]>> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = super::read_regular_text(path)?;
     let mut lines = text.lines().enumerate();
     match lines.next() {
         Some((_, h)) if h.split(',').map(str::trim).eq(["x", "y", "z"]) => {}

@@ -232,6 +232,18 @@ pub fn read(dir: &Path) -> Result<Rom> {
             format!("matrix shapes do not match order = {n} and the input/output lists"),
         ));
     }
+    // one full-model DoF per ROM coordinate (a shorter list made `dofs[i]` readers index out
+    // of range; found by the `rom_dir` fuzz target)
+    if man.dofs.len() != n {
+        return Err(Error::parse(
+            &path,
+            0,
+            format!(
+                "`dofs` lists {} DoFs but order = {n}: a ROM has one full-model DoF per coordinate",
+                man.dofs.len()
+            ),
+        ));
+    }
     let provenance = match (man.method.as_str(), man.fit, man.serep_cond) {
         ("linefit", Some(fit), _) => Provenance::LineFit {
             ref_freqs_hz: man.ref_freqs_hz,
@@ -268,6 +280,20 @@ pub fn read(dir: &Path) -> Result<Rom> {
         (m, _, _) => return Err(Error::parse(&path, 0, format!("unknown method '{m}'"))),
     };
     let basis = if man.has_basis { Some(rd("V")?) } else { None };
+    if let Some(v) = &basis {
+        if v.ncols() != n || man.full_n.is_some_and(|full| v.nrows() != full) {
+            return Err(Error::parse(
+                &path,
+                0,
+                format!(
+                    "V.mtx is {}x{}, but the basis must be full_n x order = {}x{n}",
+                    v.nrows(),
+                    v.ncols(),
+                    man.full_n.map_or("N".to_string(), |f| f.to_string())
+                ),
+            ));
+        }
+    }
     Ok(Rom {
         provenance,
         full_n: man.full_n.unwrap_or(0),

@@ -56,9 +56,12 @@ fn elastic_equals_total_minus_rigid_mid_band_and_survives_low_frequency() {
                 "H1 = H - H0 at {f} Hz"
             );
         } else {
+            // H is now itself H0 + H1 (sweep::transfer_function), so the subtraction loses
+            // only the digits of the cancellation |H0|/|H1| ≈ 1e10 (a direct solve of H was
+            // off by 1e10); still visibly worse than the projection
             assert!(
-                e_sub > 1e-4,
-                "subtraction should visibly fail at {f} Hz, got {e_sub:.2e}"
+                e_sub > 1e3 * e_proj,
+                "subtraction should visibly lose digits at {f} Hz, got {e_sub:.2e}"
             );
         }
     }
