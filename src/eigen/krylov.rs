@@ -172,14 +172,17 @@ pub(super) fn solve(
         start = p;
         it.restarts += 1;
         idle = if nc == 0 { idle + 1 } else { 0 };
-        if beyond {
-            // every eigenvector this Krylov space sees nearer than the slice's reach is
-            // locked, yet the inertia counts more: start again beside the locked ones
+        // every eigenvector this Krylov space sees nearer than the slice's reach is locked yet
+        // the inertia counts more (`beyond`), or the leading pair stagnates for 10 restarts (a
+        // direction of a repeated eigenvalue the space lacks, which rounding grows too slowly):
+        // start again from fresh vectors beside the locked ones
+        let stalled = idle > 0 && idle % 10 == 0;
+        if beyond || stalled {
             fresh_idle += 1;
             if fresh_idle > 3 {
                 return Err(Error::NotConverged(format!(
-                    "{found} of {count} modes found in the slice {}: three fresh starts found no further mode although the \
-                     inertia counts {count}; an eigenvalue may lie within rounding of a slice bound — move the band ends slightly",
+                    "{found} of {count} modes found in the slice {}: three fresh starts found no further mode; an eigenvalue \
+                     may lie within rounding of a slice bound — move the band ends slightly, or use smaller slices",
                     describe(&target)
                 )));
             }

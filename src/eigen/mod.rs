@@ -49,6 +49,10 @@ use std::time::Instant;
 /// modes V0 (see the module doc).
 pub const RIGID_RTOL: f64 = 1e-10;
 
+/// Largest accepted normwise backward error of a returned eigenpair ([`Modes::residuals`]);
+/// a backward-stable iteration gives a small multiple of ε.
+pub const MAX_BACKWARD_ERROR: f64 = 1e-10;
+
 /// Which eigenpairs.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Request {
@@ -504,12 +508,27 @@ fn finish(
     let kphi = mul_dense(model.stiffness.as_ref(), vectors.as_ref());
     let mphi = mul_dense(model.mass.as_ref(), vectors.as_ref());
     let (norm_k, norm_m) = (norm_1(&model.stiffness), norm_1(&model.mass));
-    let residuals = (0..lambdas.len())
+    let residuals: Vec<f64> = (0..lambdas.len())
         .map(|c| {
             let r = kphi.col(c) - mphi.col(c) * lambdas[c];
             r.norm_l2() / ((norm_k + lambdas[c].abs() * norm_m) * vectors.col(c).norm_l2())
         })
         .collect();
+    // the iteration's residual estimate is not the true residual: a pair that passed it but
+    // is not an eigenpair of the pencil to far better than 1e-10 is an error, never a result
+    if let Some((k, &worst)) = residuals
+        .iter()
+        .enumerate()
+        .max_by(|a, b| a.1.total_cmp(b.1))
+        .filter(|(_, &r)| !(r <= MAX_BACKWARD_ERROR))
+    {
+        return Err(Error::NotConverged(format!(
+            "mode {} ({:.6e} Hz) has backward error {worst:.1e} > {MAX_BACKWARD_ERROR:.0e} although its Ritz estimate \
+             converged; use smaller slices (slice_size) or a larger block",
+            stats.modes_below + k + 1,
+            crate::units::lambda_to_hz(lambdas[k])
+        )));
+    }
     let rigid = match body.rigid() {
         Some(rb) => {
             // M-norm² of the M-orthogonal projection onto span V0: cᵀ M0⁻¹ c with c = V0ᵀ M φ

@@ -6,7 +6,7 @@
 //!   eigenvalue to working precision (zero pivot) is moved by 10⁻⁷ relative.
 //! - **Bounds.** The count of a 3-D elastic body grows like λ^{3/2} (Weyl's law), so the
 //!   interior bounds are first placed at equal steps of λ^{3/2}, then counted; a slice that
-//!   holds more than twice the target size is halved (in λ^{3/2}) and recounted, adjacent
+//!   holds more than 5/4 of the target size is halved (in λ^{3/2}) and recounted, adjacent
 //!   slices that hold together no more than the target are merged, empty ones dropped. Other
 //!   geometries (bars, plates) only cost a few extra counts.
 //! - **Shifts.** The bottom slice (−∞, b] is solved below the spectrum (σ = −b/100, a
@@ -163,7 +163,7 @@ impl<'b, 'm> Slicer<'b, 'm> {
         for _ in 0..6 {
             let crowded: Vec<f64> = bounds
                 .windows(2)
-                .filter(|w| w[1].1 - w[0].1 > 2 * size)
+                .filter(|w| w[1].1 - w[0].1 > size + size / 4)
                 .map(|w| inv(0.5 * (u(w[0].0.max(0.0)) + u(w[1].0))))
                 .collect();
             if crowded.is_empty() {

@@ -232,18 +232,6 @@ pub fn read(dir: &Path) -> Result<Rom> {
             format!("matrix shapes do not match order = {n} and the input/output lists"),
         ));
     }
-    // one full-model DoF per ROM coordinate (a shorter list made `dofs[i]` readers index out
-    // of range; found by the `rom_dir` fuzz target)
-    if man.dofs.len() != n {
-        return Err(Error::parse(
-            &path,
-            0,
-            format!(
-                "`dofs` lists {} DoFs but order = {n}: a ROM has one full-model DoF per coordinate",
-                man.dofs.len()
-            ),
-        ));
-    }
     let provenance = match (man.method.as_str(), man.fit, man.serep_cond) {
         ("linefit", Some(fit), _) => Provenance::LineFit {
             ref_freqs_hz: man.ref_freqs_hz,
@@ -279,6 +267,24 @@ pub fn read(dir: &Path) -> Result<Rom> {
         },
         (m, _, _) => return Err(Error::parse(&path, 0, format!("unknown method '{m}'"))),
     };
+    // one full-model DoF per physical ROM coordinate (a shorter list made `dofs[i]` readers
+    // index out of range; found by the `rom_dir` fuzz target); Craig–Bampton's modal
+    // amplitudes follow its boundary DoFs
+    let modal = match &provenance {
+        Provenance::CraigBampton(r) => r.fixed_interface_hz.len(),
+        _ => 0,
+    };
+    if man.dofs.len() + modal != n {
+        return Err(Error::parse(
+            &path,
+            0,
+            format!(
+                "`dofs` lists {} DoFs and the ROM has {modal} modal coordinates but order = {n}: a ROM has one \
+                 full-model DoF per physical coordinate",
+                man.dofs.len()
+            ),
+        ));
+    }
     let basis = if man.has_basis { Some(rd("V")?) } else { None };
     if let Some(v) = &basis {
         if v.ncols() != n || man.full_n.is_some_and(|full| v.nrows() != full) {
