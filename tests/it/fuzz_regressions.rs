@@ -63,7 +63,10 @@ fn rom_directory_with_inconsistent_dof_list_or_basis_is_refused() {
     let dofs_line = toml.lines().find(|l| l.starts_with("dofs = ")).unwrap();
     std::fs::write(good.join("rom.toml"), toml.replace(dofs_line, "dofs = [0]")).unwrap();
     let e = sparsemor::io::rom_dir::read(&good).unwrap_err().to_string();
-    assert!(e.contains("`dofs` lists 1 DoFs but order"), "{e}");
+    assert!(
+        e.contains("`dofs` lists 1 DoFs") && e.contains("but order"),
+        "{e}"
+    );
     // V with one column too few
     std::fs::write(good.join("rom.toml"), &toml).unwrap();
     let v = sparsemor::io::matrix_market::read_dense(&good.join("V.mtx")).unwrap();
