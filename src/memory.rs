@@ -6,6 +6,12 @@ pub fn available_bytes() -> Option<usize> {
     proc_kib("/proc/meminfo", "MemAvailable:")
 }
 
+/// The default budget of concurrent factorizations (the sweep's workers, the eigensolver's
+/// slices): `1/share` of [`available_bytes`], or of 8 GiB when that is unknown.
+pub fn default_budget(share: usize) -> usize {
+    available_bytes().unwrap_or(8 << 30) / share.max(1)
+}
+
 /// Peak resident set size of this process so far (`VmHWM`), if known.
 pub fn peak_rss_bytes() -> Option<usize> {
     proc_kib("/proc/self/status", "VmHWM:")

@@ -203,7 +203,7 @@ impl<'a> Solver<'a> {
         }
         let memory_budget = opts
             .memory_budget
-            .unwrap_or_else(|| crate::memory::available_bytes().unwrap_or(8 << 30) / 2);
+            .unwrap_or_else(|| crate::memory::default_budget(2));
         Ok(Solver {
             body,
             analysis,

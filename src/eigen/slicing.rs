@@ -92,7 +92,7 @@ impl<'b, 'm> Slicer<'b, 'm> {
         };
         let budget = opts
             .memory_budget
-            .unwrap_or_else(|| crate::memory::available_bytes().unwrap_or(8 << 30) / 2);
+            .unwrap_or_else(|| crate::memory::default_budget(2));
         Ok(Slicer {
             body,
             sym: body.symbolic()?,
@@ -118,15 +118,19 @@ impl<'b, 'm> Slicer<'b, 'm> {
     pub(super) fn count(&self, lambdas: &[f64]) -> Result<Vec<(f64, usize)>> {
         let one = |&l: &f64| -> Result<(f64, usize)> {
             let t = Instant::now();
-            let mut bound = l;
-            let mut r = Err(Error::Factor("no count".into()));
-            for k in 0..4 {
-                r = count_eigenvalues_below_with(&self.sym, self.body.pencil(), bound);
-                if !matches!(r, Err(Error::Singular { .. })) {
-                    break;
+            // a bound that is an eigenvalue to working precision moves by 1e-7, 2e-7, 3e-7
+            // relative, alternating sides
+            let (mut bound, mut tries) = (l, 0);
+            let r = loop {
+                match count_eigenvalues_below_with(&self.sym, self.body.pencil(), bound) {
+                    Err(Error::Singular { .. }) if tries < 3 => {
+                        tries += 1;
+                        let side = if tries % 2 == 1 { 1.0 } else { -1.0 };
+                        bound = l * (1.0 + side * 1e-7 * f64::from(tries));
+                    }
+                    r => break r,
                 }
-                bound = l * (1.0 + 1e-7 * f64::from(k + 1) * if k % 2 == 0 { 1.0 } else { -1.0 });
-            }
+            };
             let mut c = self.counts.lock().unwrap_or_else(|p| p.into_inner());
             c.0 += t.elapsed().as_secs_f64();
             c.1 += 1;

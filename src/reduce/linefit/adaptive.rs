@@ -141,7 +141,7 @@ impl<'a> Loop<'a> {
         let max_order = sampling
             .max_order
             .unwrap_or_else(|| {
-                let memory = crate::memory::available_bytes().unwrap_or(8 << 30);
+                let memory = crate::memory::default_budget(1);
                 SamplingOptions::auto_max_order(part.order(), body.n(), threads, memory)
             })
             .max(part.order());
@@ -163,7 +163,7 @@ impl<'a> Loop<'a> {
         let mut store = if max_order > part.order() {
             let budget = sampling
                 .snapshot_memory
-                .unwrap_or_else(|| crate::memory::available_bytes().unwrap_or(8 << 30) / 4);
+                .unwrap_or_else(|| crate::memory::default_budget(4));
             Some(SnapshotStore::new(
                 sampling.max_points.saturating_mul(body.n() * p * 16) > budget,
             )?)
