@@ -104,6 +104,7 @@ pub(super) fn solve(
     let (mut idle, mut fresh_idle) = (0usize, 0usize);
     loop {
         let nl = locked.len();
+        let found_before = found;
         let (solves, me) = basis.expand(op, nl, start)?;
         it.solves += solves;
         let (theta, y, coupling) = basis.ritz(nl, me)?;
@@ -177,6 +178,9 @@ pub(super) fn solve(
         // direction of a repeated eigenvalue the space lacks, which rounding grows too slowly):
         // start again from fresh vectors beside the locked ones
         let stalled = idle > 0 && idle % 10 == 0;
+        if found > found_before {
+            fresh_idle = 0;
+        }
         if beyond || stalled {
             fresh_idle += 1;
             if fresh_idle > 3 {
@@ -194,8 +198,6 @@ pub(super) fn solve(
                 fresh_vector(op, q, mq, a0 + r, *seed)?;
             }
             start = a0;
-        } else if nc > 0 {
-            fresh_idle = 0;
         }
         if !progress(found) {
             return Err(Error::Cancelled);
