@@ -55,6 +55,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod body;
+pub mod dense;
 pub mod eigen;
 pub mod error;
 pub mod factor;

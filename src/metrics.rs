@@ -127,12 +127,9 @@ pub fn rom_modes(rom: &Rom) -> Result<(Vec<f64>, Mat<f64>)> {
     })?;
     let linv = llt.L().to_owned().partial_piv_lu().inverse();
     let c = &linv * &rom.kr * linv.transpose();
-    let c = Mat::from_fn(c.nrows(), c.ncols(), |i, j| 0.5 * (c[(i, j)] + c[(j, i)]));
-    let eig = c
-        .self_adjoint_eigen(faer::Side::Lower)
-        .map_err(|_| Error::InvalidSetting("dense eigensolver did not converge".into()))?;
-    let lambdas = (0..c.nrows()).map(|i| eig.S()[i]).collect();
-    Ok((lambdas, linv.transpose() * eig.U()))
+    let (lambdas, u) = crate::dense::sym_eigen(c.as_ref())
+        .ok_or_else(|| Error::InvalidSetting("dense eigensolver did not converge".into()))?;
+    Ok((lambdas, linv.transpose() * u))
 }
 
 /// Eigenfrequencies (Hz, ascending) of the ROM.

@@ -21,6 +21,7 @@
 //!
 //! Entry points: [`RigidBody::from_nodes`], [`RigidBody::detect`].
 
+use crate::dense::sym;
 use crate::model::Model;
 use crate::sparse::{mul_dense, Csc};
 use crate::{Error, Result};
@@ -124,10 +125,10 @@ impl RigidBody {
     /// The projections for rigid modes `v0` whose relative K V0 is `stiffness_residual`.
     fn with_modes(model: &Model, v0: Mat<f64>, stiffness_residual: f64) -> Result<Self> {
         let mv0 = mul_dense(model.mass.as_ref(), v0.as_ref());
-        let m0 = sym(v0.transpose() * &mv0);
+        let m0 = sym((v0.transpose() * &mv0).as_ref());
         // K V0 = 0 on a free body, so the stiffness part of Rayleigh damping drops out
         let d0 = model.damping.combine(&m0, &Mat::zeros(6, 6), |d| {
-            sym(v0.transpose() * mul_dense(d.as_ref(), v0.as_ref()))
+            sym((v0.transpose() * mul_dense(d.as_ref(), v0.as_ref())).as_ref())
         });
         let llt = m0.llt(faer::Side::Lower).map_err(|_| {
             Error::InvalidModel(
@@ -198,11 +199,6 @@ impl RigidBody {
             (0..6).map(|i| x[(i, j)] * self.v0[(outputs[o], i)]).sum()
         })
     }
-}
-
-/// sym(A) = ½(A + Aᵀ) of a small dense matrix.
-pub(crate) fn sym(a: Mat<f64>) -> Mat<f64> {
-    Mat::from_fn(a.nrows(), a.ncols(), |i, j| 0.5 * (a[(i, j)] + a[(j, i)]))
 }
 
 /// x ← x − U G Wᵀ x for N×6 U, W and 6×6 G.

@@ -70,6 +70,15 @@ pub fn modes(a: &ModesArgs) -> Result<()> {
         st.restarts,
         st.krylov_dim
     );
+    let refined: Vec<_> = st.slices.iter().filter(|s| s.refinements > 0).collect();
+    if !refined.is_empty() {
+        println!(
+            "{} of {} slice shifts needed iterative refinement of their LBLᵀ solves ({} steps) to reach backward error 1e-14",
+            refined.len(),
+            st.slices.len(),
+            refined.iter().map(|s| s.refinements).sum::<usize>()
+        );
+    }
     if st.repaired_bounds > 0 {
         println!(
             "{} slice bounds needed a Rayleigh–Ritz step to make the vectors M-orthonormal across them",

@@ -37,8 +37,9 @@
 
 use super::operator::ShiftInvert;
 use super::{random_vector, EigenOptions};
+use crate::dense::sym_eigen;
 use crate::{Error, Result};
-use faer::{Mat, MatRef, Side};
+use faer::{Mat, MatRef};
 
 /// The eigenvalues one slice wants: those in (lower, upper] (λ; infinite ends allowed),
 /// `count` of them.
@@ -334,18 +335,13 @@ impl Basis {
     fn ritz(&self, nl: usize, me: usize) -> Result<(Vec<f64>, Mat<f64>, Mat<f64>)> {
         let (h, bs) = (&self.h, self.block);
         let ma = me - nl;
-        let t = Mat::from_fn(ma, ma, |i, j| {
-            0.5 * (h[(nl + i, nl + j)] + h[(nl + j, nl + i)])
-        });
-        let eig = t.self_adjoint_eigen(Side::Lower).map_err(|_| {
-            Error::NotConverged(
-                "the dense Ritz eigenproblem (LAPACK-style QR) did not converge".into(),
-            )
+        let (s, u) = sym_eigen(h.as_ref().submatrix(nl, nl, ma, ma)).ok_or_else(|| {
+            Error::NotConverged("the dense Ritz eigenproblem did not converge".into())
         })?;
         let mut order: Vec<usize> = (0..ma).collect();
-        order.sort_by(|&a, &b| eig.S()[b].abs().total_cmp(&eig.S()[a].abs()));
-        let theta: Vec<f64> = order.iter().map(|&i| eig.S()[i]).collect();
-        let y = Mat::from_fn(ma, ma, |r, c| eig.U()[(r, order[c])]);
+        order.sort_by(|&a, &b| s[b].abs().total_cmp(&s[a].abs()));
+        let theta: Vec<f64> = order.iter().map(|&i| s[i]).collect();
+        let y = Mat::from_fn(ma, ma, |r, c| u[(r, order[c])]);
         let coupling = h.as_ref().submatrix(me, nl, bs, ma) * &y;
         Ok((theta, y, coupling))
     }

@@ -189,6 +189,10 @@ pub struct SliceStats {
     pub restarts: usize,
     /// Fresh starts after missed copies of multiple eigenvalues.
     pub fresh_starts: usize,
+    /// Iterative-refinement steps of the interior shift's LBLᵀ solves (0 when every solve
+    /// met its backward-error target at once; see `factor::ShiftedLblt`): a large number
+    /// means the factor at this shift grew and each solve cost up to four.
+    pub refinements: usize,
 }
 
 /// What the eigensolver did.

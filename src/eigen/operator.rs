@@ -18,14 +18,14 @@ use faer::sparse::SparseColMatRef;
 use faer::{Accum, MatMut, MatRef, Par};
 use std::sync::Arc;
 
-enum Factor {
+enum Factor<'a> {
     Definite(Cholesky),
-    Indefinite(ShiftedLblt),
+    Indefinite(ShiftedLblt<'a>),
 }
 
 /// S = (K − σM)⁻¹ M: the factor of K − σM and the mass matrix.
 pub(crate) struct ShiftInvert<'a> {
-    factor: Factor,
+    factor: Factor<'a>,
     mass: SparseColMatRef<'a, usize, f64>,
     pub(crate) sigma: f64,
 }
@@ -40,7 +40,7 @@ impl<'a> ShiftInvert<'a> {
     /// [`Error::Singular`] when σ is an eigenvalue to working precision.
     pub(crate) fn new(
         model: &'a Model,
-        pencil: &Pencil,
+        pencil: &'a Pencil,
         sym: Arc<SymbolicCholesky<usize>>,
         sigma: f64,
         par: Par,
@@ -69,6 +69,14 @@ impl<'a> ShiftInvert<'a> {
         match &self.factor {
             Factor::Definite(_) => 0,
             Factor::Indefinite(f) => f.below(),
+        }
+    }
+
+    /// Iterative-refinement steps taken by the solves (LBLᵀ only).
+    pub(crate) fn refinements(&self) -> usize {
+        match &self.factor {
+            Factor::Definite(_) => 0,
+            Factor::Indefinite(f) => f.refinements(),
         }
     }
 

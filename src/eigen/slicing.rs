@@ -26,12 +26,13 @@ use super::krylov::{self, Target};
 use super::operator::ShiftInvert;
 use super::{EigenBackend, EigenOptions, EigenProgress, SliceStats};
 use crate::body::Body;
+use crate::dense::{sym, sym_eigen};
 use crate::factor::count_eigenvalues_below_with;
 use crate::sparse::mul_dense;
 use crate::units::{hz_to_lambda, lambda_to_hz};
 use crate::{Error, Result};
 use faer::sparse::linalg::cholesky::SymbolicCholesky;
-use faer::{Mat, Par, Side};
+use faer::{Mat, Par};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
@@ -398,6 +399,7 @@ impl<'b, 'm> Slicer<'b, 'm> {
                 solves: it.solves + extra_solves,
                 restarts: it.restarts,
                 fresh_starts: it.fresh_starts,
+                refinements: op.refinements(),
             },
         })
     }
@@ -451,21 +453,18 @@ fn rayleigh_ritz(body: &Body<'_>, w: &Mat<f64>) -> Result<(Vec<f64>, Mat<f64>)> 
     let k = w.ncols();
     let b = w.transpose() * mul_dense(model.mass.as_ref(), w.as_ref());
     let a = w.transpose() * mul_dense(model.stiffness.as_ref(), w.as_ref());
-    let sym = |x: &Mat<f64>| Mat::from_fn(k, k, |i, j| 0.5 * (x[(i, j)] + x[(j, i)]));
-    let fail = |_| Error::NotConverged("dense Rayleigh–Ritz across slices did not converge".into());
-    let eb = sym(&b).self_adjoint_eigen(Side::Lower).map_err(fail)?;
-    if (0..k).any(|i| !(eb.S()[i] > 0.5)) {
+    let fail = || Error::NotConverged("dense Rayleigh–Ritz across slices did not converge".into());
+    let (db, ub) = sym_eigen(b.as_ref()).ok_or_else(fail)?;
+    if db.iter().any(|&d| !(d > 0.5)) {
         return Err(Error::NotConverged(
             "vectors of neighbouring slices are nearly dependent (M-Gram eigenvalue below 1/2): a mode was found twice".into(),
         ));
     }
     let half = Mat::from_fn(k, k, |i, j| {
         (0..k)
-            .map(|l| eb.U()[(i, l)] * eb.U()[(j, l)] / eb.S()[l].sqrt())
+            .map(|l| ub[(i, l)] * ub[(j, l)] / db[l].sqrt())
             .sum::<f64>()
     });
-    let c = &half * sym(&a) * &half;
-    let ec = sym(&c).self_adjoint_eigen(Side::Lower).map_err(fail)?;
-    let x = w * (&half * ec.U());
-    Ok(((0..k).map(|i| ec.S()[i]).collect(), x))
+    let (theta, y) = sym_eigen((&half * sym(a.as_ref()) * &half).as_ref()).ok_or_else(fail)?;
+    Ok((theta, w * (&half * y)))
 }

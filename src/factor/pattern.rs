@@ -8,9 +8,13 @@
 //!   [[Ar, Ai], [Ai, −Ar]] with the two unknowns of each DoF interleaved (LBLᵀ, damped);
 //! - [`full`]: both triangles, for the unsymmetric LU backends (faer LU, UMFPACK), with the
 //!   position of every entry in the lower pattern so the values are gathered per frequency.
+//!
+//! Two products on the lower pattern serve the residuals of iterative refinement:
+//! [`symmetric_mul_sub`] (r ← r − A x) and [`symmetric_norm_inf`] (‖A‖∞).
 
 use crate::pencil::Pencil;
 use faer::sparse::{SymbolicSparseColMat, SymbolicSparseColMatRef};
+use faer::{MatMut, MatRef};
 
 /// The pencil's N×N lower pattern as a faer view, without re-checking it (this runs for
 /// every factorization).
@@ -61,4 +65,46 @@ pub(super) fn full(pencil: &Pencil) -> (SymbolicSparseColMat<usize>, Vec<usize>)
         SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx),
         src,
     )
+}
+
+/// r ← r − A x for the symmetric A whose lower triangle has the values `vals` on the
+/// pencil's pattern.
+pub(super) fn symmetric_mul_sub(
+    pencil: &Pencil,
+    vals: &[f64],
+    x: MatRef<'_, f64>,
+    mut r: MatMut<'_, f64>,
+) {
+    let (cp, ri) = (pencil.col_ptr(), pencil.row_idx());
+    for c in 0..x.ncols() {
+        for j in 0..pencil.n() {
+            let xj = x[(j, c)];
+            let mut acc = 0.0;
+            for p in cp[j]..cp[j + 1] {
+                let (i, a) = (ri[p], vals[p]);
+                r[(i, c)] -= a * xj;
+                if i != j {
+                    acc += a * x[(i, c)];
+                }
+            }
+            r[(j, c)] -= acc;
+        }
+    }
+}
+
+/// ‖A‖∞ (max row sum of |a_ij|) of the symmetric A whose lower triangle has the values `vals`
+/// on the pencil's pattern.
+pub(super) fn symmetric_norm_inf(pencil: &Pencil, vals: &[f64]) -> f64 {
+    let (cp, ri) = (pencil.col_ptr(), pencil.row_idx());
+    let mut rows = vec![0.0f64; pencil.n()];
+    for j in 0..pencil.n() {
+        for p in cp[j]..cp[j + 1] {
+            let (i, a) = (ri[p], vals[p].abs());
+            rows[i] += a;
+            if i != j {
+                rows[j] += a;
+            }
+        }
+    }
+    rows.into_iter().fold(0.0, f64::max)
 }

@@ -197,10 +197,8 @@ pub fn reduce(body: &Body<'_>, scene: &Scene, opts: &CraigBamptonOptions) -> Res
         // span V holds the rigid motions, so Kr has exactly their 6 zero eigenvalues: say so
         // instead of the generic "not positive definite" warning, or what is wrong
         rom.warnings.retain(|w| !w.starts_with("Kr "));
-        let ev = rom
-            .kr
-            .self_adjoint_eigenvalues(faer::Side::Lower)
-            .map_err(|_| Error::Factor("eigenvalues of Kr did not converge".into()))?;
+        let ev = crate::dense::sym_eigenvalues(rom.kr.as_ref())
+            .ok_or_else(|| Error::Factor("eigenvalues of Kr did not converge".into()))?;
         let top = ev.last().copied().unwrap_or(0.0);
         let zero = ev.iter().filter(|&&l| l.abs() <= 1e-10 * top).count();
         if zero != 6 || ev[0] < -1e-10 * top {

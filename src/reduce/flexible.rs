@@ -23,7 +23,7 @@
 use super::projection::project;
 use super::rom::Rom;
 use crate::body::Body;
-use crate::rigid::sym;
+use crate::dense::{sym_eigen, sym_eigenvalues};
 use crate::scene::Scene;
 use crate::sparse::mul_dense;
 use crate::units::lambda_to_hz;
@@ -57,19 +57,16 @@ pub struct ElasticBasis {
 
 /// Largest eigenvalue of a small symmetric matrix (0 for an empty one).
 fn max_eig(a: MatRef<'_, f64>) -> f64 {
-    match a.self_adjoint_eigenvalues(faer::Side::Lower) {
-        Ok(ev) => ev.last().copied().unwrap_or(0.0),
-        Err(_) => f64::NAN,
+    match sym_eigenvalues(a) {
+        Some(ev) => ev.last().copied().unwrap_or(0.0),
+        None => f64::NAN,
     }
 }
 
 /// Eigenpairs of a small symmetric matrix, ascending.
-fn sym_eigen(a: Mat<f64>) -> Result<(Vec<f64>, Mat<f64>)> {
-    let e = sym(a)
-        .self_adjoint_eigen(faer::Side::Lower)
-        .map_err(|_| Error::InvalidSetting("dense eigensolver did not converge".into()))?;
-    let s = (0..e.S().dim()).map(|i| e.S()[i]).collect();
-    Ok((s, e.U().to_owned()))
+fn eigenpairs(a: Mat<f64>) -> Result<(Vec<f64>, Mat<f64>)> {
+    sym_eigen(a.as_ref())
+        .ok_or_else(|| Error::InvalidSetting("dense eigensolver did not converge".into()))
 }
 
 /// The elastic basis Φ = orth_M(PᵀV) of `rom` (see the module doc) and the ROM projected onto
@@ -90,7 +87,7 @@ pub fn elastic_basis(body: &Body<'_>, scene: &Scene, rom: &Rom) -> Result<Elasti
     if let Some(rb) = body.rigid() {
         rb.project_response_real(x.as_mut());
     }
-    let (s, u) = sym_eigen(x.transpose() * mul_dense(model.mass.as_ref(), x.as_ref()))?;
+    let (s, u) = eigenpairs(x.transpose() * mul_dense(model.mass.as_ref(), x.as_ref()))?;
     let s_max = s.last().copied().unwrap_or(0.0);
     let keep: Vec<usize> = (0..s.len())
         .filter(|&i| s[i] > DEPENDENT_RTOL * s_max)
@@ -108,7 +105,7 @@ pub fn elastic_basis(body: &Body<'_>, scene: &Scene, rom: &Rom) -> Result<Elasti
         u[(i, keep[j])] / s[keep[j]].sqrt()
     });
     let y = x * scale;
-    let (lambdas, q) = sym_eigen(y.transpose() * mul_dense(model.stiffness.as_ref(), y.as_ref()))?;
+    let (lambdas, q) = eigenpairs(y.transpose() * mul_dense(model.stiffness.as_ref(), y.as_ref()))?;
     let phi = y * q;
     let rigid_coupling = body.rigid().map(|rb| {
         let w = rb.modes().transpose() * mul_dense(model.mass.as_ref(), phi.as_ref());

@@ -2,6 +2,7 @@
 //! definiteness check of its result.
 
 use crate::body::Body;
+use crate::dense::{sym, sym_eigenvalues};
 use crate::scene::Scene;
 use crate::sparse::mul_dense;
 use faer::{Mat, MatRef};
@@ -36,8 +37,8 @@ impl Definiteness {
     /// Checks a symmetric matrix.
     pub fn of(a: MatRef<'_, f64>) -> Self {
         let positive_definite = a.llt(faer::Side::Lower).is_ok();
-        let (min_eig, max_eig) = match a.self_adjoint_eigenvalues(faer::Side::Lower) {
-            Ok(ev) if !ev.is_empty() => (ev[0], ev[ev.len() - 1]),
+        let (min_eig, max_eig) = match sym_eigenvalues(a) {
+            Some(ev) if !ev.is_empty() => (ev[0], ev[ev.len() - 1]),
             _ => (f64::NAN, f64::NAN),
         };
         Definiteness {
@@ -67,8 +68,7 @@ pub struct Projected {
 /// Projects the body onto V (N×n) for the scene's unit loads and outputs.
 pub fn project(body: &Body<'_>, scene: &Scene, v: MatRef<'_, f64>) -> Projected {
     let model = body.model();
-    let sym =
-        |a: Mat<f64>| Mat::from_fn(a.nrows(), a.ncols(), |i, j| 0.5 * (a[(i, j)] + a[(j, i)]));
+    let sym = |a: Mat<f64>| sym(a.as_ref());
     let mr = sym(v.transpose() * mul_dense(model.mass.as_ref(), v));
     let kr = sym(v.transpose() * mul_dense(model.stiffness.as_ref(), v));
     let dr = model

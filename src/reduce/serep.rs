@@ -19,6 +19,7 @@
 use super::projection::{project, Projected};
 use super::rom::{Provenance, Rom, Timing};
 use crate::body::Body;
+use crate::dense::sym;
 use crate::eigen::{eigenpairs, EigenOptions, Modes, Request};
 use crate::scene::{check_dofs, Scene};
 use crate::{Error, Result};
@@ -193,10 +194,7 @@ pub fn reduce(
     // V = U_c T with T = U_cr⁺: project on the modes, then apply T by congruence (see the
     // module doc) — the same matrices as projecting on V, without amplifying rounding by cond(T)
     let modal = project(body, scene, u_c.as_ref());
-    let congruence = |a: &Mat<f64>| {
-        let b = pinv.transpose() * a * &pinv;
-        Mat::from_fn(r, r, |i, j| 0.5 * (b[(i, j)] + b[(j, i)]))
-    };
+    let congruence = |a: &Mat<f64>| sym((pinv.transpose() * a * &pinv).as_ref());
     let pr = Projected {
         mr: congruence(&modal.mr),
         dr: congruence(&modal.dr),

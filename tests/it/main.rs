@@ -4,6 +4,7 @@
 mod cli;
 mod common;
 mod craig_bampton;
+mod dense;
 mod eigen;
 mod export;
 mod extremes;
