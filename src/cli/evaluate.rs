@@ -76,6 +76,15 @@ pub fn evaluate(a: &EvaluateArgs) -> Result<()> {
         Reference::compute(&body, &rom_scene, &freqs, &opts, cb)?.error(&rom)
     })?;
     print_errors(&rom, &curve)?;
+    if band[1] > scene.band_hz[1] * (1.0 + 1e-12) {
+        println!(
+            "note             the evaluation band ends at {} Hz, {:.1}x the model's band end {} Hz that reductions \
+             target: errors above it measure extrapolation",
+            band[1],
+            band[1] / scene.band_hz[1],
+            scene.band_hz[1]
+        );
+    }
     if a.no_modes {
         println!("modes            not computed (--no-modes)");
     } else {

@@ -1226,6 +1226,9 @@ fn sum_duplicates(
 // ---------------------------------------------------------------------------------------------
 // Reading: array values
 
+/// Largest dimension of an empty (0×n or n×0) array file.
+const MAX_EMPTY_DIM: usize = 1 << 20;
+
 fn parse_array_body(body: &[u8], h: &Header, path: &Path) -> Result<Mat<f64>> {
     let (nrows, ncols) = (h.nrows, h.ncols);
     let symmetric = h.symmetry == Symmetry::Symmetric;
@@ -1244,6 +1247,18 @@ fn parse_array_body(body: &[u8], h: &Header, path: &Path) -> Result<Mat<f64>> {
             format!("the matrix ({nrows}x{ncols}) is too large to hold densely"),
         ));
     };
+    // An empty array still costs memory: faer pads columns to 16 rows, so 0×n takes 128·n
+    // bytes. An empty matrix holds nothing, so a huge declared dimension is a corrupt size line
+    // (a fuzzed 0×18518521 file asked for 2.4 GB).
+    if expected == 0 && nrows.max(ncols) > MAX_EMPTY_DIM {
+        return Err(Error::parse(
+            path,
+            h.size_line,
+            format!(
+                "the size line declares an empty {nrows}x{ncols} array: an empty matrix needs no dimension above                  {MAX_EMPTY_DIM}; check the size line"
+            ),
+        ));
+    }
     // Each value takes at least two bytes (a digit and a newline) but the last: a file too short
     // to hold `expected` values gets its "too few entries" error without allocating the matrix.
     let plausible = expected <= body.len() / 2 + 1 && dense_fits(nrows, ncols);

@@ -395,6 +395,25 @@ fn reduce_linefit_then_evaluate() {
         worst < 0.1,
         "line-fitting elastic error up to {worst:.3e} on the paper bar"
     );
+    // evaluated far above the band the ROM was built for: said so
+    let out = ok(
+        &work,
+        &[
+            "evaluate",
+            bar_str(),
+            "ROM",
+            "--band",
+            "1:100000",
+            "--points",
+            "5",
+            "--no-modes",
+        ],
+    );
+    assert!(
+        out.lines()
+            .any(|l| l.starts_with("note") && l.contains("100.0x") && l.contains("extrapolation")),
+        "evaluate above the band:\n{out}"
+    );
 }
 
 #[test]

@@ -456,6 +456,20 @@ fn empty_matrices() {
     assert_eq!((a.nrows(), a.ncols(), a.compute_nnz()), (4, 5, 0));
 }
 
+/// Empty arrays: 0×3 and 3×0 read as such; a 0×18518521 size line (found by fuzzing: faer
+/// pads columns to 16 rows, so it asked for 2.4 GB) is an error naming the size line.
+#[test]
+fn empty_arrays_and_an_implausible_empty_size() {
+    let dir = tmpdir();
+    let arr = "%%MatrixMarket matrix array real general\n";
+    for (r, c) in [(0usize, 3usize), (3, 0)] {
+        let p = put(dir.path(), "a.mtx", format!("{arr}{r} {c}\n").as_bytes());
+        let a = matrix_market::read_dense(&p).unwrap();
+        assert_eq!((a.nrows(), a.ncols()), (r, c));
+    }
+    expect_error(&format!("{arr}0 18518521\n"), 2, &["empty", "size line"]);
+}
+
 // ---------------------------------------------------------------------------------------------
 // Malformed input: one test per problem, each checking the line and the message
 
