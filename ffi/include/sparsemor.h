@@ -50,6 +50,17 @@
 #define SPARSEMOR_STORAGE_LOWER 1
 
 /**
+ * `units` of `sparsemor_model_from_files`: the values as the files hold them.
+ */
+#define SPARSEMOR_UNITS_AS_IS 0
+
+/**
+ * `units` of `sparsemor_model_from_files`: the files are in the consistent mm–t–s–N system;
+ * convert to m–kg–s–N (M, K × 1e3, coordinates × 1e-3; eigenfrequencies unchanged).
+ */
+#define SPARSEMOR_UNITS_MM_T_S 1
+
+/**
  * `sparsemor_rom_copy_matrix`: reduced mass Mr (n×n).
  */
 #define SPARSEMOR_MATRIX_MR 0
@@ -390,6 +401,46 @@ enum SparsemorStatus sparsemor_model_new(const struct SparsemorCsc *mass,
                                          size_t n_nodes,
                                          size_t dofs_per_node,
                                          struct SparsemorModel **model_out);
+
+/**
+ * Creates a model from the files an FE code wrote, as `sparsemor import` reads them
+ * (docs/design.md §4): an ANSYS `.full` (binary); ANSYS APDL-Math Matrix Market exports with
+ * their DoF mapping vector and node table; Abaqus `*MATRIX GENERATE` output with its `.inp`
+ * deck. The format of each file is detected from its first bytes; a matrix's role comes from
+ * its name (`STIF`/`K`, `MASS`/`M`) or an explicit `K=` / `M=` prefix on the path.
+ *
+ * - `paths`: `n_paths` NUL-terminated UTF-8 paths.
+ * - `stiffness_scale`: K is multiplied by it (1 for none; e.g. 1e-2 for the Abaqus rotor of
+ *   the data README); must be finite and > 0.
+ * - `units`: `SPARSEMOR_UNITS_AS_IS` or `SPARSEMOR_UNITS_MM_T_S`.
+ *
+ * The model is undamped and has no scene (set it with `sparsemor_model_set_scene`); DoFs the
+ * source constrained are removed. `sparsemor_model_dof` gives the node number and direction
+ * of each remaining DoF. On failure `*model_out` is NULL and the message names the file and
+ * the line or byte offset.
+ *
+ * # Safety
+ * `paths` must point to `n_paths` valid NUL-terminated strings; `model_out` writable.
+ */
+enum SparsemorStatus sparsemor_model_from_files(const char *const *paths,
+                                                size_t n_paths,
+                                                double stiffness_scale,
+                                                uint32_t units,
+                                                struct SparsemorModel **model_out);
+
+/**
+ * Node number and direction of DoF `index` (0-based row/column of M and K): the FE code's
+ * node number and the direction key 1–6 (x, y, z, rx, ry, rz; ANSYS's and Abaqus's numbering)
+ * for a model from `sparsemor_model_from_files`; for a model from `sparsemor_model_new` with
+ * nodes, the 0-based node index and 1 + index mod `dofs_per_node`.
+ *
+ * # Safety
+ * `model` a live handle; `node_out`, `direction_out` writable.
+ */
+enum SparsemorStatus sparsemor_model_dof(const struct SparsemorModel *model,
+                                         size_t index,
+                                         uint64_t *node_out,
+                                         uint32_t *direction_out);
 
 /**
  * Releases a model. NULL is a no-op. Any ROM made from it stays valid (ROMs do not borrow

@@ -18,7 +18,7 @@ The C functions are available as `sparsemor.lib` for anything not wrapped here.
 
 import ctypes
 import os
-from ctypes import POINTER, c_char, c_double, c_int32, c_size_t, c_uint32, c_void_p
+from ctypes import POINTER, c_char, c_char_p, c_double, c_int32, c_size_t, c_uint32, c_void_p
 
 import numpy as np
 import scipy.sparse as sp
@@ -133,6 +133,8 @@ _SIGNATURES = {
     "sparsemor_last_error_message": [POINTER(c_char), c_size_t],
     "sparsemor_model_new": [POINTER(_Csc), POINTER(_Csc), POINTER(_Csc), c_double, c_double,
                             _dbl_p, c_size_t, c_size_t, POINTER(_P)],
+    "sparsemor_model_from_files": [POINTER(c_char_p), c_size_t, c_double, c_uint32, POINTER(_P)],
+    "sparsemor_model_dof": [_P, c_size_t, POINTER(ctypes.c_uint64), POINTER(c_uint32)],
     "sparsemor_model_free": [_P],
     "sparsemor_model_n": [_P, _size_p],
     "sparsemor_model_is_free": [_P, POINTER(c_int32)],
@@ -268,6 +270,30 @@ class Model:
             float(alpha), float(beta), xyz_p, n_nodes, dofs_per_node, ctypes.byref(h)))
         self._h = h
         self._free = lib.sparsemor_model_free  # still there at interpreter shutdown
+
+    @classmethod
+    def from_files(cls, *paths, stiffness_scale=1.0, mm_t_s=False):
+        """A model read from the files an FE code wrote (ANSYS .full; APDL-Math exports with
+        their mapping vector and node table; Abaqus *MATRIX GENERATE output with its .inp deck),
+        as `sparsemor import` reads them. `stiffness_scale` multiplies K; `mm_t_s=True`
+        converts a mm-t-s-N model to m-kg-s-N. Undamped, no scene yet; `dof(i)` names DoF i."""
+        if not paths:
+            raise ValueError("from_files: give the files to read")
+        encoded = [os.fsencode(p) for p in paths]
+        arr = (c_char_p * len(encoded))(*encoded)
+        h = _P()
+        _check(lib.sparsemor_model_from_files(arr, len(encoded), float(stiffness_scale),
+                                              1 if mm_t_s else 0, ctypes.byref(h)))
+        self = cls.__new__(cls)
+        self._h = h
+        self._free = lib.sparsemor_model_free
+        return self
+
+    def dof(self, i):
+        """(node number, direction 'x'|'y'|'z'|'rx'|'ry'|'rz') of DoF i."""
+        node, d = ctypes.c_uint64(), c_uint32()
+        _check(lib.sparsemor_model_dof(self._h, int(i), ctypes.byref(node), ctypes.byref(d)))
+        return node.value, ("x", "y", "z", "rx", "ry", "rz")[d.value - 1]
 
     def set_scene(self, inputs, outputs, band_hz):
         """Input DoFs (unit forces), output DoFs, band (f_lo, f_hi) in Hz."""

@@ -211,6 +211,35 @@ def test_serep_reproduces_the_retained_eigenfrequencies():
     assert rel.max() < 1e-9
 
 
+def test_model_from_ansys_full_equals_the_independent_extraction():
+    """The ANSYS .full read by the library (C ABI) against K.mtx, M.mtx that ansys-mapdl-reader
+    extracted from the same file, read by scipy: the same SEREP ROM."""
+    data = os.path.join(os.path.dirname(os.path.abspath(__file__)),
+                        "../../../shared/data/ansys_example_full")
+    if not os.path.exists(os.path.join(data, "file.full")):
+        print("note: ../shared/data/ansys_example_full not found; skipped")
+        return
+    import scipy.io
+    imported = sparsemor.Model.from_files(os.path.join(data, "file.full"))
+    assert imported.n == 900
+    assert [imported.dof(i)[1] for i in range(3)] == ["x", "y", "z"]
+
+    def full(path):
+        a = sp.csc_matrix(scipy.io.mmread(path))
+        return sp.csc_matrix(a + sp.tril(a, -1).T) if sp.triu(a, 1).nnz == 0 else a
+
+    extracted = sparsemor.Model(full(os.path.join(data, "M.mtx")), full(os.path.join(data, "K.mtx")))
+    roms = []
+    for model in (imported, extracted):
+        model.set_scene([897, 898, 899], [897, 898, 899], (0.0, 12000.0))
+        roms.append(sparsemor.reduce_serep(model, modes=3))
+    for which in ("Mr", "Kr"):
+        a, b = getattr(roms[0], which), getattr(roms[1], which)
+        rel = np.abs(a - b).max() / np.abs(b).max()
+        print(f"{which}: imported vs extracted {rel:.1e}")
+        assert rel <= 1e-12, which
+
+
 def test_errors_raise_with_status_and_message():
     M, K = chain(20)
     bad = K.tolil()

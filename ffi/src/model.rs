@@ -2,9 +2,12 @@
 
 use crate::error::{ffi_body, Failure, SparsemorStatus};
 use crate::util::{obj, obj_mut, slice_in, write_out};
+use sparsemor::io::import::{self, Dof};
 use sparsemor::model::{Damping, Model};
 use sparsemor::scene::Scene;
 use sparsemor::sparse::{from_parts, mirror_lower, Csc};
+use std::ffi::{c_char, CStr};
+use std::path::PathBuf;
 
 /// `SparsemorCsc::storage`: both triangles are stored (full symmetric storage).
 pub const SPARSEMOR_STORAGE_FULL: u32 = 0;
@@ -46,6 +49,8 @@ pub struct SparsemorCsc {
 pub struct SparsemorModel {
     pub(crate) model: Model,
     pub(crate) scene: Option<Scene>,
+    /// Node number and direction of every DoF, when the model was imported from FE files.
+    pub(crate) dofs: Option<Vec<Dof>>,
 }
 
 impl SparsemorModel {
@@ -256,8 +261,127 @@ pub unsafe extern "C" fn sparsemor_model_new(
             (Some(nodes), dofs_per_node)
         };
         let (model, _) = Model::new("ffi".into(), m, k, damping, nodes, dpn)?;
-        let h = Box::new(SparsemorModel { model, scene: None });
+        let h = Box::new(SparsemorModel {
+            model,
+            scene: None,
+            dofs: None,
+        });
         unsafe { write_out(model_out, Box::into_raw(h), "model_out")? };
+        Ok(())
+    })
+}
+
+/// `units` of `sparsemor_model_from_files`: the values as the files hold them.
+pub const SPARSEMOR_UNITS_AS_IS: u32 = 0;
+/// `units` of `sparsemor_model_from_files`: the files are in the consistent mm–t–s–N system;
+/// convert to m–kg–s–N (M, K × 1e3, coordinates × 1e-3; eigenfrequencies unchanged).
+pub const SPARSEMOR_UNITS_MM_T_S: u32 = 1;
+
+/// Creates a model from the files an FE code wrote, as `sparsemor import` reads them
+/// (docs/design.md §4): an ANSYS `.full` (binary); ANSYS APDL-Math Matrix Market exports with
+/// their DoF mapping vector and node table; Abaqus `*MATRIX GENERATE` output with its `.inp`
+/// deck. The format of each file is detected from its first bytes; a matrix's role comes from
+/// its name (`STIF`/`K`, `MASS`/`M`) or an explicit `K=` / `M=` prefix on the path.
+///
+/// - `paths`: `n_paths` NUL-terminated UTF-8 paths.
+/// - `stiffness_scale`: K is multiplied by it (1 for none; e.g. 1e-2 for the Abaqus rotor of
+///   the data README); must be finite and > 0.
+/// - `units`: `SPARSEMOR_UNITS_AS_IS` or `SPARSEMOR_UNITS_MM_T_S`.
+///
+/// The model is undamped and has no scene (set it with `sparsemor_model_set_scene`); DoFs the
+/// source constrained are removed. `sparsemor_model_dof` gives the node number and direction
+/// of each remaining DoF. On failure `*model_out` is NULL and the message names the file and
+/// the line or byte offset.
+///
+/// # Safety
+/// `paths` must point to `n_paths` valid NUL-terminated strings; `model_out` writable.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_model_from_files(
+    paths: *const *const c_char,
+    n_paths: usize,
+    stiffness_scale: f64,
+    units: u32,
+    model_out: *mut *mut SparsemorModel,
+) -> SparsemorStatus {
+    ffi_body!({
+        unsafe { write_out(model_out, std::ptr::null_mut(), "model_out")? };
+        if n_paths == 0 {
+            return Err(Failure::arg("n_paths = 0: give the files to read"));
+        }
+        let ptrs = unsafe { slice_in(paths, n_paths, "paths")? };
+        let mut files = Vec::with_capacity(n_paths);
+        for (i, &p) in ptrs.iter().enumerate() {
+            if p.is_null() {
+                return Err(Failure::null(&format!("paths[{i}]")));
+            }
+            // SAFETY: non-null; NUL termination is the caller's contract.
+            let s = unsafe { CStr::from_ptr(p) }
+                .to_str()
+                .map_err(|_| Failure::arg(format!("paths[{i}] is not valid UTF-8")))?;
+            files.push(PathBuf::from(s));
+        }
+        if units > SPARSEMOR_UNITS_MM_T_S {
+            return Err(Failure::arg(format!(
+                "units = {units}: use SPARSEMOR_UNITS_AS_IS (0) or SPARSEMOR_UNITS_MM_T_S (1)"
+            )));
+        }
+        let mut imported = import::read(&files)?;
+        if stiffness_scale != 1.0 {
+            imported.scale_stiffness(stiffness_scale)?;
+        }
+        if units == SPARSEMOR_UNITS_MM_T_S {
+            imported.mm_to_m();
+        }
+        let dofs = imported.dofs.clone();
+        let name = files[0].display().to_string();
+        let (model, _) = imported.into_model(name)?;
+        let h = Box::new(SparsemorModel {
+            model,
+            scene: None,
+            dofs: Some(dofs),
+        });
+        unsafe { write_out(model_out, Box::into_raw(h), "model_out")? };
+        Ok(())
+    })
+}
+
+/// Node number and direction of DoF `index` (0-based row/column of M and K): the FE code's
+/// node number and the direction key 1–6 (x, y, z, rx, ry, rz; ANSYS's and Abaqus's numbering)
+/// for a model from `sparsemor_model_from_files`; for a model from `sparsemor_model_new` with
+/// nodes, the 0-based node index and 1 + index mod `dofs_per_node`.
+///
+/// # Safety
+/// `model` a live handle; `node_out`, `direction_out` writable.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_model_dof(
+    model: *const SparsemorModel,
+    index: usize,
+    node_out: *mut u64,
+    direction_out: *mut u32,
+) -> SparsemorStatus {
+    ffi_body!({
+        let m = unsafe { obj(model, "model")? };
+        let n = m.model.n();
+        if index >= n {
+            return Err(Failure::arg(format!(
+                "index = {index}: the model has DoFs 0..{}",
+                n.saturating_sub(1)
+            )));
+        }
+        let (node, dir) = match (&m.dofs, m.model.nodes.is_some()) {
+            (Some(dofs), _) => (dofs[index].node, dofs[index].dir as u32 + 1),
+            (None, true) => {
+                let dpn = m.model.dofs_per_node;
+                ((index / dpn) as u64, (index % dpn) as u32 + 1)
+            }
+            (None, false) => {
+                return Err(Failure::arg(
+                    "the model has no DoF map: it was created without nodes and not imported",
+                ))
+            }
+        };
+        unsafe { write_out(node_out, node, "node_out")? };
+        unsafe { write_out(direction_out, dir, "direction_out")? };
         Ok(())
     })
 }

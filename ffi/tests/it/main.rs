@@ -6,5 +6,6 @@ mod common;
 mod craig_bampton;
 mod discipline;
 mod header;
+mod import;
 mod python;
 mod readme;
