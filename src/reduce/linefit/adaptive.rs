@@ -7,10 +7,9 @@
 //! 3. The residual indicator Δ(s) ([`super::indicator::Indicator`]) on a fine candidate grid, at a cost
 //!    independent of N.
 //! 4. The largest local maxima of Δ (as many as there are threads; sampled points and their
-//!    grid neighbours excluded; with none there, the largest Δ away from them if above tol)
-//!    are factored in parallel; the TRUE elastic error of the current ROM is measured there
-//!    (the snapshots give H1 at the outputs), then they are absorbed — no earlier frequency is
-//!    ever factored again.
+//!    grid neighbours excluded) are factored in parallel; the TRUE elastic error of the
+//!    current ROM is measured there (the snapshots give H1 at the outputs), then they are
+//!    absorbed — no earlier frequency is ever factored again.
 //! 5. Stop when the true error at every new point AND at every earlier sampled point is ≤ tol
 //!    on two consecutive steps ([`Outcome::Converged`]; the ROM verified at the last step's
 //!    points is returned). One step can be fooled: measured on the bar, the ROM of the two
@@ -244,27 +243,10 @@ impl<'a> Loop<'a> {
         let picks = pick_maxima(&self.candidates, &delta, &self.sampled, self.threads);
         self.last_delta_max = delta.iter().copied().fold(0.0, f64::max);
         self.last_used = self.steps.last().map(|s| s.factorizations).unwrap_or(0);
-        let rom = &self.rom;
-        let sampled_error = self
-            .sampled_h1
-            .iter()
-            .map(|(f, h)| rel_err(rom, *f, h))
-            .fold(0.0, f64::max);
-        let near = near_sampled(&self.candidates, &self.sampled);
-        let away = (0..delta.len())
-            .filter(|&i| !near(self.candidates[i]) && delta[i].is_finite())
-            .max_by(|&a, &b| delta[a].total_cmp(&delta[b]));
-        drop(near);
-        let picks = match (picks.is_empty(), away) {
-            (false, _) => picks,
-            // Δ falls away from a maximum at a sampled point yet exceeds tol: sample its largest
-            // value away from them
-            (true, Some(i)) if delta[i] > self.sampling.tol => vec![self.candidates[i]],
-            (true, away) => {
-                let away_max = away.map_or(0.0, |i| delta[i]);
-                return Ok(self.no_maximum_away(away_max, sampled_error));
-            }
-        };
+        // no new indicator maximum away from the sampled points: more frequencies cannot help
+        if picks.is_empty() {
+            return Ok(Next::Stagnated);
+        }
         let used = self.last_used;
         if used + picks.len() > self.sampling.max_points {
             return Ok(Next::Stop(Outcome::Budget));
@@ -275,6 +257,11 @@ impl<'a> Loop<'a> {
         let true_error = new
             .iter()
             .map(|(f, x)| rel_err(rom, *f, &h1_at(outputs, x.as_ref())))
+            .fold(0.0, f64::max);
+        let sampled_error = self
+            .sampled_h1
+            .iter()
+            .map(|(f, h)| rel_err(rom, *f, h))
             .fold(0.0, f64::max);
         self.steps.push(Step {
             order: self.part.order(),
@@ -287,7 +274,16 @@ impl<'a> Loop<'a> {
             action: "refine".into(),
         });
         let error = true_error.max(sampled_error);
-        self.keep_if_best(error);
+        if self.best.as_ref().is_none_or(|b| error < b.0) {
+            // V is needed only while the ROM is the loop's current one (indicator, growth)
+            let basis = self.rom.basis.take();
+            let mut copy = self.rom.clone();
+            if self.opts.keep_basis {
+                copy.basis = basis.clone();
+            }
+            self.rom.basis = basis;
+            self.best = Some((error, copy));
+        }
         self.ok_steps = if error <= self.sampling.tol {
             self.ok_steps + 1
         } else {
@@ -325,49 +321,6 @@ impl<'a> Loop<'a> {
         } else {
             Next::Refit
         })
-    }
-
-    /// The indicator Δ is at most tol away from the sampled points (and their grid neighbours),
-    /// where the true error is known without a solve: the step records that error. When it is
-    /// ≤ tol too the ROM is converged (no frequency is left where Δ expects a larger error);
-    /// otherwise more frequencies cannot help and the loop stagnates (the interface may grow).
-    /// Measured on a 36-DoF bar with no resonance in its band: Δ peaks next to the seeds, whose
-    /// true error is 1e-12.
-    fn no_maximum_away(&mut self, away: f64, sampled_error: f64) -> Next {
-        let converged = sampled_error <= self.sampling.tol && away <= self.sampling.tol;
-        self.steps.push(Step {
-            order: self.part.order(),
-            points_hz: Vec::new(),
-            indicator_max: self.last_delta_max,
-            true_error_max: f64::NAN,
-            sampled_error_max: sampled_error,
-            factorizations: self.last_used,
-            seconds: self.start.elapsed().as_secs_f64(),
-            action: format!(
-                "indicator away from the sampled points {away:.2e}: error measured at them"
-            ),
-        });
-        self.keep_if_best(sampled_error);
-        if converged {
-            Next::Stop(Outcome::Converged)
-        } else {
-            Next::Stagnated
-        }
-    }
-
-    /// Keeps a copy of the current ROM as the best one when its measured `error` is the
-    /// smallest so far.
-    fn keep_if_best(&mut self, error: f64) {
-        if self.best.as_ref().is_none_or(|b| error < b.0) {
-            // V is needed only while the ROM is the loop's current one (indicator, growth)
-            let basis = self.rom.basis.take();
-            let mut copy = self.rom.clone();
-            if self.opts.keep_basis {
-                copy.basis = basis.clone();
-            }
-            self.rom.basis = basis;
-            self.best = Some((error, copy));
-        }
     }
 
     /// Grows the interface by one DoF ([`Growth`]) and refits the QR state from the kept
@@ -514,20 +467,15 @@ fn solve_and_absorb(
     Ok((qr, snaps.into_iter().map(|(_, f, x)| (f, x)).collect()))
 }
 
-/// Whether a frequency is a sampled one or a grid neighbour of one (within 1.01 grid steps).
-fn near_sampled<'a>(grid: &[f64], sampled: &'a [f64]) -> impl Fn(f64) -> bool + 'a {
+/// Up to `k` largest local maxima of `delta`, skipping sampled frequencies and their grid
+/// neighbours.
+fn pick_maxima(grid: &[f64], delta: &[f64], sampled: &[f64], k: usize) -> Vec<f64> {
     let h = if grid.len() > 1 {
         grid[1] - grid[0]
     } else {
         1.0
     };
-    move |f: f64| sampled.iter().any(|&s| (s - f).abs() <= 1.01 * h)
-}
-
-/// Up to `k` largest local maxima of `delta`, skipping sampled frequencies and their grid
-/// neighbours.
-fn pick_maxima(grid: &[f64], delta: &[f64], sampled: &[f64], k: usize) -> Vec<f64> {
-    let near = near_sampled(grid, sampled);
+    let near = |f: f64| sampled.iter().any(|&s| (s - f).abs() <= 1.01 * h);
     let mut maxima: Vec<usize> = (0..grid.len())
         .filter(|&i| {
             let l = if i > 0 {
