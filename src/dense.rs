@@ -48,10 +48,5 @@ fn scaled_sym(a: MatRef<'_, f64>) -> (Mat<f64>, f64) {
     } else {
         1.0
     };
-    let inv = 1.0 / s;
-    let n = a.nrows();
-    (
-        Mat::from_fn(n, n, |i, j| 0.5 * (a[(i, j)] + a[(j, i)]) * inv),
-        s,
-    )
+    (sym(a) * (1.0 / s), s)
 }

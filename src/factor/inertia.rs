@@ -16,7 +16,7 @@ use crate::pencil::Pencil;
 use crate::{Error, Result};
 use faer::sparse::linalg::cholesky::SymbolicCholesky;
 use faer::sparse::SparseColMatRef;
-use faer::{MatMut, Par};
+use faer::{Mat, MatMut, Par};
 use std::sync::Arc;
 
 /// The number of eigenvalues λ < σ of K φ = λ M φ (M positive definite), exactly, from the
@@ -133,9 +133,10 @@ impl<'a> ShiftedLblt<'a> {
     pub(crate) fn solve_in_place(&mut self, mut x: MatMut<'_, f64>) {
         let b = x.to_owned();
         self.factor.solve_in_place(&self.sym, x.as_mut(), Par::Seq);
+        let mut r = Mat::<f64>::zeros(b.nrows(), b.ncols());
         for _ in 0..MAX_REFINEMENTS {
             // r = b − A x
-            let mut r = b.clone();
+            r.copy_from(&b);
             pattern::symmetric_mul_sub(self.pencil, &self.vals, x.as_ref(), r.as_mut());
             let worst = (0..x.ncols())
                 .map(|c| {
