@@ -10,7 +10,7 @@ use sparsemor::body::Body;
 use sparsemor::eigen::EigenOptions;
 use sparsemor::metrics::Reference;
 use sparsemor::reduce::craig_bampton::{self, CraigBamptonOptions};
-use sparsemor::reduce::linefit::{self, Interface, Outcome};
+use sparsemor::reduce::linefit::{self, Interface};
 use sparsemor::reduce::serep::{self, ModeChoice, SerepOptions};
 use sparsemor::reduce::{Method, Rom};
 use sparsemor::scene::Scene;
@@ -881,11 +881,7 @@ pub unsafe extern "C" fn sparsemor_rom_sampling_converged(
         unsafe {
             write_opt(
                 converged_out,
-                i32::from(
-                    r.rom
-                        .sampling()
-                        .is_some_and(|s| s.outcome == Outcome::Converged),
-                ),
+                i32::from(r.rom.sampling().is_some_and(|s| s.outcome.reached())),
                 "converged_out",
             )
         }

@@ -8,9 +8,7 @@ use sparsemor::eigen::{eigenpairs, EigenOptions, Request};
 use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
 use sparsemor::metrics::{modal_comparison, rom_eigenfrequencies, ErrorCurve, Reference};
 use sparsemor::reduce::craig_bampton::{self, CraigBamptonOptions};
-use sparsemor::reduce::linefit::{
-    self, Interface, LineFitOptions, Outcome, References, SamplingOptions,
-};
+use sparsemor::reduce::linefit::{self, Interface, LineFitOptions, References, SamplingOptions};
 use sparsemor::reduce::serep::{self, ModeChoice, SerepOptions};
 use sparsemor::reduce::CraigBamptonReport;
 use sparsemor::reduce::Rom;
@@ -202,7 +200,7 @@ pub fn demo(threads: usize) -> Result<()> {
                 rom.order(),
                 r.factorizations,
                 r.error,
-                if r.outcome == Outcome::Converged && grid_max <= tol {
+                if r.outcome.reached() && grid_max <= tol {
                     "yes"
                 } else {
                     "NO"

@@ -9,8 +9,7 @@ use sparsemor::eigen::EigenOptions;
 use sparsemor::io::{model_dir, rom_dir};
 use sparsemor::reduce::craig_bampton::{self, CraigBamptonOptions};
 use sparsemor::reduce::linefit::{
-    self, Growth, Interface, LineFitOptions, Outcome, References, SamplingOptions, SamplingReport,
-    Step,
+    self, Growth, Interface, LineFitOptions, References, SamplingOptions, SamplingReport, Step,
 };
 use sparsemor::reduce::serep::{self, ModeChoice, SerepOptions};
 use sparsemor::reduce::Rom;
@@ -168,7 +167,7 @@ pub fn reduce(a: &ReduceArgs) -> Result<super::Done> {
     print_rom(&rom);
     eprintln!("reduced in {secs:.2} s -> {}", a.out.display());
     Ok(match rom.sampling() {
-        Some(s) if s.outcome != Outcome::Converged => {
+        Some(s) if !s.outcome.reached() => {
             eprintln!(
                 "the ROM was written, but the tolerance {:.1e} was NOT met (error reached {:.2e}); exit status 3",
                 s.tol, s.error

@@ -435,6 +435,7 @@ fn table(html: &mut String, roms: &[Evaluated]) {
                 s.tol,
                 match s.outcome {
                     Outcome::Converged => "reached",
+                    Outcome::Confirmed => "reached (confirmed by the verification pass)",
                     Outcome::Budget => "NOT reached (factorization budget spent)",
                     Outcome::Stagnated => "NOT reached (more frequencies stopped helping)",
                 },

@@ -10,9 +10,7 @@ use sparsemor::eigen::EigenOptions;
 use sparsemor::io::{atomic, model_dir};
 use sparsemor::metrics::{ErrorCurve, Reference};
 use sparsemor::reduce::craig_bampton::{self, CraigBamptonOptions};
-use sparsemor::reduce::linefit::{
-    self, Interface, LineFitOptions, Outcome, References, SamplingOptions,
-};
+use sparsemor::reduce::linefit::{self, Interface, LineFitOptions, References, SamplingOptions};
 use sparsemor::reduce::serep::{self, ModeChoice, SerepOptions};
 use sparsemor::report::{tradeoff_svg, TradeoffRow};
 use sparsemor::scene::positive_band;
@@ -112,7 +110,7 @@ pub fn tradeoff(a: &TradeoffArgs) -> Result<()> {
             order: rom.order(),
             max_eps: e,
         });
-        if report.outcome != Outcome::Converged {
+        if !report.outcome.reached() {
             eprintln!("tol {tol:.0e}: {}", sampling_message(report, &rom));
         }
     }

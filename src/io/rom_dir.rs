@@ -71,6 +71,7 @@ struct SamplingToml {
 fn outcome_name(o: &Outcome) -> &'static str {
     match o {
         Outcome::Converged => "converged",
+        Outcome::Confirmed => "confirmed by verification",
         Outcome::Budget => "budget spent",
         Outcome::Stagnated => "stagnated",
     }
@@ -179,7 +180,12 @@ fn write_dir(dir: &Path, rom: &Rom, model: Option<&Model>) -> Result<()> {
 
 /// The sampling report of a `[sampling]` table (the per-step log is not stored).
 fn sampling_report(path: &Path, t: SamplingToml) -> Result<SamplingReport> {
-    let outcome = [Outcome::Converged, Outcome::Budget, Outcome::Stagnated]
+    let outcome = [
+        Outcome::Converged,
+        Outcome::Confirmed,
+        Outcome::Budget,
+        Outcome::Stagnated,
+    ]
         .into_iter()
         .find(|o| outcome_name(o) == t.status)
         .ok_or_else(|| {
@@ -187,7 +193,7 @@ fn sampling_report(path: &Path, t: SamplingToml) -> Result<SamplingReport> {
                 path,
                 0,
                 format!(
-                    "[sampling] status '{}': expected converged, budget spent or stagnated",
+                    "[sampling] status '{}': expected converged, confirmed by verification, budget spent or stagnated",
                     t.status
                 ),
             )

@@ -623,13 +623,15 @@ fn sampling_tolerance_1e_minus_10() {
     let floor = rom_eps(&model, &scene, &full, &grid(1.0, 1000.0, 300));
     println!("ROW tol 1e-10: floor (V = I against the same dense reference) {floor:.1e}");
     assert!(e.is_finite() && s.error.is_finite());
-    if s.outcome == sparsemor::reduce::linefit::Outcome::Converged {
+    if s.outcome.reached() {
         assert!(
             e <= (10.0 * 1e-10f64).max(3.0 * floor),
             "claimed 1e-10, measured {e:.2e}, floor {floor:.2e}"
         );
     } else {
-        assert!(s.error > 1e-10, "{:?}", s.error);
+        // not reached: no two measurements within tol
+        let verified = s.verified.map_or(f64::INFINITY, |v| v.error);
+        assert!(s.error > 1e-10 || verified > 1e-10, "{s:?}");
     }
 }
 
@@ -648,7 +650,7 @@ fn sampling_band_with_50_resonances() {
         scene.band_hz[1], rom.order(), r.outcome, r.factorizations, r.error
     );
     assert!(e.is_finite());
-    if r.outcome == sparsemor::reduce::linefit::Outcome::Converged {
+    if r.outcome.reached() {
         assert!(e <= 1e-2, "claimed 1e-3, measured {e:.2e}");
     }
 }
@@ -690,7 +692,7 @@ fn sampling_band_below_the_first_resonance_of_a_tiny_model() {
         s.verified.map(|v| v.error)
     );
     assert!(e <= 1e-2, "{e:.2e}");
-    if s.outcome == sparsemor::reduce::linefit::Outcome::Converged {
+    if s.outcome.reached() {
         assert!(s.error <= 1e-2);
     }
 }

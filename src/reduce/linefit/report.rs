@@ -27,11 +27,22 @@ pub struct Step {
 pub enum Outcome {
     /// The true error at the newly picked and all sampled points is ≤ tol (two steps).
     Converged,
+    /// The loop stopped on its budget or on stagnation, but its best ROM was within tol at
+    /// one step's picked and sampled points, and the verification pass over the band
+    /// confirmed it (≤ tol again): two measurements within tol, as for [`Self::Converged`].
+    Confirmed,
     /// The factorization budget ([`super::SamplingOptions::max_points`]) is spent.
     Budget,
     /// More frequencies stopped helping and the order may not grow further
     /// ([`super::SamplingOptions::max_order`]).
     Stagnated,
+}
+
+impl Outcome {
+    /// The tolerance was reached ([`Self::Converged`] or [`Self::Confirmed`]).
+    pub fn reached(&self) -> bool {
+        matches!(self, Self::Converged | Self::Confirmed)
+    }
 }
 
 /// The verification pass of a sampled ROM.
@@ -93,6 +104,10 @@ impl SamplingReport {
                 sampled_points,
                 order,
                 self.factorizations
+            ),
+            Outcome::Confirmed => format!(
+                "tolerance {:.1e} reached: the best ROM measured (order {order}) had true error {:.2e} at one step's indicator maxima and sampled points, confirmed by the verification pass, after {} factorizations{verified}",
+                self.tol, self.error, self.factorizations
             ),
             _ => format!(
                 "tolerance {:.1e} NOT reached ({}): the ROM returned (order {order}) has true error {:.2e} at its sampled points after {} factorizations{verified}. What would help: {}",
