@@ -1,8 +1,8 @@
 //! `import`: a model directory from the files an FE code wrote (ANSYS, Abaqus).
 
 use super::args::parse_band;
-use sparsemor::io::import::{self, Dof, Imported};
-use sparsemor::io::model_dir::{self, Source, SourceToml};
+use sparsemor::io::import;
+use sparsemor::io::model_dir::{self, DofNames, Source, SourceToml};
 use sparsemor::{Error, Result};
 use std::path::PathBuf;
 
@@ -39,41 +39,21 @@ pub struct ImportArgs {
     outputs: Option<String>,
 }
 
-/// DoF indices of a `NODE:DIR,...` list.
-fn dof_indices(imp: &Imported, list: &str, what: &str) -> Result<Vec<usize>> {
-    list.split(',')
-        .map(|s| {
-            let dof: Dof = s.parse()?;
-            imp.index_of(dof).ok_or_else(|| {
-                Error::InvalidSetting(format!(
-                    "{what}: the imported model has no DoF {dof} (constrained or not in the files)"
-                ))
-            })
-        })
-        .collect()
-}
-
 pub fn import(a: &ImportArgs) -> Result<()> {
     let mut imp = import::read(&a.sources)?;
     if let Some(s) = a.scale_stiffness {
         imp.scale_stiffness(s)?;
     }
-    match a.length_unit.as_str() {
-        "m" => {}
-        "mm" => imp.mm_to_m(),
-        u => {
-            return Err(Error::InvalidSetting(format!(
-                "--length-unit {u}: use m (m-kg-s-N) or mm (mm-t-s-N)"
-            )))
-        }
-    }
+    imp.convert_length_unit(&a.length_unit)
+        .map_err(|e| Error::InvalidSetting(format!("--length-unit: {e}")))?;
     let mut scene = imp.default_scene(parse_band(&a.band)?);
+    let names = DofNames::from_map(&imp.dofs);
     if let Some(i) = &a.inputs {
-        scene.inputs = dof_indices(&imp, i, "--inputs")?;
+        scene.inputs = names.indices(i, "--inputs")?;
         scene.outputs = scene.inputs.clone();
     }
     if let Some(o) = &a.outputs {
-        scene.outputs = dof_indices(&imp, o, "--outputs")?;
+        scene.outputs = names.indices(o, "--outputs")?;
     }
     let name = a.name.clone().unwrap_or_else(|| {
         a.out

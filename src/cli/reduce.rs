@@ -25,8 +25,8 @@ pub struct ReduceArgs {
     /// linefit, serep or craig-bampton.
     #[arg(long)]
     method: String,
-    /// Interface DoFs D1,D2,... (line-fitting: must contain the outputs; Craig–Bampton: the
-    /// boundary DoFs).
+    /// Interface DoFs D1,D2,... as 0-based indices or NODE:DIR, e.g. 17:x (line-fitting: must
+    /// contain the outputs; Craig–Bampton: the boundary DoFs).
     #[arg(long, conflicts_with = "extra_interface")]
     interface: Option<String>,
     /// Interface = outputs + K DoFs spread along the body (line-fitting, Craig–Bampton's
@@ -57,7 +57,7 @@ pub struct ReduceArgs {
     /// fixed-interface modes, 0 = static condensation).
     #[arg(long)]
     modes: Option<usize>,
-    /// Retained DoFs (SEREP; default: the outputs).
+    /// Retained DoFs (SEREP; default: the outputs), as 0-based indices or NODE:DIR.
     #[arg(long)]
     retain: Option<String>,
     /// Also write V.mtx (N×n).
@@ -72,13 +72,18 @@ pub struct ReduceArgs {
 }
 
 pub fn reduce(a: &ReduceArgs) -> Result<super::Done> {
-    let (model, scene, _) = model_dir::read(&a.model)?;
+    let model_dir::Loaded {
+        model,
+        scene,
+        names,
+        ..
+    } = model_dir::load(&a.model)?;
     let body = Body::new(&model)?;
     let t = Instant::now();
     let rom = match a.method.as_str() {
         "linefit" => {
             let interface = match (&a.interface, a.extra_interface, a.tol) {
-                (Some(i), _, _) => Interface::Explicit(parse_list(i, "--interface")?),
+                (Some(i), _, _) => Interface::Explicit(names.indices(i, "--interface")?),
                 (None, Some(k), _) => Interface::OutputsPlus(k),
                 (None, None, Some(_)) => Interface::Auto,
                 (None, None, None) => return Err(Error::InvalidSetting(
@@ -135,7 +140,7 @@ pub fn reduce(a: &ReduceArgs) -> Result<super::Done> {
                 retain: a
                     .retain
                     .as_deref()
-                    .map(|r| parse_list(r, "--retain"))
+                    .map(|r| names.indices(r, "--retain"))
                     .transpose()?,
                 keep_basis: a.keep_basis,
                 eigen: EigenOptions::for_band(scene.band_hz[1]),
@@ -147,7 +152,7 @@ pub fn reduce(a: &ReduceArgs) -> Result<super::Done> {
                 .modes
                 .ok_or_else(|| Error::InvalidSetting("craig-bampton needs --modes C".into()))?;
             let interface = match (&a.interface, a.extra_interface) {
-                (Some(i), _) => Interface::Explicit(parse_list(i, "--interface")?),
+                (Some(i), _) => Interface::Explicit(names.indices(i, "--interface")?),
                 (None, Some(k)) => Interface::OutputsPlus(k),
                 (None, None) => Interface::Auto,
             };

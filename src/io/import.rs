@@ -197,11 +197,6 @@ impl Imported {
         self.dofs.len()
     }
 
-    /// The index of a DoF, if the model has it.
-    pub fn index_of(&self, dof: Dof) -> Option<usize> {
-        self.dofs.iter().position(|&d| d == dof)
-    }
-
     /// Multiplies K by `s` (e.g. EXUDYN's 1e-2 for the Abaqus rotor, see the data README).
     ///
     /// # Errors
@@ -227,6 +222,23 @@ impl Imported {
         }
         self.units
             .push_str("; converted from mm-t-s-N to m-kg-s-N (K, M x 1e3, coordinates x 1e-3)");
+    }
+
+    /// Converts to m-kg-s-N from the source's length unit: `m` (kept) or `mm` ([`Self::mm_to_m`]).
+    ///
+    /// # Errors
+    /// [`Error::InvalidSetting`] for any other unit.
+    pub fn convert_length_unit(&mut self, unit: &str) -> Result<()> {
+        match unit {
+            "m" => Ok(()),
+            "mm" => {
+                self.mm_to_m();
+                Ok(())
+            }
+            u => Err(Error::InvalidSetting(format!(
+                "length unit '{u}': use m (m-kg-s-N) or mm (mm-t-s-N)"
+            ))),
+        }
     }
 
     /// The default scene of an imported model: inputs = outputs = the three translations of
@@ -428,6 +440,7 @@ fn stiffness_and_mass(files: &[&(Kind, Option<Role>, PathBuf)]) -> Result<(PathB
 
 /// The first 4 KiB of a file (all of a shorter one).
 pub(crate) fn head(path: &Path) -> Result<Vec<u8>> {
+    super::check_regular(path)?;
     let mut head = Vec::with_capacity(4096);
     std::fs::File::open(path)
         .and_then(|f| f.take(4096).read_to_end(&mut head))

@@ -16,6 +16,13 @@ pub mod rom_dir;
 /// `model.toml` naming a device such as `/dev/zero` made the reader allocate until the
 /// process was killed (found by the `model_dir` fuzz target's memory limit).
 pub(crate) fn read_regular(path: &std::path::Path) -> crate::Result<Vec<u8>> {
+    check_regular(path)?;
+    std::fs::read(path).map_err(|e| crate::Error::io(path, e))
+}
+
+/// Refuses anything but a regular file (after symlinks), as [`read_regular`] does, for the
+/// readers that stream a file instead of reading it whole.
+pub(crate) fn check_regular(path: &std::path::Path) -> crate::Result<()> {
     let meta = std::fs::metadata(path).map_err(|e| crate::Error::io(path, e))?;
     if !meta.is_file() {
         return Err(crate::Error::io(
@@ -26,7 +33,7 @@ pub(crate) fn read_regular(path: &std::path::Path) -> crate::Result<Vec<u8>> {
             ),
         ));
     }
-    std::fs::read(path).map_err(|e| crate::Error::io(path, e))
+    Ok(())
 }
 
 /// [`read_regular`] as UTF-8 text.

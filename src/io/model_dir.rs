@@ -23,12 +23,33 @@
 //! removed = "removed.csv"   # optional: the constrained DoFs the import removed
 //! ```
 //!
+//! Instead of `mass`/`stiffness`, a model may point at the files its FE code wrote, read by
+//! [`crate::io::import`] at every load (a big model need not be converted):
+//!
+//! ```toml
+//! name = "rotor"
+//! [import]
+//! format = "ansys-full"     # checked against what the files are (io::import::Format::name)
+//! files = ["rotor.full"]    # relative to the directory; K=/M= prefixes as for `import`
+//! scale_stiffness = 1e-2    # optional
+//! length_unit = "mm"        # optional: "m" (default, kept) or "mm" (mm-t-s-N -> m-kg-s-N)
+//! [scene]
+//! inputs = ["17:x", "17:y"] # DoFs by index or NODE:DIR
+//! outputs = ["17:x"]
+//! band_hz = [0.0, 1000.0]
+//! ```
+//!
+//! DoFs (in `[scene]` and on the command line) are 0-based indices or `NODE:DIR` names
+//! ([`DofNames`]): through the DoF map of an imported model, else node i = row i of
+//! `nodes.csv` (0-based) owning DoFs `dofs_per_node·i + k` in the directions x, y, z (, rx, ry,
+//! rz).
+//!
 //! Paths are relative to the directory. Unknown keys are errors (a typo must not silently
 //! drop a setting). [`read`] validates the whole model ([`Model::new`]); [`write()`] writes a
 //! directory atomically ([`atomic::write_dir`]: a temporary sibling renamed at the end), so an
 //! interrupted write never leaves a directory that looks complete.
 
-use crate::io::import::Dof;
+use crate::io::import::{self, Direction, Dof};
 use crate::io::{atomic, matrix_market};
 use crate::model::{Damping, Model, ValidationReport};
 use crate::scene::Scene;
@@ -46,19 +67,21 @@ pub const MANIFEST: &str = "model.toml";
 pub struct Manifest {
     /// Model name.
     pub name: String,
-    /// Mass matrix file.
-    pub mass: String,
-    /// Stiffness matrix file.
-    pub stiffness: String,
+    /// Mass matrix file (absent with `[import]`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mass: Option<String>,
+    /// Stiffness matrix file (absent with `[import]`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stiffness: Option<String>,
     /// Optional damping matrix file.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub damping: Option<String>,
     /// Optional node coordinates file.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub nodes: Option<String>,
-    /// DoFs per node (3 or 6).
-    #[serde(default = "three")]
-    pub dofs_per_node: usize,
+    /// DoFs per node (3 or 6; default 3; an `[import]` model takes it from its files).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dofs_per_node: Option<usize>,
     /// Rayleigh coefficients (used when there is no damping file).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rayleigh: Option<Rayleigh>,
@@ -67,10 +90,127 @@ pub struct Manifest {
     /// Where an imported model came from.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub source: Option<SourceToml>,
+    /// Read the FE code's own files instead of `mass`/`stiffness`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub import: Option<ImportToml>,
 }
 
-fn three() -> usize {
-    3
+/// `[import]`: the files an FE code wrote, read by [`crate::io::import::read`] at every load.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ImportToml {
+    /// The format the files must be ([`crate::io::import::Format::name`]).
+    pub format: String,
+    /// The files, relative to the directory (`K=`/`M=` prefixes allowed).
+    pub files: Vec<String>,
+    /// Multiply K by this factor.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scale_stiffness: Option<f64>,
+    /// `m` (kept, the default) or `mm` (mm-t-s-N converted to m-kg-s-N).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub length_unit: Option<String>,
+}
+
+/// A DoF in `[scene]`: a 0-based index or a `NODE:DIR` name ([`DofNames`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum DofRef {
+    /// 0-based index.
+    Index(u64),
+    /// `NODE:DIR`, e.g. `17:x`.
+    Name(String),
+}
+
+/// How the DoFs of a model are named: `NODE:DIR` through an imported model's DoF map, else
+/// node i (0-based) owning DoFs `dofs_per_node·i + k` in the directions x, y, z (, rx, ry, rz).
+#[derive(Clone, Debug)]
+pub enum DofNames {
+    /// The DoF map of an imported model (node numbers as the FE code numbers them).
+    Map(std::collections::HashMap<Dof, usize>),
+    /// A model without a DoF map: N DoFs, `dofs_per_node` per node.
+    PerNode {
+        /// N.
+        n: usize,
+        /// 3 or 6.
+        dofs_per_node: usize,
+    },
+}
+
+impl DofNames {
+    /// The names of an imported model's DoFs, in matrix order.
+    pub fn from_map(dofs: &[Dof]) -> Self {
+        DofNames::Map(dofs.iter().enumerate().map(|(i, &d)| (d, i)).collect())
+    }
+
+    /// The index of `token`: a 0-based index (< N) or `NODE:DIR`.
+    ///
+    /// # Errors
+    /// [`Error::DofOutOfRange`] for an index ≥ N; [`Error::InvalidSetting`] naming `what` and
+    /// the token when the model has no such DoF or the token is neither form.
+    pub fn index(&self, token: &str, what: &str) -> Result<usize> {
+        let token = token.trim();
+        let n = match self {
+            DofNames::Map(m) => m.len(),
+            DofNames::PerNode { n, .. } => *n,
+        };
+        if let Ok(i) = token.parse::<usize>() {
+            return if i < n {
+                Ok(i)
+            } else {
+                Err(Error::DofOutOfRange {
+                    what: what.to_string(),
+                    dof: i,
+                    n,
+                })
+            };
+        }
+        let dof: Dof = token
+            .parse()
+            .map_err(|e| Error::InvalidSetting(format!("{what}: {e}, or a 0-based index")))?;
+        let found = match self {
+            DofNames::Map(m) => m.get(&dof).copied(),
+            DofNames::PerNode { dofs_per_node, .. } => {
+                let k = dof.dir as usize;
+                usize::try_from(dof.node)
+                    .ok()
+                    .and_then(|node| node.checked_mul(*dofs_per_node))
+                    .and_then(|first| first.checked_add(k))
+                    .filter(|&i| k < *dofs_per_node && i < n)
+            }
+        };
+        found.ok_or_else(|| {
+            let why = match self {
+                DofNames::Map(_) => "not in its DoF map: constrained, or not in the files".into(),
+                DofNames::PerNode { dofs_per_node, .. } => format!(
+                    "{} nodes numbered from 0, {dofs_per_node} DoFs each ({})",
+                    n / dofs_per_node,
+                    Direction::ALL[..*dofs_per_node]
+                        .iter()
+                        .map(|d| d.label())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            };
+            Error::InvalidSetting(format!("{what}: the model has no DoF {dof} ({why})"))
+        })
+    }
+
+    /// The indices of a comma-separated list of DoFs ([`Self::index`]).
+    ///
+    /// # Errors
+    /// As [`Self::index`], for the first bad token.
+    pub fn indices(&self, list: &str, what: &str) -> Result<Vec<usize>> {
+        list.split(',').map(|t| self.index(t, what)).collect()
+    }
+
+    fn resolve(&self, refs: &[DofRef], what: &str) -> Result<Vec<usize>> {
+        refs.iter()
+            .map(|r| match r {
+                DofRef::Index(i) => self.index(&i.to_string(), what),
+                DofRef::Name(s) => self.index(s, what),
+            })
+            .collect()
+    }
 }
 
 /// `[rayleigh]`.
@@ -89,10 +229,10 @@ pub struct Rayleigh {
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SceneToml {
-    /// Input DoFs (0-based).
-    pub inputs: Vec<usize>,
-    /// Output DoFs (0-based).
-    pub outputs: Vec<usize>,
+    /// Input DoFs (0-based indices or `NODE:DIR`).
+    pub inputs: Vec<DofRef>,
+    /// Output DoFs (0-based indices or `NODE:DIR`).
+    pub outputs: Vec<DofRef>,
     /// Band [f_lo, f_hi] in Hz.
     pub band_hz: [f64; 2],
 }
@@ -134,11 +274,14 @@ pub struct Source<'a> {
 /// # Errors
 /// [`Error::Io`]; [`Error::Parse`] with the line of a row that is not `node,dir`.
 pub fn read_dof_map(dir: &Path) -> Result<Option<Vec<Dof>>> {
-    let Some(src) = read_manifest(dir)?.source else {
-        return Ok(None);
-    };
-    let path = dir.join(&src.dof_map);
-    let text = super::read_regular_text(&path)?;
+    read_manifest(dir)?
+        .source
+        .map(|src| read_dofs(&dir.join(&src.dof_map)))
+        .transpose()
+}
+
+fn read_dofs(path: &Path) -> Result<Vec<Dof>> {
+    let text = super::read_regular_text(path)?;
     text.lines()
         .enumerate()
         .skip(1)
@@ -146,10 +289,9 @@ pub fn read_dof_map(dir: &Path) -> Result<Option<Vec<Dof>>> {
         .map(|(i, l)| {
             l.replacen(',', ":", 1)
                 .parse::<Dof>()
-                .map_err(|e| Error::parse(&path, i + 1, e.to_string()))
+                .map_err(|e| Error::parse(path, i + 1, e.to_string()))
         })
-        .collect::<Result<Vec<_>>>()
-        .map(Some)
+        .collect()
 }
 
 fn write_dofs(path: &Path, dofs: &[Dof]) -> Result<()> {
@@ -189,14 +331,49 @@ pub(crate) fn toml_error(path: &Path, text: &str, e: &toml::de::Error) -> Error 
 }
 
 /// Reads and validates a model directory: the model, its default scene (`[scene]`) and what
-/// the validation measured.
+/// the validation measured ([`load`] without the DoF names).
 ///
 /// # Errors
-/// Any file error names the file (and line); validation errors name the field.
+/// As [`load`].
 pub fn read(dir: &Path) -> Result<(Model, Scene, ValidationReport)> {
+    let l = load(dir)?;
+    Ok((l.model, l.scene, l.report))
+}
+
+/// A model directory as [`load`] returns it.
+#[derive(Clone, Debug)]
+pub struct Loaded {
+    /// The validated model.
+    pub model: Model,
+    /// Its default scene (`[scene]`).
+    pub scene: Scene,
+    /// What the validation measured.
+    pub report: ValidationReport,
+    /// How its DoFs are named (`NODE:DIR`).
+    pub names: DofNames,
+    /// What the importer noticed, for an `[import]` model (lumped mass, ...).
+    pub notes: Vec<String>,
+}
+
+/// Reads and validates a model directory: from `mass`/`stiffness` Matrix Market files, or from
+/// the FE code's own files named by `[import]`.
+///
+/// # Errors
+/// Any file error names the file (and line); validation errors name `model.toml` and the
+/// field.
+pub fn load(dir: &Path) -> Result<Loaded> {
     let man = read_manifest(dir)?;
-    let mass = matrix_market::read_sparse(&dir.join(&man.mass))?;
-    let stiffness = matrix_market::read_sparse(&dir.join(&man.stiffness))?;
+    let manifest = dir.join(MANIFEST);
+    let named = |e| match e {
+        Error::InvalidModel(m) => Error::InvalidModel(format!("{}: {m}", manifest.display())),
+        Error::InvalidSetting(m) => Error::InvalidSetting(format!("{}: {m}", manifest.display())),
+        Error::DofOutOfRange { what, dof, n } => Error::DofOutOfRange {
+            what: format!("{}: {what}", manifest.display()),
+            dof,
+            n,
+        },
+        e => e,
+    };
     let damping = match (&man.damping, &man.rayleigh) {
         (Some(d), _) => Damping::Matrix(matrix_market::read_sparse(&dir.join(d))?),
         (None, Some(r)) => Damping::Rayleigh {
@@ -210,29 +387,101 @@ pub fn read(dir: &Path) -> Result<(Model, Scene, ValidationReport)> {
         .as_ref()
         .map(|f| read_nodes(&dir.join(f)))
         .transpose()?;
+    let (model, report, names, notes) = match (&man.import, &man.mass, &man.stiffness) {
+        (None, Some(m), Some(k)) => {
+            let mass = matrix_market::read_sparse(&dir.join(m))?;
+            let stiffness = matrix_market::read_sparse(&dir.join(k))?;
+            let dofs_per_node = man.dofs_per_node.unwrap_or(3);
+            let (model, report) =
+                Model::new(man.name, mass, stiffness, damping, nodes, dofs_per_node)
+                    .map_err(named)?;
+            let names = match &man.source {
+                Some(src) => {
+                    let path = dir.join(&src.dof_map);
+                    let dofs = read_dofs(&path)?;
+                    if dofs.len() != model.n() {
+                        return Err(Error::parse(
+                            &path,
+                            0,
+                            format!("{} DoFs named for a model of N = {}", dofs.len(), model.n()),
+                        ));
+                    }
+                    DofNames::from_map(&dofs)
+                }
+                None => DofNames::PerNode {
+                    n: model.n(),
+                    dofs_per_node,
+                },
+            };
+            (model, report, names, Vec::new())
+        }
+        (Some(imp), None, None) => {
+            let files: Vec<_> = imp.files.iter().map(|f| in_dir(dir, f)).collect();
+            let mut im = import::read(&files)?;
+            if im.format.name() != imp.format {
+                return Err(named(Error::InvalidSetting(format!(
+                    "[import] format = \"{}\", but the files are {} ({}): correct the format",
+                    imp.format,
+                    im.format.name(),
+                    im.producer
+                ))));
+            }
+            if let Some(s) = imp.scale_stiffness {
+                im.scale_stiffness(s).map_err(named)?;
+            }
+            im.convert_length_unit(imp.length_unit.as_deref().unwrap_or("m"))
+                .map_err(named)?;
+            if let Some(d) = man.dofs_per_node.filter(|&d| d != im.dofs_per_node) {
+                return Err(named(Error::InvalidSetting(format!(
+                    "dofs_per_node = {d}, but the [import] files carry {} per node: remove the key",
+                    im.dofs_per_node
+                ))));
+            }
+            let names = DofNames::from_map(&im.dofs);
+            let (model, report) = Model::new(
+                man.name,
+                im.mass,
+                im.stiffness,
+                damping,
+                nodes.or(im.nodes),
+                im.dofs_per_node,
+            )
+            .map_err(named)?;
+            (model, report, names, im.notes)
+        }
+        _ => {
+            return Err(named(Error::InvalidSetting(
+                "give either `mass` and `stiffness` (Matrix Market files) or an [import] table \
+                 naming the FE code's files, not both and not one of them alone"
+                    .into(),
+            )))
+        }
+    };
     let scene = Scene {
-        inputs: man.scene.inputs,
-        outputs: man.scene.outputs,
+        inputs: names
+            .resolve(&man.scene.inputs, "[scene] inputs")
+            .map_err(named)?,
+        outputs: names
+            .resolve(&man.scene.outputs, "[scene] outputs")
+            .map_err(named)?,
         band_hz: man.scene.band_hz,
     };
-    let named = |e| match e {
-        Error::InvalidModel(m) => {
-            Error::InvalidModel(format!("{}: {m}", dir.join(MANIFEST).display()))
-        }
-        Error::InvalidSetting(m) => {
-            Error::InvalidSetting(format!("{}: {m}", dir.join(MANIFEST).display()))
-        }
-        Error::DofOutOfRange { what, dof, n } => Error::DofOutOfRange {
-            what: format!("{}: {what}", dir.join(MANIFEST).display()),
-            dof,
-            n,
-        },
-        e => e,
-    };
-    let (model, report) =
-        Model::new(man.name, mass, stiffness, damping, nodes, man.dofs_per_node).map_err(named)?;
     scene.validate(model.n(), "scene").map_err(named)?;
-    Ok((model, scene, report))
+    Ok(Loaded {
+        model,
+        scene,
+        report,
+        names,
+        notes,
+    })
+}
+
+/// A file named in `[import] files`, relative to `dir`, keeping a `K=`/`M=` prefix.
+fn in_dir(dir: &Path, file: &str) -> std::path::PathBuf {
+    match file.split_once('=') {
+        Some((role @ ("K" | "M"), rest)) => format!("{role}={}", dir.join(rest).display()).into(),
+        _ => dir.join(file),
+    }
 }
 
 /// Reads `nodes.csv`: header `x,y,z`, then one node per line.
@@ -326,15 +575,23 @@ pub fn write_with_source(
         }
         let man = Manifest {
             name: model.name.clone(),
-            mass: "M.mtx".into(),
-            stiffness: "K.mtx".into(),
+            mass: Some("M.mtx".into()),
+            stiffness: Some("K.mtx".into()),
             damping,
             nodes: model.nodes.as_ref().map(|_| "nodes.csv".into()),
-            dofs_per_node: model.dofs_per_node,
+            dofs_per_node: Some(model.dofs_per_node),
             rayleigh,
             scene: SceneToml {
-                inputs: scene.inputs.clone(),
-                outputs: scene.outputs.clone(),
+                inputs: scene
+                    .inputs
+                    .iter()
+                    .map(|&i| DofRef::Index(i as u64))
+                    .collect(),
+                outputs: scene
+                    .outputs
+                    .iter()
+                    .map(|&i| DofRef::Index(i as u64))
+                    .collect(),
                 band_hz: scene.band_hz,
             },
             source: source
@@ -353,6 +610,7 @@ pub fn write_with_source(
                     })
                 })
                 .transpose()?,
+            import: None,
         };
         let text = toml::to_string(&man)
             .map_err(|e| Error::InvalidModel(format!("cannot serialize manifest: {e}")))?;

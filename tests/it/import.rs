@@ -6,6 +6,7 @@ use proptest::prelude::*;
 use sparsemor::body::Body;
 use sparsemor::eigen::{eigenpairs, EigenOptions, Request};
 use sparsemor::io::import::{self, Direction, Dof, Format, Imported};
+use sparsemor::io::model_dir::{self, DofNames};
 use sparsemor::io::{abaqus, ansys, matrix_market};
 use sparsemor::sparse::Csc;
 use sparsemor::Error;
@@ -530,10 +531,9 @@ fn abaqus_blocks_reduce_end_to_end() {
             return;
         };
         let imp = import::read(&files).unwrap();
-        let io: Vec<usize> = ["1:x", "1:y", "1:z"]
-            .iter()
-            .map(|s| imp.index_of(s.parse().unwrap()).unwrap())
-            .collect();
+        let io = DofNames::from_map(&imp.dofs)
+            .indices("1:x,1:y,1:z", "outputs")
+            .unwrap();
         let scene = Scene {
             inputs: io.clone(),
             outputs: io.clone(),
@@ -643,4 +643,136 @@ fn cli_import_and_modes_on_both_rotors() {
             fb[k]
         );
     }
+}
+
+// ---------------------------------------------------------------------------------------------
+// model.toml pointing at the FE code's files ([import]) and DoFs named NODE:DIR
+
+/// A model directory whose `model.toml` names the ANSYS `.full` file loads the same K and M
+/// as the converted directory that `sparsemor import` writes, and its `[scene]` may name DoFs
+/// as NODE:DIR; a wrong `format`, both matrix sources, or an unknown DoF is an error naming
+/// `model.toml` and the fix.
+#[test]
+fn a_model_toml_may_point_at_the_original_files() {
+    let Some(dir) = data("ansys_example_full") else {
+        return;
+    };
+    let full = dir.join("file.full");
+    let imp = import::read(std::slice::from_ref(&full)).unwrap();
+    let first = imp.dofs[0];
+    let second = imp.dofs[1];
+    let (converted, _) = imp.clone().into_model("converted".into()).unwrap();
+    let tmp = scratch();
+    let write = |toml: &str| {
+        std::fs::write(tmp.path().join("model.toml"), toml).unwrap();
+        model_dir::load(tmp.path())
+    };
+    let scene = format!(
+        "[scene]\ninputs = [\"{first}\", 1]\noutputs = [\"{second}\"]\nband_hz = [0.0, 100.0]\n"
+    );
+    let import = format!(
+        "[import]\nformat = \"ansys-full\"\nfiles = [{:?}]\n",
+        full.display().to_string()
+    );
+    let loaded = write(&format!("name = \"direct\"\n{import}{scene}")).unwrap();
+    assert_eq!(rel_diff(&loaded.model.stiffness, &converted.stiffness), 0.0);
+    assert_eq!(rel_diff(&loaded.model.mass, &converted.mass), 0.0);
+    assert_eq!(loaded.scene.inputs, vec![0, 1]);
+    assert_eq!(loaded.scene.outputs, vec![1]);
+    assert_eq!(loaded.model.dofs_per_node, imp.dofs_per_node);
+    // K scaled on load, as `import --scale-stiffness` does
+    let scaled = write(&format!(
+        "name = \"direct\"\n{}scale_stiffness = 0.5\n{scene}",
+        import
+    ))
+    .unwrap();
+    let half = scaled.model.stiffness.val()[0] / converted.stiffness.val()[0];
+    assert_eq!(half, 0.5);
+
+    let cases: [(String, &[&str]); 5] = [
+        (
+            format!(
+                "name = \"x\"\n{}{scene}",
+                import.replace("ansys-full", "abaqus-coordinate")
+            ),
+            &["model.toml", "format = \"abaqus-coordinate\"", "ansys-full"],
+        ),
+        (
+            format!("name = \"x\"\nmass = \"M.mtx\"\nstiffness = \"K.mtx\"\n{import}{scene}"),
+            &["model.toml", "either `mass` and `stiffness`", "[import]"],
+        ),
+        (
+            format!(
+                "name = \"x\"\n{import}{}",
+                scene.replace(&second.to_string(), "999999:z")
+            ),
+            &["model.toml", "[scene] outputs", "999999:z", "DoF map"],
+        ),
+        (
+            format!(
+                "name = \"x\"\n{import}{}",
+                scene.replace(&second.to_string(), "7:w")
+            ),
+            &["[scene] outputs", "direction 'w'"],
+        ),
+        (
+            format!("name = \"x\"\n{}length_unit = \"inch\"\n{scene}", import),
+            &["model.toml", "length unit 'inch'"],
+        ),
+    ];
+    for (toml, needles) in cases {
+        let msg = write(&toml).unwrap_err().to_string();
+        for n in needles {
+            assert!(msg.contains(n), "'{msg}' lacks '{n}'");
+        }
+    }
+}
+
+/// A model without a DoF map names node i's DoFs dofs_per_node·i + k; names and indices
+/// mix; a direction the model lacks, a node past the end and an index ≥ N are errors.
+#[test]
+fn dof_names_without_a_map_count_nodes_from_zero() {
+    let names = DofNames::PerNode {
+        n: 12,
+        dofs_per_node: 3,
+    };
+    assert_eq!(
+        names.indices("0:x, 3:z,1:y,5", "--interface").unwrap(),
+        [0, 11, 4, 5]
+    );
+    for (bad, needle) in [
+        (
+            "1:rx",
+            "no DoF 1:rx (4 nodes numbered from 0, 3 DoFs each (x, y, z))",
+        ),
+        ("4:x", "no DoF 4:x"),
+        ("12", "12"),
+        ("x", "expected NODE:DIR"),
+    ] {
+        let msg = names.index(bad, "--interface").unwrap_err().to_string();
+        assert!(msg.contains(needle) && msg.contains("--interface"), "{msg}");
+    }
+    let six = DofNames::PerNode {
+        n: 12,
+        dofs_per_node: 6,
+    };
+    assert_eq!(six.index("1:rz", "x").unwrap(), 11);
+}
+
+/// `[import] files` naming a device is refused before a byte is read (the import's sniffing
+/// would otherwise block on a pipe or read /dev/zero forever).
+#[test]
+fn an_import_naming_a_device_is_refused() {
+    let tmp = scratch();
+    std::fs::write(
+        tmp.path().join("model.toml"),
+        "name = \"x\"\n[import]\nformat = \"ansys-full\"\nfiles = [\"/dev/zero\"]\n\
+         [scene]\ninputs = [0]\noutputs = [0]\nband_hz = [0.0, 1.0]\n",
+    )
+    .unwrap();
+    let msg = model_dir::load(tmp.path()).unwrap_err().to_string();
+    assert!(
+        msg.contains("/dev/zero") && msg.contains("not a regular file"),
+        "{msg}"
+    );
 }
