@@ -644,3 +644,5 @@ fn cli_import_and_modes_on_both_rotors() {
         );
     }
 }
+
+mod op4;
