@@ -155,13 +155,13 @@ fn size(
     name: &str,
 ) -> Result<(usize, usize, bool)> {
     let limit = i64::from(i32::MAX);
-    if ncols < 1 || ncols > limit || nrows == 0 || nrows.abs() > limit {
+    if ncols < 1 || ncols > limit || nrows == 0 || nrows.unsigned_abs() > limit as u64 {
         return Err(err(format!(
             "matrix {name}: header declares {} rows and {ncols} columns; need 1 to {limit} each",
-            nrows.abs()
+            nrows.unsigned_abs()
         )));
     }
-    let bigmat = nrows < 0 || nrows > 65535;
+    let bigmat = !(0..=65535).contains(&nrows);
     Ok((nrows.unsigned_abs() as usize, ncols as usize, bigmat))
 }
 
@@ -678,7 +678,8 @@ fn ascii_line(path: &Path, line: usize, bytes: &[u8], c: &mut Current) -> Result
                 }
                 c.row = Some(first as usize - 1);
             }
-            _ => return Err(err(format!(
+            _ => {
+                return Err(err(format!(
                 "unexpected line of {} integer(s) '{}': expected a column record `ICOL IROW NW`{}",
                 ints.len(),
                 show(bytes),
@@ -687,7 +688,8 @@ fn ascii_line(path: &Path, line: usize, bytes: &[u8], c: &mut Current) -> Result
                 } else {
                     " or a string header IS"
                 }
-            ))),
+            )))
+            }
         }
         return Ok(());
     }
