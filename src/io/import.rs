@@ -6,22 +6,28 @@
 //! | ANSYS binary full file | `Jobname.full` (+ optional node table) | [`crate::io::ansys::read_full`] |
 //! | ANSYS APDL Math export | K, M (`*EXPORT,…,MMF`), the DoF mapping vector, a node table | [`crate::io::ansys::read_apdl_math`] |
 //! | Abaqus `*MATRIX OUTPUT` | `*_STIF*.mtx`, `*_MASS*.mtx` (+ the `.inp` deck) | [`crate::io::abaqus::read`] |
+//! | Nastran OUTPUT4 (OP4), ASCII or binary | one or more `.op4` files holding `KAA`/`MAA` (or `KGG`, `KLL`, `KHH` / `MGG`, `MLL`, `MHH`) (+ a DoF map) | [`crate::io::nastran`] |
 //!
 //! # How a file is recognized
 //! From its first bytes, never from its name alone:
 //! * the 32-bit word 100 at byte 0, in either byte order: an ANSYS binary file (its standard
 //!   header is a 100-word record; ANSYS Programmer's Reference, "Standard ANSYS file header");
+//! * the 32-bit word 24 at bytes 0 and 28, in either byte order (a 24-byte Fortran record: the
+//!   OUTPUT4 matrix header), or a first line `NCOL NROW NF NTYPE` in 4 fields of 8, an 8-column
+//!   name and a Fortran format such as `1P,3E23.16`: a Nastran OP4 file;
 //! * `%%MatrixMarket`: a Matrix Market file — `array integer` is the DoF mapping vector,
 //!   `coordinate` a matrix;
 //! * a first non-blank line starting with `*` (`*Heading`, `*Node`): an Abaqus input deck;
 //! * a first line of 3 numbers `row col value` or 5 comma-separated `node, dof, node, dof,
 //!   value`: an Abaqus matrix;
+//! * a first data row of two integers `node component`, the component 1–6: a DoF map for OP4
+//!   files ([`crate::io::nastran::read_dof_map`]);
 //! * anything else with a first data row `node x y z`: a node coordinate table
 //!   ([`read_node_table`]).
 //!
 //! Which matrix is the stiffness and which the mass comes from the file name (`STIF`/`stiff`/`K`
 //! vs `MASS`/`mass`/`M`, case-insensitive, as ANSYS's and Abaqus's own names have it) or from
-//! an explicit `K=path` / `M=path` prefix.
+//! an explicit `K=path` / `M=path` prefix; in OP4 files first from the matrix names.
 //!
 //! # What comes back
 //! [`Imported`]: full-storage M and K in the order of the DoF map, the DoF map itself (node
@@ -30,7 +36,7 @@
 //! constrained DoFs that were removed. [`Imported::into_model`] validates it as a
 //! [`Model`].
 
-use crate::io::{abaqus, ansys};
+use crate::io::{abaqus, ansys, nastran};
 use crate::model::{Damping, Model, ValidationReport};
 use crate::scene::Scene;
 use crate::sparse::Csc;
@@ -149,6 +155,8 @@ pub enum Format {
     AbaqusCoordinate,
     /// Abaqus `*MATRIX OUTPUT` default format (`node, dof, node, dof, value`).
     AbaqusNodeDof,
+    /// Nastran OUTPUT4 matrices (ASCII or binary), see [`crate::io::nastran`].
+    NastranOp4,
 }
 
 impl Format {
@@ -159,6 +167,7 @@ impl Format {
             Format::AnsysApdlMath => "ansys-apdl-math",
             Format::AbaqusCoordinate => "abaqus-coordinate",
             Format::AbaqusNodeDof => "abaqus-node-dof",
+            Format::NastranOp4 => "nastran-op4",
         }
     }
 }
@@ -285,12 +294,14 @@ enum Kind {
     MatrixMarketMapping,
     AbaqusMatrix,
     AbaqusDeck,
+    NastranOp4,
+    DofMap,
     NodeTable,
 }
 
 /// The role a matrix plays.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Role {
+pub(crate) enum Role {
     Stiffness,
     Mass,
 }
@@ -341,6 +352,18 @@ pub fn read(paths: &[PathBuf]) -> Result<Imported> {
         let (k, m) = stiffness_and_mass(&abq)?;
         return abaqus::read(&k, &m, deck.as_deref());
     }
+    let op4 = of(Kind::NastranOp4);
+    if !op4.is_empty() {
+        only(
+            &files,
+            &[Kind::NastranOp4, Kind::DofMap],
+            "Nastran OP4 files",
+        )?;
+        let map = one(Kind::DofMap, "a DoF map")?;
+        let sources: Vec<(Option<Role>, PathBuf)> =
+            op4.iter().map(|f| (f.1, f.2.clone())).collect();
+        return nastran::read_model(&sources, map.as_deref());
+    }
     let mm = of(Kind::MatrixMarketMatrix);
     if !mm.is_empty() {
         only(
@@ -364,7 +387,7 @@ pub fn read(paths: &[PathBuf]) -> Result<Imported> {
     }
     Err(Error::InvalidSetting(format!(
         "no stiffness or mass matrix among {}: give an ANSYS .full file, an APDL Math export \
-         (K, M, mapping vector, node table) or Abaqus *MATRIX OUTPUT files",
+         (K, M, mapping vector, node table), Abaqus *MATRIX OUTPUT files or Nastran OP4 files",
         list(paths)
     )))
 }
@@ -403,7 +426,7 @@ fn explicit_role(p: &Path) -> (Option<Role>, PathBuf) {
 }
 
 /// The role of a matrix file from its name: `STIF`/`stiff`/`K` or `MASS`/`M`.
-fn role_from_name(path: &Path) -> Option<Role> {
+pub(crate) fn role_from_name(path: &Path) -> Option<Role> {
     let stem = path.file_stem()?.to_string_lossy().to_ascii_lowercase();
     if stem.contains("stif") || stem == "k" {
         Some(Role::Stiffness)
@@ -457,6 +480,9 @@ fn sniff(path: &Path) -> Result<Kind> {
             return Ok(Kind::AnsysBinary);
         }
     }
+    if nastran::looks_like_op4(&head) {
+        return Ok(Kind::NastranOp4);
+    }
     if head.starts_with(b"%%MatrixMarket") {
         let banner = String::from_utf8_lossy(head.split(|&b| b == b'\n').next().unwrap_or(&[]))
             .to_ascii_lowercase();
@@ -486,6 +512,9 @@ fn sniff(path: &Path) -> Result<Kind> {
     if by_space == Some(3) || (first.contains(',') && by_comma == Some(5)) {
         return Ok(Kind::AbaqusMatrix);
     }
+    if nastran::looks_like_dof_map(&head) {
+        return Ok(Kind::DofMap);
+    }
     if !first.is_empty() {
         return Ok(Kind::NodeTable);
     }
@@ -493,7 +522,7 @@ fn sniff(path: &Path) -> Result<Kind> {
         path,
         1,
         "cannot tell the format: expected an ANSYS .full file, a Matrix Market file, an Abaqus \
-         matrix or input deck, or a node coordinate table",
+         matrix or input deck, a Nastran OP4 file, a DoF map or a node coordinate table",
     ))
 }
 

@@ -1,5 +1,5 @@
 //! File formats (docs/design.md §4): Matrix Market, the model directory, the ROM directory, the
-//! importers of FE codes' files ([`import`]: ANSYS, Abaqus); and the atomic writes all
+//! importers of FE codes' files ([`import`]: ANSYS, Abaqus, Nastran OP4); and the atomic writes all
 //! writers (and the CLI's outputs) go through.
 
 pub mod abaqus;
@@ -9,6 +9,7 @@ pub mod exudyn;
 pub mod import;
 pub mod matrix_market;
 pub mod model_dir;
+pub mod nastran;
 pub mod npz;
 pub mod rom_dir;
 

@@ -776,3 +776,5 @@ fn an_import_naming_a_device_is_refused() {
         "{msg}"
     );
 }
+
+mod op4;

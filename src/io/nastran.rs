@@ -1,0 +1,1152 @@
+//! Nastran OUTPUT4 (OP4) matrix files ([`read_op4`]) and the model import built on them.
+//!
+//! # The format
+//! Written by the DMAP module `OUTPUT4` of MSC and NX Nastran (MSC Nastran DMAP Programmer's
+//! Guide / NX Nastran DMAP Programmer's Guide, "OUTPUT4"); the layout below was checked
+//! against the public OP4 reader and writer of pyNastran (`pyNastran/op4/op4.py`, version
+//! 1.4.1), whose files the tests read back. A file holds one or more matrices, one after the
+//! other. Each matrix is
+//!
+//! 1. a **header**: `NCOL NROW NF NTYPE NAME` — columns, rows (negative: the BIGMAT layout,
+//!    also used whenever NROW > 65535), the form `NF` (1 square, 2 rectangular/general,
+//!    6 symmetric, ...), the type `NTYPE` (1 real single, 2 real double, 3 complex single,
+//!    4 complex double) and an 8-character name;
+//! 2. **column records** `ICOL IROW NW` followed by data. `ICOL` is the 1-based column. With
+//!    `IROW > 0` the record is *dense*: `NW` words holding consecutive values from row `IROW`
+//!    on (a real double is 2 words, a real single 1). With `IROW = 0` the record is *sparse*
+//!    ("string" format): `NW` words of strings, each a string header followed by its values.
+//!    A string header is one word `IS = IROW + 65536·(L+1)` (L = words of values), or, in
+//!    the BIGMAT layout, two words `L+1, IROW`. Null columns are not written;
+//! 3. an **end record** with `ICOL = NCOL+1` (`IROW = 1`, one dummy value).
+//!
+//! **Binary** files are Fortran unformatted sequential files: every header and column record
+//! is framed by a 4-byte length marker before and after it, in the byte order of the machine
+//! that wrote it. The header record is 24 bytes (4 integers and 8 characters); its first
+//! marker, 24, tells the byte order. Files with 8-byte integers (a 48-byte header) are
+//! refused.
+//!
+//! **ASCII** (formatted) files write the header as `4I8, 2A4` followed by the Fortran format
+//! of the values (`1P,3E23.16`: 3 values a line, 23 characters each; `1P,5E16.9` for single
+//! precision), then each column record as a line of 3 integers, string headers as a line of
+//! 1 (or, BIGMAT, 2) integers, and the values in fixed-width fields. The ASCII reader takes
+//! the number of values from the value lines themselves and checks every value against the
+//! matrix size; for dense records it also checks `NW` (pyNastran writes the value count
+//! instead of the word count there, which is accepted).
+//!
+//! Only real matrices (types 1 and 2) are read; complex ones are refused naming the matrix
+//! and its type. Exact zeros are not stored.
+//!
+//! # Streaming and bounds
+//! Binary files are read one record at a time (a record is one column at most), ASCII files
+//! one line at a time; only the nonzero entries are kept. Every record length is checked
+//! against the bytes left in the file before anything is allocated for it, and every row and
+//! column index against the header's size, so a header declaring a huge matrix allocates
+//! nothing by itself. Errors name the file and the line (ASCII) or the byte offset of the
+//! record (binary).
+//!
+//! # The import
+//! [`read_model`] (reached through [`crate::io::import::read`]) finds the stiffness and the
+//! mass among the matrices of one or more OP4 files: by the matrix names `KAA`, `KGG`,
+//! `KLL`, `KHH` (stiffness) and `MAA`, `MGG`, `MLL`, `MHH` (mass), or, for a file holding one
+//! matrix, by the file's role (`K=file`, `M=file`, or `stif`/`mass` in its name). OP4 files
+//! carry no DoF map: a DoF map file ([`read_dof_map`]: one `node component` row per DoF,
+//! component 1–6) gives it; without one, N must be a multiple of 6 and the DoFs are assumed
+//! to be nodes 1, 2, ... with components 1–6 each (said in the notes).
+
+use crate::io::import::{
+    for_each_line, head, parse_u64, role_from_name, show, tokens, uniform_nodes, Direction, Dof,
+    Format, Imported, Role,
+};
+use crate::sparse::Triplets;
+use crate::{Error, Result};
+use std::fmt;
+use std::fs::File;
+use std::io::{BufReader, Read};
+use std::path::{Path, PathBuf};
+
+/// Where a matrix starts in its file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Location {
+    /// 1-based line of the header (ASCII file).
+    Line(usize),
+    /// Byte offset of the header record (binary file).
+    Byte(u64),
+}
+
+impl fmt::Display for Location {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Location::Line(l) => write!(f, "line {l}"),
+            Location::Byte(b) => write!(f, "byte {b}"),
+        }
+    }
+}
+
+/// How an OP4 file is encoded.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Encoding {
+    /// Formatted text.
+    Ascii,
+    /// Fortran unformatted records, little-endian.
+    BinaryLittleEndian,
+    /// Fortran unformatted records, big-endian.
+    BinaryBigEndian,
+}
+
+/// One real matrix of an OP4 file.
+#[derive(Clone, Debug)]
+pub struct Op4Matrix {
+    /// The name, trimmed (`KAA`).
+    pub name: String,
+    /// Rows (the absolute value of the header's NROW).
+    pub rows: usize,
+    /// Columns.
+    pub cols: usize,
+    /// Form: 1 square, 2 rectangular, 6 symmetric, ... as the header says.
+    pub form: i32,
+    /// Type: 1 real single, 2 real double precision.
+    pub precision: i32,
+    /// True when the header announced the BIGMAT sparse layout.
+    pub bigmat: bool,
+    /// The nonzero entries as stored (0-based row, column); a symmetric matrix may hold one
+    /// triangle or both.
+    pub entries: Triplets,
+    /// Where the header is.
+    pub at: Location,
+    /// The file's encoding.
+    pub encoding: Encoding,
+}
+
+/// The name of an OP4 matrix type.
+fn type_name(t: i32) -> &'static str {
+    match t {
+        1 => "real single precision",
+        2 => "real double precision",
+        3 => "complex single precision",
+        4 => "complex double precision",
+        _ => "unknown",
+    }
+}
+
+/// Words per value of a real type; complex and unknown types are refused.
+fn words_per_value(path: &Path, at: Location, name: &str, ty: i32) -> Result<usize> {
+    let err = |msg: String| match at {
+        Location::Line(l) => Error::parse(path, l, msg),
+        Location::Byte(b) => Error::parse(path, 0, format!("byte {b}: {msg}")),
+    };
+    match ty {
+        1 => Ok(1),
+        2 => Ok(2),
+        3 | 4 => Err(err(format!(
+            "matrix {name} is complex (type {ty}, {}): only real matrices (types 1 and 2) can be imported",
+            type_name(ty)
+        ))),
+        _ => Err(err(format!(
+            "matrix {name} has type {ty}; OP4 types are 1-4 (corrupt header?)"
+        ))),
+    }
+}
+
+/// Rows and columns from the header (NROW < 0: BIGMAT), bounded by i32.
+fn size(
+    ncols: i64,
+    nrows: i64,
+    err: &dyn Fn(String) -> Error,
+    name: &str,
+) -> Result<(usize, usize, bool)> {
+    let limit = i64::from(i32::MAX);
+    if ncols < 1 || ncols > limit || nrows == 0 || nrows.unsigned_abs() > limit as u64 {
+        return Err(err(format!(
+            "matrix {name}: header declares {} rows and {ncols} columns; need 1 to {limit} each",
+            nrows.unsigned_abs()
+        )));
+    }
+    let bigmat = !(0..=65535).contains(&nrows);
+    Ok((nrows.unsigned_abs() as usize, ncols as usize, bigmat))
+}
+
+/// Reads every matrix of an OP4 file, ASCII or binary (either byte order); see the
+/// [module documentation](self).
+///
+/// # Errors
+/// [`Error::Io`]; [`Error::Parse`] naming the file and the line or byte offset: truncated
+/// records, record-length markers that disagree, a record longer than the file, indices
+/// outside the declared size, complex or unknown types, non-finite values.
+pub fn read_op4(path: &Path) -> Result<Vec<Op4Matrix>> {
+    read_op4_keeping(path, &|_| true)
+}
+
+/// [`read_op4`], keeping the entries only of the matrices `keep` accepts by name (the others
+/// are parsed and checked but come back without entries).
+pub fn read_op4_keeping(path: &Path, keep: &dyn Fn(&str) -> bool) -> Result<Vec<Op4Matrix>> {
+    let h = head(path)?;
+    if h.len() >= 4 {
+        let w = [h[0], h[1], h[2], h[3]];
+        for (v, big) in [
+            (u32::from_le_bytes(w), false),
+            (u32::from_be_bytes(w), true),
+        ] {
+            if v == 24 {
+                return read_binary(path, big, keep);
+            }
+            if v == 48 {
+                return Err(Error::parse(
+                    path,
+                    0,
+                    "byte 0: a 48-byte header record: an OP4 file with 8-byte integers, which is not supported; write it with 4-byte integers",
+                ));
+            }
+        }
+    }
+    read_ascii(path, keep)
+}
+
+/// True when `h` (a file's first bytes) looks like an OP4 file: a binary header record (24 or
+/// 48 bytes, framed by equal markers) or an ASCII header line.
+pub(crate) fn looks_like_op4(h: &[u8]) -> bool {
+    if h.len() >= 32 {
+        let w = |i: usize| [h[i], h[i + 1], h[i + 2], h[i + 3]];
+        for f in [u32::from_le_bytes, u32::from_be_bytes] {
+            if f(w(0)) == 24 && f(w(28)) == 24 {
+                return true;
+            }
+            if f(w(0)) == 48 && h.len() >= 56 && f(w(52)) == 48 {
+                return true;
+            }
+        }
+    }
+    let line = h.split(|&b| b == b'\n').next().unwrap_or(&[]);
+    ascii_header(line).is_some()
+}
+
+/// An ASCII header line: `NCOL NROW NF NTYPE` in 4 fields of 8, the name in 8 columns, the
+/// values' Fortran format (`1P,3E23.16`). Returns the numbers, the name and (values a line,
+/// field width).
+fn ascii_header(line: &[u8]) -> Option<([i64; 4], String, (usize, usize))> {
+    let line = line.strip_suffix(b"\r").unwrap_or(line);
+    if line.len() < 41 || !line.is_ascii() {
+        return None;
+    }
+    let text = std::str::from_utf8(line).ok()?;
+    let mut nums = [0i64; 4];
+    let fixed = nums.iter_mut().enumerate().all(|(k, n)| {
+        // Fortran I8: right-justified.
+        text.get(8 * k..8 * k + 8)
+            .filter(|f| f.ends_with(|c: char| c.is_ascii_digit()))
+            .and_then(|f| f.trim().parse().ok())
+            .map(|v| *n = v)
+            .is_some()
+    });
+    let (name, fmt) = if fixed {
+        (text.get(32..40)?.trim(), text.get(40..)?)
+    } else {
+        // Numbers wider than their 8 columns: read the fields between blanks.
+        let t: Vec<&str> = text.split_whitespace().collect();
+        if t.len() != 6 {
+            return None;
+        }
+        for (n, f) in nums.iter_mut().zip(&t) {
+            *n = f.parse().ok()?;
+        }
+        (t[4], t[5])
+    };
+    let name = name.to_string();
+    if name.is_empty() {
+        return None;
+    }
+    let fmt = fmt.trim().to_ascii_uppercase();
+    let spec = fmt.rsplit(',').next()?;
+    let (count, rest) = spec.split_once(['E', 'D'])?;
+    let width = rest.split('.').next()?;
+    let count: usize = if count.is_empty() {
+        1
+    } else {
+        count.parse().ok()?
+    };
+    let width: usize = width.parse().ok()?;
+    (count >= 1 && (2..=64).contains(&width)).then_some((nums, name, (count, width)))
+}
+
+/// Sequential reader of Fortran unformatted records.
+struct Records {
+    file: BufReader<File>,
+    path: PathBuf,
+    len: u64,
+    pos: u64,
+    big: bool,
+    buf: Vec<u8>,
+}
+
+impl Records {
+    fn error(&self, at: u64, msg: impl fmt::Display) -> Error {
+        Error::parse(&self.path, 0, format!("byte {at}: {msg}"))
+    }
+
+    fn word(&self, b: &[u8]) -> u32 {
+        let w = [b[0], b[1], b[2], b[3]];
+        if self.big {
+            u32::from_be_bytes(w)
+        } else {
+            u32::from_le_bytes(w)
+        }
+    }
+
+    fn int(&self, i: usize) -> i32 {
+        self.word(&self.buf[4 * i..4 * i + 4]) as i32
+    }
+
+    fn read_exact(&mut self, n: usize, at: u64, what: &str) -> Result<()> {
+        self.buf.resize(n, 0);
+        let r = self.file.read_exact(&mut self.buf[..n]);
+        r.map_err(|e| {
+            if e.kind() == std::io::ErrorKind::UnexpectedEof {
+                self.error(at, format!("the file ends inside {what} (truncated file?)"))
+            } else {
+                Error::io(&self.path, e)
+            }
+        })
+    }
+
+    /// Reads the next record into `buf`; returns its byte offset.
+    fn record(&mut self, what: &str) -> Result<u64> {
+        let at = self.pos;
+        if self.len - at < 4 {
+            return Err(self.error(at, format!("the file ends before {what} (truncated file?)")));
+        }
+        self.read_exact(4, at, what)?;
+        let n = u64::from(self.word(&self.buf[..4]));
+        let left = self.len - at - 4;
+        if n > left.saturating_sub(4) {
+            return Err(self.error(
+                at,
+                format!(
+                    "{what}: the record-length marker says {n} bytes but only {} bytes follow (truncated file or wrong marker?)",
+                    left.saturating_sub(4)
+                ),
+            ));
+        }
+        let n = n as usize;
+        self.read_exact(n + 4, at, what)?;
+        let trailer = self.word(&self.buf[n..n + 4]);
+        if trailer as usize != n {
+            return Err(self.error(
+                at,
+                format!(
+                    "{what}: the record-length marker at byte {at} says {n} bytes, the one closing it at byte {} says {trailer} (corrupt file)",
+                    at + 4 + n as u64
+                ),
+            ));
+        }
+        self.buf.truncate(n);
+        self.pos = at + 8 + n as u64;
+        Ok(at)
+    }
+
+    /// Value `k` (0-based) of the data that starts at word `w0` of the record.
+    fn value(&self, w0: usize, k: usize, wpv: usize) -> f64 {
+        let b = &self.buf[4 * (w0 + k * wpv)..];
+        if wpv == 1 {
+            f64::from(f32::from_bits(self.word(b)))
+        } else {
+            let mut w = [0u8; 8];
+            w.copy_from_slice(&b[..8]);
+            f64::from_bits(if self.big {
+                u64::from_be_bytes(w)
+            } else {
+                u64::from_le_bytes(w)
+            })
+        }
+    }
+}
+
+/// Adds one value; rejects non-finite ones, skips exact zeros.
+fn put(
+    t: &mut Triplets,
+    keep: bool,
+    row: usize,
+    col: usize,
+    v: f64,
+) -> std::result::Result<(), String> {
+    if !v.is_finite() {
+        return Err(format!(
+            "value {v} at row {}, column {} is not finite",
+            row + 1,
+            col + 1
+        ));
+    }
+    if keep && v != 0.0 {
+        t.push(row, col, v);
+    }
+    Ok(())
+}
+
+fn read_binary(path: &Path, big: bool, keep: &dyn Fn(&str) -> bool) -> Result<Vec<Op4Matrix>> {
+    let file = File::open(path).map_err(|e| Error::io(path, e))?;
+    let len = file.metadata().map_err(|e| Error::io(path, e))?.len();
+    let mut r = Records {
+        file: BufReader::with_capacity(1 << 16, file),
+        path: path.to_path_buf(),
+        len,
+        pos: 0,
+        big,
+        buf: Vec::new(),
+    };
+    let encoding = if big {
+        Encoding::BinaryBigEndian
+    } else {
+        Encoding::BinaryLittleEndian
+    };
+    let mut out = Vec::new();
+    while r.pos < r.len {
+        let at = r.record("the matrix header record")?;
+        if r.buf.len() != 24 {
+            return Err(r.error(
+                at,
+                format!(
+                    "expected a matrix header record of 24 bytes (NCOL, NROW, NF, NTYPE, NAME), found {} bytes",
+                    r.buf.len()
+                ),
+            ));
+        }
+        let (ncols, nrows, form, ty) = (r.int(0), r.int(1), r.int(2), r.int(3));
+        let name = String::from_utf8_lossy(&r.buf[16..24]).trim().to_string();
+        let loc = Location::Byte(at);
+        let wpv = words_per_value(path, loc, &name, ty)?;
+        let (rows, cols, bigmat) = size(
+            i64::from(ncols),
+            i64::from(nrows),
+            &|m| r.error(at, m),
+            &name,
+        )?;
+        let kept = keep(&name);
+        let mut t = Triplets::default();
+        loop {
+            let what = format!("a column record of matrix {name}");
+            let rat = r.record(&what)?;
+            let e = |r: &Records, m: String| r.error(rat, format!("matrix {name}: {m}"));
+            if r.buf.len() < 12 || r.buf.len() % 4 != 0 {
+                return Err(e(
+                    &r,
+                    format!(
+                        "a column record of {} bytes; it needs ICOL, IROW, NW and whole words",
+                        r.buf.len()
+                    ),
+                ));
+            }
+            let (icol, irow, nw) = (r.int(0), r.int(1), r.int(2));
+            let words = r.buf.len() / 4 - 3;
+            if icol as i64 == cols as i64 + 1 {
+                break;
+            }
+            if icol < 1 || icol as usize > cols {
+                return Err(e(
+                    &r,
+                    format!(
+                        "column {icol} outside 1..={cols} (and not the end record {})",
+                        cols + 1
+                    ),
+                ));
+            }
+            if nw < 0 || nw as usize != words {
+                return Err(e(
+                    &r,
+                    format!("the column record says NW = {nw} words but holds {words}"),
+                ));
+            }
+            let col = icol as usize - 1;
+            if irow > 0 {
+                let first = irow as usize - 1;
+                let n = words / wpv;
+                if words % wpv != 0 || first + n > rows {
+                    return Err(e(
+                        &r,
+                        format!(
+                            "column {icol}: {words} words from row {irow} do not fit {rows} rows of {} values",
+                            type_name(ty)
+                        ),
+                    ));
+                }
+                for k in 0..n {
+                    let v = r.value(3, k, wpv);
+                    put(&mut t, kept, first + k, col, v).map_err(|m| e(&r, m))?;
+                }
+            } else if irow == 0 {
+                let mut w = 3;
+                let end = 3 + words;
+                while w < end {
+                    let (first, l, hw) = if bigmat {
+                        if w + 2 > end {
+                            return Err(e(
+                                &r,
+                                format!("column {icol}: a string header is cut off"),
+                            ));
+                        }
+                        (r.int(w + 1) as i64, r.int(w) as i64 - 1, 2)
+                    } else {
+                        let is = i64::from(r.int(w));
+                        let l = is / 65536 - 1;
+                        (is - 65536 * (l + 1), l, 1)
+                    };
+                    w += hw;
+                    if l < 1 || l as usize % wpv != 0 || l as usize > end - w {
+                        return Err(e(
+                            &r,
+                            format!(
+                                "column {icol}: a string of {l} words at word {} does not fit the record ({} words left, {wpv} per value)",
+                                w - hw,
+                                end - w
+                            ),
+                        ));
+                    }
+                    let n = l as usize / wpv;
+                    if first < 1 || first as usize - 1 + n > rows {
+                        return Err(e(
+                            &r,
+                            format!("column {icol}: a string of {n} values from row {first} does not fit {rows} rows"),
+                        ));
+                    }
+                    for k in 0..n {
+                        let v = r.value(w, k, wpv);
+                        put(&mut t, kept, first as usize - 1 + k, col, v).map_err(|m| e(&r, m))?;
+                    }
+                    w += l as usize;
+                }
+            } else {
+                return Err(e(&r, format!("column {icol}: IROW = {irow} is negative")));
+            }
+        }
+        out.push(Op4Matrix {
+            name,
+            rows,
+            cols,
+            form,
+            precision: ty,
+            bigmat,
+            entries: t,
+            at: loc,
+            encoding,
+        });
+    }
+    if out.is_empty() {
+        return Err(Error::parse(path, 0, "byte 0: no matrix in the file"));
+    }
+    Ok(out)
+}
+
+struct Current {
+    m: Op4Matrix,
+    kept: bool,
+    wpv: usize,
+    per_line: usize,
+    width: usize,
+    /// Column (0-based) of the record being read; `None` after the end record.
+    col: Option<usize>,
+    /// Next row (0-based) a value goes to; `None` while a sparse record waits for a string
+    /// header.
+    row: Option<usize>,
+    /// Dense record: its line, NW and the values read so far.
+    dense: Option<(usize, i64, usize)>,
+}
+
+impl Current {
+    fn check_dense(&mut self, path: &Path) -> Result<()> {
+        if let Some((line, nw, got)) = self.dense.take() {
+            let words = (got * self.wpv) as i64;
+            if nw != words && nw != got as i64 {
+                return Err(Error::parse(
+                    path,
+                    line,
+                    format!(
+                        "matrix {}: the column record says NW = {nw} words but {got} values follow",
+                        self.m.name
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+fn all_ints(line: &[u8]) -> Option<Vec<i64>> {
+    let t: Vec<&[u8]> = line
+        .split(|b| b.is_ascii_whitespace())
+        .filter(|t| !t.is_empty())
+        .collect();
+    t.iter()
+        .map(|t| std::str::from_utf8(t).ok()?.parse::<i64>().ok())
+        .collect()
+}
+
+/// Starts a matrix at an ASCII header line.
+fn ascii_start(
+    path: &Path,
+    line: usize,
+    bytes: &[u8],
+    keep: &dyn Fn(&str) -> bool,
+) -> Result<Box<Current>> {
+    let Some(([ncols, nrows, form, ty], name, (per_line, width))) = ascii_header(bytes) else {
+        return Err(Error::parse(
+            path,
+            line,
+            format!(
+                "expected an OP4 matrix header `NCOL NROW NF NTYPE NAME FORMAT` (4I8, A8, e.g. 1P,3E23.16), found '{}'",
+                show(bytes)
+            ),
+        ));
+    };
+    let loc = Location::Line(line);
+    let ty = i32::try_from(ty).unwrap_or(0);
+    let wpv = words_per_value(path, loc, &name, ty)?;
+    let (rows, cols, bigmat) = size(ncols, nrows, &|m| Error::parse(path, line, m), &name)?;
+    let kept = keep(&name);
+    Ok(Box::new(Current {
+        m: Op4Matrix {
+            name,
+            rows,
+            cols,
+            form: i32::try_from(form).unwrap_or(0),
+            precision: ty,
+            bigmat,
+            entries: Triplets::default(),
+            at: loc,
+            encoding: Encoding::Ascii,
+        },
+        kept,
+        wpv,
+        per_line,
+        width,
+        col: Some(0),
+        row: None,
+        dense: None,
+    }))
+}
+
+/// One line inside a matrix: a column record, a string header or values.
+fn ascii_line(path: &Path, line: usize, bytes: &[u8], c: &mut Current) -> Result<()> {
+    let name = c.m.name.clone();
+    let err = |m: String| Error::parse(path, line, format!("matrix {name}: {m}"));
+    if let Some(ints) = all_ints(bytes) {
+        if c.col.is_none() {
+            return Err(err(
+                "an integer line after the end record; expected the next matrix header".into(),
+            ));
+        }
+        let rows = c.m.rows as i64;
+        match *ints.as_slice() {
+            [icol, irow, nw] => {
+                c.check_dense(path)?;
+                if icol == c.m.cols as i64 + 1 {
+                    c.col = None;
+                    c.row = None;
+                    return Ok(());
+                }
+                if icol < 1 || icol > c.m.cols as i64 {
+                    return Err(err(format!(
+                        "column {icol} outside 1..={} (and not the end record {})",
+                        c.m.cols,
+                        c.m.cols + 1
+                    )));
+                }
+                c.col = Some(icol as usize - 1);
+                if irow > 0 {
+                    if irow > rows {
+                        return Err(err(format!("column {icol}: row {irow} outside 1..={rows}")));
+                    }
+                    c.row = Some(irow as usize - 1);
+                    c.dense = Some((line, nw, 0));
+                } else if irow == 0 {
+                    c.row = None;
+                } else {
+                    return Err(err(format!("column {icol}: IROW = {irow} is negative")));
+                }
+            }
+            [is] if !c.m.bigmat && c.dense.is_none() => {
+                let l = is / 65536 - 1;
+                let first = is - 65536 * (l + 1);
+                if first < 1 || first > rows {
+                    return Err(err(format!(
+                        "string header {is}: row {first} outside 1..={rows}"
+                    )));
+                }
+                c.row = Some(first as usize - 1);
+            }
+            [_, first] if c.m.bigmat && c.dense.is_none() => {
+                if first < 1 || first > rows {
+                    return Err(err(format!(
+                        "BIGMAT string header: row {first} outside 1..={rows}"
+                    )));
+                }
+                c.row = Some(first as usize - 1);
+            }
+            _ => {
+                return Err(err(format!(
+                "unexpected line of {} integer(s) '{}': expected a column record `ICOL IROW NW`{}",
+                ints.len(),
+                show(bytes),
+                if c.m.bigmat {
+                    " or a BIGMAT string header `L+1 IROW`"
+                } else {
+                    " or a string header IS"
+                }
+            )))
+            }
+        }
+        return Ok(());
+    }
+    let Some(col) = c.col else {
+        // The end record's dummy value.
+        return Ok(());
+    };
+    let Some(mut row) = c.row else {
+        return Err(err(format!(
+            "values '{}' before a column record or string header",
+            show(bytes)
+        )));
+    };
+    let bytes = bytes.strip_suffix(b"\r").unwrap_or(bytes);
+    let mut got = 0;
+    let mut field = String::new();
+    for chunk in bytes.chunks(c.width) {
+        let s = String::from_utf8_lossy(chunk);
+        let s = s.trim();
+        if s.is_empty() {
+            continue;
+        }
+        field.clear();
+        field.push_str(s);
+        if field.contains(['D', 'd']) {
+            field = field.replace(['D', 'd'], "E");
+        }
+        let v: f64 = field.parse().map_err(|_| {
+            err(format!(
+                "'{s}' is not a number (values are {} characters wide per the header's format)",
+                c.width
+            ))
+        })?;
+        if row >= c.m.rows {
+            return Err(err(format!(
+                "column {}: more values than the {} rows",
+                col + 1,
+                c.m.rows
+            )));
+        }
+        // Single precision as the binary files hold it.
+        let v = if c.wpv == 1 { f64::from(v as f32) } else { v };
+        put(&mut c.m.entries, c.kept, row, col, v).map_err(err)?;
+        row += 1;
+        got += 1;
+    }
+    if got > c.per_line {
+        return Err(err(format!(
+            "{got} values on one line; the header's format has {} a line",
+            c.per_line
+        )));
+    }
+    c.row = Some(row);
+    if let Some(d) = &mut c.dense {
+        d.2 += got;
+    }
+    Ok(())
+}
+
+fn read_ascii(path: &Path, keep: &dyn Fn(&str) -> bool) -> Result<Vec<Op4Matrix>> {
+    let mut out = Vec::new();
+    let mut current: Option<Box<Current>> = None;
+    for_each_line(path, |line, bytes| {
+        if bytes.iter().all(u8::is_ascii_whitespace) {
+            return Ok(());
+        }
+        match &mut current {
+            Some(c) if c.col.is_some() || ascii_header(bytes).is_none() => {
+                ascii_line(path, line, bytes, c)
+            }
+            _ => {
+                let next = ascii_start(path, line, bytes, keep)?;
+                if let Some(done) = current.replace(next) {
+                    out.push(done.m);
+                }
+                Ok(())
+            }
+        }
+    })?;
+    if let Some(c) = current {
+        if c.col.is_some() {
+            return Err(Error::parse(
+                path,
+                0,
+                format!(
+                    "the file ends inside matrix {} (header at {}) before its end record (column {}): truncated file?",
+                    c.m.name,
+                    c.m.at,
+                    c.m.cols + 1
+                ),
+            ));
+        }
+        out.push(c.m);
+    }
+    if out.is_empty() {
+        return Err(Error::parse(path, 1, "no matrix in the file"));
+    }
+    Ok(out)
+}
+
+/// Matrix names read as the stiffness.
+pub const STIFFNESS_NAMES: [&str; 4] = ["KAA", "KGG", "KLL", "KHH"];
+/// Matrix names read as the mass.
+pub const MASS_NAMES: [&str; 4] = ["MAA", "MGG", "MLL", "MHH"];
+
+/// True when `h` (a file's first bytes) looks like a DoF map: the first line that is not
+/// blank, a `#` comment or a header starting with a letter holds exactly two integers, the
+/// second 1–6.
+pub(crate) fn looks_like_dof_map(h: &[u8]) -> bool {
+    let text = String::from_utf8_lossy(h);
+    let Some(first) = text.lines().map(str::trim).find(|l| {
+        !l.is_empty() && !l.starts_with('#') && !l.starts_with(|c: char| c.is_ascii_alphabetic())
+    }) else {
+        return false;
+    };
+    let t: Vec<&[u8]> = tokens(first.as_bytes()).collect();
+    t.len() == 2
+        && std::str::from_utf8(t[0]).is_ok_and(|s| s.parse::<u64>().is_ok())
+        && std::str::from_utf8(t[1]).is_ok_and(|s| matches!(s.parse::<u8>(), Ok(1..=6)))
+}
+
+/// Reads a DoF map: one `node component` row per DoF in matrix order (separated by spaces,
+/// tabs or commas; component 1–6 = x, y, z, rx, ry, rz as in Nastran's component numbers).
+/// Blank lines, `#` comments and header lines starting with a letter are skipped.
+///
+/// # Errors
+/// [`Error::Parse`] with the line: not two fields, a node that is not a positive integer, a
+/// component outside 1–6, a DoF given twice.
+pub fn read_dof_map(path: &Path) -> Result<Vec<Dof>> {
+    let mut dofs = Vec::new();
+    let mut seen = std::collections::HashSet::new();
+    for_each_line(path, |line, bytes| {
+        let text = String::from_utf8_lossy(bytes);
+        let text = text.trim();
+        if text.is_empty()
+            || text.starts_with('#')
+            || text.starts_with(|c: char| c.is_ascii_alphabetic())
+        {
+            return Ok(());
+        }
+        let t: Vec<&[u8]> = tokens(text.as_bytes()).collect();
+        if t.len() != 2 {
+            return Err(Error::parse(
+                path,
+                line,
+                format!(
+                    "expected `node component` (2 fields), found {} field(s)",
+                    t.len()
+                ),
+            ));
+        }
+        let node = parse_u64(t[0], path, line, "node number")?;
+        let key = parse_u64(t[1], path, line, "component")?;
+        let dir = Direction::from_key(key as i64).ok_or_else(|| {
+            Error::parse(
+                path,
+                line,
+                format!("component {key} of node {node}: use 1-6 (x, y, z, rx, ry, rz)"),
+            )
+        })?;
+        let dof = Dof { node, dir };
+        if !seen.insert(dof) {
+            return Err(Error::parse(
+                path,
+                line,
+                format!("DoF {dof} is given twice"),
+            ));
+        }
+        dofs.push(dof);
+        Ok(())
+    })?;
+    Ok(dofs)
+}
+
+/// A matrix found for a role, with its file.
+struct Found {
+    path: PathBuf,
+    m: Op4Matrix,
+}
+
+impl Found {
+    fn describe(&self) -> String {
+        format!(
+            "{} in {} ({}, {}x{})",
+            self.m.name,
+            self.path.display(),
+            self.m.at,
+            self.m.rows,
+            self.m.cols
+        )
+    }
+
+    fn error(&self, msg: impl fmt::Display) -> Error {
+        match self.m.at {
+            Location::Line(l) => {
+                Error::parse(&self.path, l, format!("matrix {}: {msg}", self.m.name))
+            }
+            Location::Byte(b) => Error::parse(
+                &self.path,
+                0,
+                format!("byte {b}: matrix {}: {msg}", self.m.name),
+            ),
+        }
+    }
+}
+
+/// Reads a model from OP4 files (see the [module documentation](self)); `files` pairs each
+/// file with its role when one was given (`K=`/`M=`) or is in its name.
+pub(crate) fn read_model(
+    files: &[(Option<Role>, PathBuf)],
+    dof_map: Option<&Path>,
+) -> Result<Imported> {
+    let mut stiffness = Vec::new();
+    let mut mass = Vec::new();
+    let mut others = Vec::new();
+    for (role, path) in files {
+        let role = role.or_else(|| role_from_name(path));
+        let by_name = |n: &str| STIFFNESS_NAMES.contains(&n) || MASS_NAMES.contains(&n);
+        let keep = |n: &str| role.is_some() || by_name(&n.to_ascii_uppercase());
+        let matrices = read_op4_keeping(path, &keep)?;
+        let single = matrices.len() == 1;
+        for m in matrices {
+            let upper = m.name.to_ascii_uppercase();
+            let r = if STIFFNESS_NAMES.contains(&upper.as_str()) {
+                Some(Role::Stiffness)
+            } else if MASS_NAMES.contains(&upper.as_str()) {
+                Some(Role::Mass)
+            } else if single {
+                role
+            } else {
+                None
+            };
+            let f = Found {
+                path: path.clone(),
+                m,
+            };
+            match r {
+                Some(Role::Stiffness) => stiffness.push(f),
+                Some(Role::Mass) => mass.push(f),
+                None => others.push(format!("{} {}", f.m.name, f.path.display())),
+            }
+        }
+    }
+    let pick = |v: Vec<Found>, what: &str, names: &[&str]| -> Result<Found> {
+        let n = v.len();
+        let mut it = v.into_iter();
+        match (it.next(), n) {
+            (Some(f), 1) => Ok(f),
+            (None, _) => Err(Error::InvalidSetting(format!(
+                "no {what} matrix in the OP4 files {}: name it {} in the file, or give a file holding only it as {}=FILE{}",
+                files.iter().map(|f| f.1.display().to_string()).collect::<Vec<_>>().join(", "),
+                names.join("/"),
+                if what == "mass" { "M" } else { "K" },
+                if others.is_empty() {
+                    String::new()
+                } else {
+                    format!(" (other matrices found: {})", others.join(", "))
+                }
+            ))),
+            (Some(f), _) => Err(Error::InvalidSetting(format!(
+                "{n} {what} matrices: {}{}; give the files so that exactly one is found",
+                f.describe(),
+                it.map(|g| format!(", {}", g.describe())).collect::<String>()
+            ))),
+        }
+    };
+    let k = pick(stiffness, "stiffness", &STIFFNESS_NAMES)?;
+    let m = pick(mass, "mass", &MASS_NAMES)?;
+    for f in [&k, &m] {
+        if f.m.rows != f.m.cols {
+            return Err(f.error(format!(
+                "is {}x{}; a stiffness or mass matrix is square",
+                f.m.rows, f.m.cols
+            )));
+        }
+        if ![1, 2, 6].contains(&f.m.form) {
+            return Err(f.error(format!(
+                "has form {}; only square (1), general (2) and symmetric (6) matrices are imported",
+                f.m.form
+            )));
+        }
+    }
+    if k.m.rows != m.m.rows {
+        return Err(Error::InvalidModel(format!(
+            "mismatched sizes: stiffness {} but mass {}",
+            k.describe(),
+            m.describe()
+        )));
+    }
+    let n = k.m.rows;
+    for f in [&k, &m] {
+        // A stiffness or mass matrix stores at least its diagonal: this bounds the CSC
+        // column pointers (N + 1 words) by the entries the file actually held.
+        if f.m.entries.len() < n {
+            return Err(f.error(format!(
+                "declares N = {n} but stores only {} nonzero entries; a stiffness or mass matrix holds at least its diagonal",
+                f.m.entries.len()
+            )));
+        }
+    }
+    let mut notes = Vec::new();
+    let (dofs, dofs_per_node) = match dof_map {
+        Some(p) => {
+            let dofs = read_dof_map(p)?;
+            if dofs.len() != n {
+                return Err(Error::InvalidModel(format!(
+                    "{}: {} DoFs, but the matrices have N = {n}",
+                    p.display(),
+                    dofs.len()
+                )));
+            }
+            let dpn = if dofs.iter().any(|d| d.dir > Direction::Z) {
+                6
+            } else {
+                3
+            };
+            (dofs, dpn)
+        }
+        None if n % 6 == 0 => {
+            notes.push(format!(
+                "OP4 carries no DoF map and none was given: ASSUMED nodes 1..{} with components 1-6 (x, y, z, rx, ry, rz) each, in matrix order; give a DoF map file (`node component` per row) if that is wrong",
+                n / 6
+            ));
+            let dofs = (0..n)
+                .map(|i| Dof {
+                    node: (i / 6 + 1) as u64,
+                    dir: Direction::ALL[i % 6],
+                })
+                .collect();
+            (dofs, 6)
+        }
+        None => {
+            return Err(Error::InvalidSetting(format!(
+                "OP4 files carry no DoF map and N = {n} is not a multiple of 6: give a DoF map file with the OP4 files (one `node component` row per DoF in matrix order, component 1-6, e.g. `17 3`)"
+            )))
+        }
+    };
+    notes.push(format!("stiffness: {}", k.describe()));
+    notes.push(format!("mass: {}", m.describe()));
+    for f in [&k, &m] {
+        if f.m.precision == 1 {
+            notes.push(format!(
+                "{} is single precision (about 7 significant digits)",
+                f.m.name
+            ));
+        }
+    }
+    notes.push(
+        if m.m.entries.is_diagonal() {
+            "mass: lumped (diagonal)"
+        } else {
+            "mass: consistent"
+        }
+        .into(),
+    );
+    let nodes = uniform_nodes(&dofs, dofs_per_node, None, None, &mut notes)?;
+    let encoding = |f: &Found| match f.m.encoding {
+        Encoding::Ascii => "ASCII",
+        Encoding::BinaryLittleEndian => "binary little-endian",
+        Encoding::BinaryBigEndian => "binary big-endian",
+    };
+    let producer = format!(
+        "Nastran OUTPUT4 ({}, {}; {})",
+        k.m.name,
+        m.m.name,
+        encoding(&k)
+    );
+    let mut paths: Vec<PathBuf> = files.iter().map(|f| f.1.clone()).collect();
+    paths.extend(dof_map.map(Path::to_path_buf));
+    let full = |f: Found| {
+        let (lower, upper) = f.m.entries.triangles();
+        let mirror = f.m.form == 6 && (lower == 0 || upper == 0);
+        f.m.entries.into_csc(n, mirror)
+    };
+    Ok(Imported {
+        format: Format::NastranOp4,
+        files: paths,
+        producer,
+        units: "not recorded (OP4 files carry no units)".into(),
+        mass: full(m),
+        stiffness: full(k),
+        dofs,
+        nodes,
+        dofs_per_node,
+        removed: Vec::new(),
+        notes,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ascii_headers() {
+        let h = b"       3      -3       6       2KAA     1P,3E23.16";
+        let (n, name, f) = ascii_header(h).unwrap();
+        assert_eq!(n, [3, -3, 6, 2]);
+        assert_eq!(name, "KAA");
+        assert_eq!(f, (3, 23));
+        assert_eq!(
+            ascii_header(b"       3       3       6       1MAA     1P,5E16.9\r")
+                .unwrap()
+                .2,
+            (5, 16)
+        );
+        assert!(ascii_header(b"1 2 3 4 KAA").is_none());
+        assert!(ascii_header(b"       3       3       6       2KAA     nonsense").is_none());
+        assert!(looks_like_op4(h));
+        assert!(!looks_like_op4(b"1 2 3.0\n"));
+    }
+
+    #[test]
+    fn dof_map_sniffing() {
+        assert!(looks_like_dof_map(b"# map\nnode,component\n17, 3\n"));
+        assert!(looks_like_dof_map(b"1 1\n1 2\n"));
+        assert!(!looks_like_dof_map(b"1 7\n"));
+        assert!(!looks_like_dof_map(b"1 2 3\n"));
+    }
+
+    /// pyNastran 1.4.1's ASCII output for a 3x3 tridiagonal symmetric matrix, sparse and
+    /// dense (its dense NW counts values, not words).
+    #[test]
+    fn pynastran_ascii_sparse_and_dense() {
+        let sparse = "       3       3       6       2KAA     1P,3E23.16
+       1       0       5
+  327681
+ 2.0000000000000000E+00-1.0000000000000000E+00
+       2       0       7
+  458753
+-1.0000000000000000E+00 2.0000000000000000E+00-1.0000000000000000E+00
+       3       0       5
+  327682
+-1.0000000000000000E+00 2.0000000000000000E+00
+       4       1       1
+ 1.0000000000000000E+00
+";
+        let dense = "       3       3       6       2MAA     1P,3E23.16
+       1       1       2
+ 2.0000000000000000E+00-1.0000000000000000E+00
+       2       1       3
+-1.0000000000000000E+00 2.0000000000000000E+00-1.0000000000000000E+00
+       3       2       2
+-1.0000000000000000E+00 2.0000000000000000E+00
+       4       1       1
+ 1.0000000000000000E+00
+";
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("a.op4");
+        std::fs::write(&p, format!("{sparse}{dense}")).unwrap();
+        let ms = read_op4(&p).unwrap();
+        assert_eq!(ms.len(), 2);
+        for m in ms {
+            assert_eq!((m.rows, m.cols, m.form, m.precision), (3, 3, 6, 2));
+            let a = m.entries.into_csc(3, false);
+            assert_eq!(a.val().len(), 7);
+            assert_eq!(a.val()[0], 2.0);
+        }
+    }
+}
