@@ -45,7 +45,7 @@
 //! record (binary).
 //!
 //! # The import
-//! [`read_model`] (reached through [`crate::io::import::read`]) finds the stiffness and the
+//! The import (`read_model`, reached through [`crate::io::import::read`]) finds the stiffness and the
 //! mass among the matrices of one or more OP4 files: by the matrix names `KAA`, `KGG`,
 //! `KLL`, `KHH` (stiffness) and `MAA`, `MGG`, `MLL`, `MHH` (mass), or, for a file holding one
 //! matrix, by the file's role (`K=file`, `M=file`, or `stif`/`mass` in its name). OP4 files
