@@ -4,7 +4,7 @@
 //! | what | files | reader |
 //! |---|---|---|
 //! | ANSYS binary full file | `Jobname.full` (+ optional node table) | [`crate::io::ansys::read_full`] |
-//! | ANSYS APDL Math export | K, M (`*EXPORT,…,MMF`), the DoF mapping vector, a node table | [`crate::io::ansys::read_apdl_math`] |
+//! | ANSYS APDL Math export | K, M (`*EXPORT,…,MMF` or `HBMAT`), the DoF mapping vector, a node table | [`crate::io::ansys::read_apdl_math`] |
 //! | Abaqus `*MATRIX OUTPUT` | `*_STIF*.mtx`, `*_MASS*.mtx` (+ the `.inp` deck) | [`crate::io::abaqus::read`] |
 //!
 //! # How a file is recognized
@@ -13,6 +13,9 @@
 //!   header is a 100-word record; ANSYS Programmer's Reference, "Standard ANSYS file header");
 //! * `%%MatrixMarket`: a Matrix Market file — `array integer` is the DoF mapping vector,
 //!   `coordinate` a matrix;
+//! * a line 2 of 4–5 whole numbers and a line 3 starting with a 3-letter type (`RSA`, `RUA`)
+//!   and 3–4 whole numbers: a Harwell–Boeing matrix ([`crate::io::harwell_boeing`]), which
+//!   stands wherever a Matrix Market K or M of an APDL Math export does;
 //! * a first non-blank line starting with `*` (`*Heading`, `*Node`): an Abaqus input deck;
 //! * a first line of 3 numbers `row col value` or 5 comma-separated `node, dof, node, dof,
 //!   value`: an Abaqus matrix;
@@ -143,7 +146,8 @@ impl FromStr for Dof {
 pub enum Format {
     /// ANSYS binary `.full` file.
     AnsysFull,
-    /// ANSYS APDL Math Matrix Market export with its DoF mapping vector.
+    /// ANSYS APDL Math export (Matrix Market or Harwell–Boeing K and M) with its DoF mapping
+    /// vector.
     AnsysApdlMath,
     /// Abaqus `*MATRIX OUTPUT, FORMAT=COORDINATE` (`row col value`).
     AbaqusCoordinate,
@@ -283,6 +287,7 @@ enum Kind {
     AnsysBinary,
     MatrixMarketMatrix,
     MatrixMarketMapping,
+    HarwellBoeing,
     AbaqusMatrix,
     AbaqusDeck,
     NodeTable,
@@ -341,12 +346,14 @@ pub fn read(paths: &[PathBuf]) -> Result<Imported> {
         let (k, m) = stiffness_and_mass(&abq)?;
         return abaqus::read(&k, &m, deck.as_deref());
     }
-    let mm = of(Kind::MatrixMarketMatrix);
+    let mut mm = of(Kind::MatrixMarketMatrix);
+    mm.extend(of(Kind::HarwellBoeing));
     if !mm.is_empty() {
         only(
             &files,
             &[
                 Kind::MatrixMarketMatrix,
+                Kind::HarwellBoeing,
                 Kind::MatrixMarketMapping,
                 Kind::NodeTable,
             ],
@@ -364,7 +371,7 @@ pub fn read(paths: &[PathBuf]) -> Result<Imported> {
     }
     Err(Error::InvalidSetting(format!(
         "no stiffness or mass matrix among {}: give an ANSYS .full file, an APDL Math export \
-         (K, M, mapping vector, node table) or Abaqus *MATRIX OUTPUT files",
+         (K, M as Matrix Market or Harwell-Boeing, mapping vector, node table) or Abaqus *MATRIX OUTPUT files",
         list(paths)
     )))
 }
@@ -466,6 +473,9 @@ fn sniff(path: &Path) -> Result<Kind> {
             Kind::MatrixMarketMatrix
         });
     }
+    if crate::io::harwell_boeing::looks_like(&head) {
+        return Ok(Kind::HarwellBoeing);
+    }
     let text = String::from_utf8_lossy(&head);
     let first = text
         .lines()
@@ -492,7 +502,7 @@ fn sniff(path: &Path) -> Result<Kind> {
     Err(Error::parse(
         path,
         1,
-        "cannot tell the format: expected an ANSYS .full file, a Matrix Market file, an Abaqus \
+        "cannot tell the format: expected an ANSYS .full file, a Matrix Market or Harwell-Boeing file, an Abaqus \
          matrix or input deck, or a node coordinate table",
     ))
 }
