@@ -45,6 +45,9 @@
 //! (a Matrix Market `array integer` file) holds the node number of each block of
 //! `dofs_per_node` equations (EXUDYN's `rotorAnsysMatrixDofMappingVector.txt`: 115 entries for
 //! N = 345). The order of the matrices is kept.
+//!
+//! K and M may instead be Harwell–Boeing files (`*EXPORT,…,HBMAT`, the `HBMAT` command; read by
+//! [`crate::io::harwell_boeing`], told apart by their header); the rest of the set is the same.
 
 use crate::io::import::{read_node_table, uniform_nodes, Direction, Dof, Format, Imported};
 use crate::io::matrix_market;
@@ -522,7 +525,7 @@ fn read_lower(
     Ok(t)
 }
 
-/// Reads an APDL Math export: K and M (Matrix Market), the DoF mapping vector and an optional
+/// Reads an APDL Math export: K and M (Matrix Market or Harwell–Boeing), the DoF mapping vector and an optional
 /// node table (see the [module documentation](self)).
 ///
 /// # Errors
@@ -535,8 +538,8 @@ pub fn read_apdl_math(
     mapping: &Path,
     node_table: Option<&Path>,
 ) -> Result<Imported> {
-    let k = matrix_market::read_sparse(stiffness)?;
-    let m = matrix_market::read_sparse(mass)?;
+    let (k, creator, kind) = exported_matrix(stiffness)?;
+    let (m, ..) = exported_matrix(mass)?;
     let n = k.nrows();
     if k.ncols() != n || m.nrows() != n || m.ncols() != n {
         return Err(Error::InvalidModel(format!(
@@ -582,8 +585,7 @@ pub fn read_apdl_math(
     let mut notes = Vec::new();
     let table = node_table.map(read_node_table).transpose()?;
     let nodes = uniform_nodes(&dofs, dofs_per_node, table.as_ref(), node_table, &mut notes)?;
-    let creator = creator(stiffness)?;
-    let mut units = "not recorded by the Matrix Market export".to_string();
+    let mut units = format!("not recorded by the {kind} export");
     if let Some(u) = table.as_ref().and_then(|t| t.length_unit.as_ref()) {
         units.push_str(&format!("; node table lengths in {u}"));
     }
@@ -596,7 +598,7 @@ pub fn read_apdl_math(
     Ok(Imported {
         format: Format::AnsysApdlMath,
         files,
-        producer: format!("{creator} (APDL Math *EXPORT, Matrix Market)"),
+        producer: format!("{creator} (APDL Math *EXPORT, {kind})"),
         units,
         mass: m,
         stiffness: k,
@@ -606,6 +608,28 @@ pub fn read_apdl_math(
         removed: Vec::new(),
         notes,
     })
+}
+
+/// An exported K or M, Matrix Market or Harwell–Boeing (told by its header): the matrix, who
+/// wrote it (the `% Creator:` comment; the Harwell–Boeing title and key) and the format's name.
+fn exported_matrix(path: &Path) -> Result<(crate::sparse::Csc, String, &'static str)> {
+    if crate::io::harwell_boeing::looks_like(&crate::io::import::head(path)?) {
+        let (h, a) = crate::io::harwell_boeing::read_with_header(path)?;
+        let who = [h.title.as_str(), h.key.as_str()]
+            .iter()
+            .filter(|s| !s.is_empty())
+            .copied()
+            .collect::<Vec<_>>()
+            .join(" ");
+        let who = if who.is_empty() {
+            "unknown creator".into()
+        } else {
+            who
+        };
+        return Ok((a, who, "Harwell-Boeing"));
+    }
+    let a = matrix_market::read_sparse(path)?;
+    Ok((a, creator(path)?, "Matrix Market"))
 }
 
 /// The `% Creator:` comment of a Matrix Market header, or `unknown creator`.

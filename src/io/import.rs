@@ -4,7 +4,7 @@
 //! | what | files | reader |
 //! |---|---|---|
 //! | ANSYS binary full file | `Jobname.full` (+ optional node table) | [`crate::io::ansys::read_full`] |
-//! | ANSYS APDL Math export | K, M (`*EXPORT,…,MMF`), the DoF mapping vector, a node table | [`crate::io::ansys::read_apdl_math`] |
+//! | ANSYS APDL Math export | K, M (`*EXPORT,…,MMF` or `HBMAT`), the DoF mapping vector, a node table | [`crate::io::ansys::read_apdl_math`] |
 //! | Abaqus `*MATRIX OUTPUT` | `*_STIF*.mtx`, `*_MASS*.mtx` (+ the `.inp` deck) | [`crate::io::abaqus::read`] |
 //! | Nastran OUTPUT4 (OP4), ASCII or binary | one or more `.op4` files holding `KAA`/`MAA` (or `KGG`, `KLL`, `KHH` / `MGG`, `MLL`, `MHH`) (+ a DoF map) | [`crate::io::nastran`] |
 //!
@@ -17,6 +17,9 @@
 //!   name and a Fortran format such as `1P,3E23.16`: a Nastran OP4 file;
 //! * `%%MatrixMarket`: a Matrix Market file — `array integer` is the DoF mapping vector,
 //!   `coordinate` a matrix;
+//! * a line 2 of 4–5 whole numbers and a line 3 starting with a 3-letter type (`RSA`, `RUA`)
+//!   and 3–4 whole numbers: a Harwell–Boeing matrix ([`crate::io::harwell_boeing`]), which
+//!   stands wherever a Matrix Market K or M of an APDL Math export does;
 //! * a first non-blank line starting with `*` (`*Heading`, `*Node`): an Abaqus input deck;
 //! * a first line of 3 numbers `row col value` or 5 comma-separated `node, dof, node, dof,
 //!   value`: an Abaqus matrix;
@@ -149,7 +152,8 @@ impl FromStr for Dof {
 pub enum Format {
     /// ANSYS binary `.full` file.
     AnsysFull,
-    /// ANSYS APDL Math Matrix Market export with its DoF mapping vector.
+    /// ANSYS APDL Math export (Matrix Market or Harwell–Boeing K and M) with its DoF mapping
+    /// vector.
     AnsysApdlMath,
     /// Abaqus `*MATRIX OUTPUT, FORMAT=COORDINATE` (`row col value`).
     AbaqusCoordinate,
@@ -292,6 +296,7 @@ enum Kind {
     AnsysBinary,
     MatrixMarketMatrix,
     MatrixMarketMapping,
+    HarwellBoeing,
     AbaqusMatrix,
     AbaqusDeck,
     NastranOp4,
@@ -364,12 +369,14 @@ pub fn read(paths: &[PathBuf]) -> Result<Imported> {
             op4.iter().map(|f| (f.1, f.2.clone())).collect();
         return nastran::read_model(&sources, map.as_deref());
     }
-    let mm = of(Kind::MatrixMarketMatrix);
+    let mut mm = of(Kind::MatrixMarketMatrix);
+    mm.extend(of(Kind::HarwellBoeing));
     if !mm.is_empty() {
         only(
             &files,
             &[
                 Kind::MatrixMarketMatrix,
+                Kind::HarwellBoeing,
                 Kind::MatrixMarketMapping,
                 Kind::NodeTable,
             ],
@@ -387,7 +394,8 @@ pub fn read(paths: &[PathBuf]) -> Result<Imported> {
     }
     Err(Error::InvalidSetting(format!(
         "no stiffness or mass matrix among {}: give an ANSYS .full file, an APDL Math export \
-         (K, M, mapping vector, node table), Abaqus *MATRIX OUTPUT files or Nastran OP4 files",
+         (K, M as Matrix Market or Harwell-Boeing, mapping vector, node table), Abaqus *MATRIX \
+         OUTPUT files or Nastran OP4 files",
         list(paths)
     )))
 }
@@ -492,6 +500,9 @@ fn sniff(path: &Path) -> Result<Kind> {
             Kind::MatrixMarketMatrix
         });
     }
+    if crate::io::harwell_boeing::looks_like(&head) {
+        return Ok(Kind::HarwellBoeing);
+    }
     let text = String::from_utf8_lossy(&head);
     let first = text
         .lines()
@@ -521,8 +532,9 @@ fn sniff(path: &Path) -> Result<Kind> {
     Err(Error::parse(
         path,
         1,
-        "cannot tell the format: expected an ANSYS .full file, a Matrix Market file, an Abaqus \
-         matrix or input deck, a Nastran OP4 file, a DoF map or a node coordinate table",
+        "cannot tell the format: expected an ANSYS .full file, a Matrix Market or Harwell-Boeing \
+         file, an Abaqus matrix or input deck, a Nastran OP4 file, a DoF map or a node coordinate \
+         table",
     ))
 }
 

@@ -10,6 +10,7 @@ mod export;
 mod extremes;
 mod fe_bar;
 mod fuzz_regressions;
+mod harwell_boeing;
 mod import;
 mod linefit;
 mod lsq;
