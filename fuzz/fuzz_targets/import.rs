@@ -1,5 +1,6 @@
-//! The importers (`io::import::read`: ANSYS `.full`, ANSYS APDL-Math Matrix Market + DoF
-//! mapping vector + node table, Abaqus `*MATRIX OUTPUT` + `.inp` deck), from one input in the
+//! The importers (`io::import::read`: ANSYS `.full`, ANSYS APDL-Math Matrix Market or
+//! Harwell–Boeing + DoF mapping vector + node table, Abaqus `*MATRIX OUTPUT` + `.inp` deck,
+//! Nastran OP4 + DoF map), from one input in the
 //! archive format of the shared code; the format is detected from the files' content as the
 //! command does. On success the import re-validates: one DoF-map entry per DoF, nodes (if
 //! any) matching N, and `into_model` accepts it (a valid §1 model).
@@ -18,6 +19,10 @@ const NAMES: &[&str] = &[
     "rotor.inp",
     "mapping.txt",
     "nodes.txt",
+    "K.hb",
+    "M.hb",
+    "model.op4",
+    "dofmap.txt",
 ];
 
 fuzz_target!(|data: &[u8]| {
