@@ -106,12 +106,7 @@ impl Records {
     }
 
     fn word(&self, b: &[u8]) -> u32 {
-        let w = [b[0], b[1], b[2], b[3]];
-        if self.big_endian {
-            u32::from_be_bytes(w)
-        } else {
-            u32::from_le_bytes(w)
-        }
+        super::word(b, self.big_endian)
     }
 
     fn read_exact(&mut self, buf: &mut [u8], at: u64, what: &str) -> Result<()> {

@@ -105,33 +105,7 @@ pub fn read_with_header(path: &Path) -> Result<(Header, Csc)> {
     let size = std::fs::metadata(path)
         .map_err(|e| Error::io(path, e))?
         .len();
-    let mut r = Reader {
-        path,
-        size,
-        stage: Stage::Title,
-        header: Header {
-            title: String::new(),
-            key: String::new(),
-            mxtype: String::new(),
-            nrow: 0,
-            ncol: 0,
-            nnz: 0,
-        },
-        crd: [0; 5],
-        symmetric: false,
-        formats: None,
-        ptr: Vec::new(),
-        rows: Vec::new(),
-        vals: Vec::new(),
-        left: 0,
-        col: 0,
-        triangle: 0,
-        sorted: true,
-        first_index_line: 0,
-        last_line: 0,
-        field: Vec::new(),
-        items: Vec::new(),
-    };
+    let mut r = Reader::new(path, size);
     for_each_line(path, |no, line| r.line(no, line))?;
     r.finish()
 }
@@ -282,7 +256,37 @@ struct Reader<'a> {
     items: Vec<Item>,
 }
 
-impl Reader<'_> {
+impl<'a> Reader<'a> {
+    /// A reader at the title line of `path` (`size` bytes).
+    fn new(path: &'a Path, size: u64) -> Self {
+        Reader {
+            path,
+            size,
+            stage: Stage::Title,
+            header: Header {
+                title: String::new(),
+                key: String::new(),
+                mxtype: String::new(),
+                nrow: 0,
+                ncol: 0,
+                nnz: 0,
+            },
+            crd: [0; 5],
+            symmetric: false,
+            formats: None,
+            ptr: Vec::new(),
+            rows: Vec::new(),
+            vals: Vec::new(),
+            left: 0,
+            col: 0,
+            triangle: 0,
+            sorted: true,
+            first_index_line: 0,
+            last_line: 0,
+            field: Vec::new(),
+            items: Vec::new(),
+        }
+    }
     fn err(&self, line: usize, msg: impl Into<String>) -> Error {
         Error::parse(self.path, line, msg)
     }
@@ -922,33 +926,8 @@ mod tests {
 
     #[test]
     fn fortran_reals() {
-        let mut r = Reader {
-            path: Path::new("t"),
-            size: 0,
-            stage: Stage::Done,
-            header: Header {
-                title: String::new(),
-                key: String::new(),
-                mxtype: String::new(),
-                nrow: 0,
-                ncol: 0,
-                nnz: 0,
-            },
-            crd: [0; 5],
-            symmetric: false,
-            formats: None,
-            ptr: Vec::new(),
-            rows: Vec::new(),
-            vals: Vec::new(),
-            left: 0,
-            col: 0,
-            triangle: 0,
-            sorted: true,
-            first_index_line: 0,
-            last_line: 0,
-            field: Vec::new(),
-            items: Vec::new(),
-        };
+        let mut r = Reader::new(Path::new("t"), 0);
+        r.stage = Stage::Done;
         let mut v = |s: &str, k: i32| r.real(1, s.as_bytes(), k).ok();
         assert_eq!(v("1.5D+03", 0), Some(1500.0));
         assert_eq!(v("-2.5d-1", 0), Some(-0.25));

@@ -38,6 +38,17 @@ pub(crate) fn check_regular(path: &std::path::Path) -> crate::Result<()> {
     Ok(())
 }
 
+/// The 32-bit word of the first four bytes of `b` in the file's byte order (the binary
+/// readers: ANSYS `.full`, Nastran OP4). The caller guarantees `b.len() >= 4`.
+pub(crate) fn word(b: &[u8], big_endian: bool) -> u32 {
+    let w = [b[0], b[1], b[2], b[3]];
+    if big_endian {
+        u32::from_be_bytes(w)
+    } else {
+        u32::from_le_bytes(w)
+    }
+}
+
 /// [`read_regular`] as UTF-8 text.
 pub(crate) fn read_regular_text(path: &std::path::Path) -> crate::Result<String> {
     String::from_utf8(read_regular(path)?).map_err(|e| {
