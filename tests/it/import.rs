@@ -778,3 +778,92 @@ fn an_import_naming_a_device_is_refused() {
 }
 
 mod op4;
+
+/// EXUDYN's own readers (`FEMinterface.Read{Stiffness,Mass}MatrixFrom{Ansys,Abaqus}`, pip
+/// `exudyn`) give the same K and M as sparsemor's importers on the ANSYS rotor (APDL-Math
+/// export + DoF mapping vector; EXUDYN orders DoFs by node, 3·(node − 1) + dir, sparsemor keeps
+/// the equation order and names each DoF, so the test maps one onto the other) and on the
+/// Abaqus rotor and blocks (COORDINATE: both keep the file's order). Skipped without exudyn.
+#[test]
+fn exudyn_readers_give_the_same_k_and_m() {
+    let has = std::process::Command::new("python3")
+        .args(["-c", "import exudyn.FEM, scipy"])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !has {
+        println!("NOTE: python3 with exudyn and scipy not found; skipped (pip install exudyn)");
+        return;
+    }
+    let (Some(ansys), Some(rotor)) = (ansys_rotor(), abaqus_set("rotorDiscTest", "")) else {
+        return;
+    };
+    let mut cases = vec![("ansys", ansys), ("abaqus", rotor)];
+    for job in ["blockC3D8", "blockC3D10", "blockC3D20R"] {
+        cases.extend(abaqus_set(job, "_").map(|f| ("abaqus", f)));
+    }
+    const SCRIPT: &str = r#"
+import sys, numpy as np, scipy.io as sio, scipy.sparse as sp
+import exudyn.FEM as F
+kind, k, m, mapping, tmp = sys.argv[1:6]
+f = F.FEMinterface()
+if kind == "ansys":
+    f.ReadStiffnessMatrixFromAnsys(k, mapping)
+    f.ReadMassMatrixFromAnsys(m, mapping)
+else:
+    f.ReadStiffnessMatrixFromAbaqus(k)
+    f.ReadMassMatrixFromAbaqus(m)
+p = np.loadtxt(tmp + "/perm.txt", dtype=int, ndmin=1)
+for name, ours, theirs in [("K", "K.mtx", f.stiffnessMatrix), ("M", "M.mtx", f.massMatrix)]:
+    s = sp.coo_matrix(sio.mmread(tmp + "/" + ours))
+    e = sp.csr_matrix(theirs)
+    assert e.shape == s.shape, (e.shape, s.shape)
+    mapped = sp.coo_matrix((s.data, (p[s.row], p[s.col])), shape=s.shape).tocsr()
+    print(name, abs(mapped - e).max() / abs(e).max())
+"#;
+    for (kind, files) in cases {
+        let imp = import::read(&files).unwrap();
+        let tmp = scratch();
+        let t = tmp.path();
+        matrix_market::write_coordinate(&t.join("K.mtx"), imp.stiffness.as_ref(), false).unwrap();
+        matrix_market::write_coordinate(&t.join("M.mtx"), imp.mass.as_ref(), false).unwrap();
+        let perm: Vec<String> = imp
+            .dofs
+            .iter()
+            .enumerate()
+            .map(|(i, d)| match kind {
+                "ansys" => (3 * (d.node as usize - 1) + d.dir as usize).to_string(),
+                _ => i.to_string(),
+            })
+            .collect();
+        std::fs::write(t.join("perm.txt"), perm.join("\n")).unwrap();
+        let mapping = if kind == "ansys" {
+            &files[2]
+        } else {
+            &files[0]
+        };
+        let arg = |p: &Path| p.to_str().unwrap().to_string();
+        let out = std::process::Command::new("python3")
+            .args(["-c", SCRIPT, kind, &arg(&files[0]), &arg(&files[1])])
+            .args([arg(mapping), arg(t)])
+            .output()
+            .unwrap();
+        let text = String::from_utf8_lossy(&out.stdout).into_owned();
+        assert!(
+            out.status.success(),
+            "{kind} {:?}: {text}{}",
+            files[0],
+            String::from_utf8_lossy(&out.stderr)
+        );
+        println!(
+            "{:?} vs EXUDYN's reader: {}",
+            files[0].file_name().unwrap(),
+            text.replace('\n', " ")
+        );
+        for line in text.lines() {
+            let (name, diff) = line.split_once(' ').unwrap();
+            let diff: f64 = diff.trim().parse().unwrap();
+            assert!(diff <= 1e-14, "{kind} {name}: {diff:e}");
+        }
+        assert_eq!(text.lines().count(), 2, "{text}");
+    }
+}
