@@ -41,7 +41,7 @@
 //! a small file is an error, not an allocation. Errors name the file and the line.
 
 use crate::io::import::{for_each_line, show};
-use crate::sparse::{from_parts, Csc};
+use crate::sparse::{from_parts, Csc, Triplets};
 use crate::{Error, Result};
 use std::path::Path;
 
@@ -796,7 +796,7 @@ impl<'a> Reader<'a> {
             ));
         }
         let (nrow, ncol) = (self.header.nrow, self.header.ncol);
-        let (mut ptr, mut rows, mut vals) = (
+        let (ptr, mut rows, mut vals) = (
             std::mem::take(&mut self.ptr),
             std::mem::take(&mut self.rows),
             std::mem::take(&mut self.vals),
@@ -825,72 +825,18 @@ impl<'a> Reader<'a> {
             }
         }
         if self.symmetric {
-            (ptr, rows, vals) = mirror(ncol, &ptr, &rows, &vals);
+            // one stored triangle: the importers' one mirroring assembly (rows are distinct
+            // within a column, so nothing is summed)
+            let mut t = Triplets::default();
+            for j in 0..ncol {
+                for q in ptr[j]..ptr[j + 1] {
+                    t.push(rows[q], j, vals[q]);
+                }
+            }
+            return Ok((self.header, t.into_csc(ncol, true)));
         }
         Ok((self.header, from_parts(nrow, ncol, ptr, rows, vals)))
     }
-}
-
-/// Full storage of a square matrix of which one triangle is stored (sorted CSC): every
-/// off-diagonal entry is also stored transposed. Rows stay sorted.
-fn mirror(
-    n: usize,
-    ptr: &[usize],
-    rows: &[usize],
-    vals: &[f64],
-) -> (Vec<usize>, Vec<usize>, Vec<f64>) {
-    let mut count = vec![0usize; n + 1];
-    for j in 0..n {
-        for &r in &rows[ptr[j]..ptr[j + 1]] {
-            count[j + 1] += 1;
-            if r != j {
-                count[r + 1] += 1;
-            }
-        }
-    }
-    for j in 0..n {
-        count[j + 1] += count[j];
-    }
-    let total = count[n];
-    let mut next = count.clone();
-    let mut out_rows = vec![0usize; total];
-    let mut out_vals = vec![0f64; total];
-    // Visiting columns in order and pushing (r, j) and (j, r) keeps each column sorted only
-    // when both kinds land in order, so sort each column afterwards.
-    for j in 0..n {
-        for (&r, &v) in rows[ptr[j]..ptr[j + 1]]
-            .iter()
-            .zip(&vals[ptr[j]..ptr[j + 1]])
-        {
-            out_rows[next[j]] = r;
-            out_vals[next[j]] = v;
-            next[j] += 1;
-            if r != j {
-                out_rows[next[r]] = j;
-                out_vals[next[r]] = v;
-                next[r] += 1;
-            }
-        }
-    }
-    let mut pairs: Vec<(usize, f64)> = Vec::new();
-    for j in 0..n {
-        let (a, b) = (count[j], count[j + 1]);
-        if !out_rows[a..b].windows(2).all(|w| w[0] < w[1]) {
-            pairs.clear();
-            pairs.extend(
-                out_rows[a..b]
-                    .iter()
-                    .copied()
-                    .zip(out_vals[a..b].iter().copied()),
-            );
-            pairs.sort_by_key(|p| p.0);
-            for (t, (r, v)) in pairs.iter().enumerate() {
-                out_rows[a + t] = *r;
-                out_vals[a + t] = *v;
-            }
-        }
-    }
-    (count, out_rows, out_vals)
 }
 
 #[cfg(test)]
