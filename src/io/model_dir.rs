@@ -154,15 +154,7 @@ impl DofNames {
             DofNames::PerNode { n, .. } => *n,
         };
         if let Ok(i) = token.parse::<usize>() {
-            return if i < n {
-                Ok(i)
-            } else {
-                Err(Error::DofOutOfRange {
-                    what: what.to_string(),
-                    dof: i,
-                    n,
-                })
-            };
+            return self.checked(i, what);
         }
         let dof: Dof = token
             .parse()
@@ -195,6 +187,23 @@ impl DofNames {
         })
     }
 
+    /// `i` when it is a DoF of the model (< N).
+    fn checked(&self, i: usize, what: &str) -> Result<usize> {
+        let n = match self {
+            DofNames::Map(m) => m.len(),
+            DofNames::PerNode { n, .. } => *n,
+        };
+        if i < n {
+            Ok(i)
+        } else {
+            Err(Error::DofOutOfRange {
+                what: what.to_string(),
+                dof: i,
+                n,
+            })
+        }
+    }
+
     /// The indices of a comma-separated list of DoFs ([`Self::index`]).
     ///
     /// # Errors
@@ -206,7 +215,7 @@ impl DofNames {
     fn resolve(&self, refs: &[DofRef], what: &str) -> Result<Vec<usize>> {
         refs.iter()
             .map(|r| match r {
-                DofRef::Index(i) => self.index(&i.to_string(), what),
+                DofRef::Index(i) => self.checked(usize::try_from(*i).unwrap_or(usize::MAX), what),
                 DofRef::Name(s) => self.index(s, what),
             })
             .collect()
