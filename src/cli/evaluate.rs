@@ -32,6 +32,10 @@ pub struct EvaluateArgs {
     /// Write ε(f) as CSV: f_hz,eps_elastic,eps_total.
     #[arg(long)]
     csv: Option<PathBuf>,
+    /// Largest accepted relative error of a factorization's probe solve (after refinement);
+    /// above it a frequency is refused as numerically singular.
+    #[arg(long, default_value_t = sparsemor::sweep::DEFAULT_PROBE_TOL)]
+    probe_tol: f64,
     /// Worker threads (0 = all cores).
     #[arg(long, default_value_t = 0)]
     threads: usize,
@@ -70,6 +74,7 @@ pub fn evaluate(a: &EvaluateArgs) -> Result<()> {
     let freqs = linspace(band, a.points);
     let opts = SweepOptions {
         threads: a.threads,
+        probe_tol: a.probe_tol,
         ..Default::default()
     };
     let curve = with_progress(freqs.len(), "evaluate", |cb| {

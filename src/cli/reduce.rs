@@ -63,6 +63,10 @@ pub struct ReduceArgs {
     /// Also write V.mtx (N×n).
     #[arg(long)]
     keep_basis: bool,
+    /// Largest accepted relative error of a factorization's probe solve (after refinement);
+    /// above it a frequency is refused as numerically singular.
+    #[arg(long, default_value_t = sparsemor::sweep::DEFAULT_PROBE_TOL)]
+    probe_tol: f64,
     /// Worker threads (0 = all cores).
     #[arg(long, default_value_t = 0)]
     threads: usize,
@@ -116,6 +120,7 @@ pub fn reduce(a: &ReduceArgs) -> Result<super::Done> {
             let mut opts = LineFitOptions::new(interface, references);
             opts.keep_basis = a.keep_basis;
             opts.sweep.threads = a.threads;
+            opts.sweep.probe_tol = a.probe_tol;
             let rom = match &opts.references {
                 References::Explicit(f) => with_progress(f.len(), "reference frequencies", |cb| {
                     linefit::reduce(&body, &scene, &opts, None, cb)
@@ -208,6 +213,18 @@ fn print_rom(rom: &Rom) {
             f.residual_argmax_dof,
             f.residual_mean
         );
+        let a = &f.solves;
+        if a.frequencies > 0 {
+            println!(
+                "solves           {} factorizations, worst probe error {:.1e}{}",
+                a.frequencies,
+                a.probe_error_max,
+                match a.refined {
+                    0 => String::new(),
+                    k => format!(", {k} refined"),
+                }
+            );
+        }
     }
     if let Some(c) = rom.serep_cond() {
         println!("cond(U_cr)       {c:.2e}");

@@ -24,6 +24,10 @@ pub struct SweepArgs {
     /// total (H, eq. 14), elastic (H1, eq. 17) or rigid (H0, eq. 16).
     #[arg(long, default_value = "total")]
     part: String,
+    /// Largest accepted relative error of a factorization's probe solve (after refinement);
+    /// above it a frequency is refused as numerically singular.
+    #[arg(long, default_value_t = sparsemor::sweep::DEFAULT_PROBE_TOL)]
+    probe_tol: f64,
     /// Worker threads (0 = all cores).
     #[arg(long, default_value_t = 0)]
     threads: usize,
@@ -64,7 +68,7 @@ pub fn sweep(a: &SweepArgs, verbose: bool) -> Result<()> {
         threads: a.threads,
         backend: a.backend.parse().map_err(|e| flag("backend", e))?,
         memory_budget: a.memory_gb.map(|g| (g * 1e9) as usize),
-        ..Default::default()
+        probe_tol: a.probe_tol,
     };
     let body = sparsemor::body::Body::new(&model)?;
     let frf = with_progress(freqs.len(), "sweep", |cb| {
@@ -82,15 +86,19 @@ pub fn sweep(a: &SweepArgs, verbose: bool) -> Result<()> {
             let fs = &frf.freq_stats;
             let worst = fs.iter().map(|s| s.probe_error).fold(0.0, f64::max);
             let mean_factor = fs.iter().map(|s| s.factor_s).sum::<f64>() / fs.len().max(1) as f64;
+            let refined = fs.iter().filter(|s| s.refinement_steps > 0).count();
+            let steps: usize = fs.iter().map(|s| s.refinement_steps).sum();
             eprintln!(
-                "backend {} ({}), symbolic {:.3} s, factor nnz {}, {:?}, mean factor {:.4} s, worst probe error {:.1e}",
+                "backend {} ({}), symbolic {:.3} s, factor nnz {}, {:?}, mean factor {:.4} s, worst probe error {:.1e}, \
+                 refined {refined} of {} frequencies ({steps} steps)",
                 s.backend,
                 if s.real { "real" } else { "complex" },
                 s.seconds,
                 s.factor_nnz,
                 sch,
                 mean_factor,
-                worst
+                worst,
+                fs.len()
             );
         }
     }

@@ -11,12 +11,13 @@
 
 use super::cholesky::symbolic_cholesky;
 use super::lblt::Factor;
+use super::refine::{refine, Stop};
 use super::{pattern, try_vec};
 use crate::pencil::Pencil;
 use crate::{Error, Result};
 use faer::sparse::linalg::cholesky::SymbolicCholesky;
 use faer::sparse::SparseColMatRef;
-use faer::{Mat, MatMut, Par};
+use faer::{MatMut, Par};
 use std::sync::Arc;
 
 /// The number of eigenvalues λ < σ of K φ = λ M φ (M positive definite), exactly, from the
@@ -52,7 +53,7 @@ pub fn count_eigenvalues_below_with(
 /// checked and refined (fixed-precision iterative refinement, as PARDISO does after its
 /// perturbed pivots): x ← x + A⁻¹(b − A x) while the normwise backward error
 /// ‖b − A x‖∞ / (‖A‖∞ ‖x‖∞ + ‖b‖∞) of a column exceeds [`REFINE_ABOVE`], at most
-/// [`MAX_REFINEMENTS`] times.
+/// [`MAX_REFINEMENTS`](super::MAX_REFINEMENTS) times (module `refine`).
 pub(crate) struct ShiftedLblt<'a> {
     sym: Arc<SymbolicCholesky<usize>>,
     factor: Factor,
@@ -66,16 +67,13 @@ pub(crate) struct ShiftedLblt<'a> {
     refinements: usize,
 }
 
-/// Backward error of a solve above which it is refined. Measured on the 14³ cube (N = 10125,
-/// 900 solves at 8 interior shifts), unrefined solves land at 1e-16…5e-14 (median 2e-15)
-/// where the factor is sound, at 1e-13…7e-12 where it grew (6³ cube, one shift of six). The
-/// Krylov–Schur iteration resolves Ritz residuals to 1e-14 relative, and an operator applied
-/// with a larger backward error stalls it above that (measured: Ritz residuals stuck at
-/// 1e-13 for 60 restarts), so solves are refined above 1e-14.
-pub(crate) const REFINE_ABOVE: f64 = 1e-14;
-
-/// At most this many refinement steps per solve (each one solve and one product with A).
-pub(crate) const MAX_REFINEMENTS: usize = 3;
+/// Normwise backward error of a solve above which it is refined. Measured on the 14³ cube
+/// (N = 10125, 900 solves at 8 interior shifts), unrefined solves land at 1e-16…5e-14 (median
+/// 2e-15) where the factor is sound, at 1e-13…7e-12 where it grew (6³ cube, one shift of six).
+/// The Krylov–Schur iteration resolves Ritz residuals to 1e-14 relative, and an operator
+/// applied with a larger backward error stalls it above that (measured: Ritz residuals stuck
+/// at 1e-13 for 60 restarts), so solves are refined above 1e-14.
+const REFINE_ABOVE: f64 = 1e-14;
 
 impl<'a> ShiftedLblt<'a> {
     /// Factors K − σM, with workspace to solve `rhs` columns at once.
@@ -101,7 +99,7 @@ impl<'a> ShiftedLblt<'a> {
                 detail: format!("K - sigma M is singular to working precision (pivot ratio {:.1e}): sigma is an eigenvalue; move the bound slightly", st.ratio),
             });
         }
-        let norm_inf = pattern::symmetric_norm_inf(pencil, &vals);
+        let norm_inf = pattern::symmetric_norm_inf(pencil, |p| vals[p]);
         Ok(ShiftedLblt {
             sym,
             factor,
@@ -128,32 +126,23 @@ impl<'a> ShiftedLblt<'a> {
         self.refinements
     }
 
-    /// x ← (K − σM)⁻¹ x (sequential), refined to a backward error ≤ [`REFINE_ABOVE`] when
-    /// [`MAX_REFINEMENTS`] steps reach it.
+    /// x ← (K − σM)⁻¹ x (sequential), refined to a normwise backward error ≤ [`REFINE_ABOVE`] when
+    /// [`MAX_REFINEMENTS`](super::MAX_REFINEMENTS) steps reach it (module `refine`).
     pub(crate) fn solve_in_place(&mut self, mut x: MatMut<'_, f64>) {
         let b = x.to_owned();
-        self.factor.solve_in_place(&self.sym, x.as_mut(), Par::Seq);
-        let mut r = Mat::<f64>::zeros(b.nrows(), b.ncols());
-        for _ in 0..MAX_REFINEMENTS {
-            // r = b − A x
-            r.copy_from(&b);
-            pattern::symmetric_mul_sub(self.pencil, &self.vals, x.as_ref(), r.as_mut());
-            let worst = (0..x.ncols())
-                .map(|c| {
-                    let scale = self.norm_inf * max_abs(x.as_ref().col(c)) + max_abs(b.col(c));
-                    max_abs(r.col(c)) / scale
-                })
-                .fold(0.0, f64::max);
-            if !(worst > REFINE_ABOVE) {
-                return;
-            }
-            self.factor.solve_in_place(&self.sym, r.as_mut(), Par::Seq);
-            x += &r;
-            self.refinements += 1;
-        }
+        let (sym, factor, vals) = (&self.sym, &mut self.factor, &self.vals);
+        factor.solve_in_place(sym, x.as_mut(), Par::Seq);
+        self.refinements += refine(
+            self.pencil,
+            &|p| vals[p],
+            Stop::Normwise {
+                norm_inf: self.norm_inf,
+                above: REFINE_ABOVE,
+            },
+            b.as_ref(),
+            x,
+            |r| factor.solve_in_place(sym, r, Par::Seq),
+            Par::Seq,
+        );
     }
-}
-
-fn max_abs(v: faer::ColRef<'_, f64>) -> f64 {
-    v.iter().fold(0.0, |m, x| m.max(x.abs()))
 }

@@ -31,12 +31,14 @@ mod inertia;
 mod lblt;
 mod lu;
 mod pattern;
+mod refine;
 #[cfg(feature = "umfpack")]
 pub mod umfpack;
 
 pub use cholesky::{reference_cholesky, symbolic_cholesky};
 pub use inertia::{count_eigenvalues_below, count_eigenvalues_below_with};
 pub use lblt::PivotStats;
+pub use refine::MAX_REFINEMENTS;
 
 pub(crate) use cholesky::Cholesky;
 pub(crate) use inertia::ShiftedLblt;
@@ -46,7 +48,7 @@ use crate::{Error, Result};
 use faer::dyn_stack::{MemBuffer, StackReq};
 use faer::sparse::linalg::cholesky::SymbolicCholesky;
 use faer::sparse::SymbolicSparseColMatRef;
-use faer::{c64, Mat, MatMut, Par};
+use faer::{c64, Mat, MatMut, MatRef, Par};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -373,6 +375,34 @@ impl Numeric<'_> {
         debug_assert!(self.factored_at.is_some());
         self.factors.solve(rhs, par);
     }
+
+    /// Refines a solution `x` of A X = `b` from [`Self::solve`] with the factored matrix
+    /// itself by LAPACK xGERFS's rule: while the componentwise backward error exceeds ε and
+    /// halves, at most [`MAX_REFINEMENTS`] steps (module `refine`). Returns the steps taken.
+    pub fn refine(
+        &mut self,
+        pencil: &Pencil,
+        b: MatRef<'_, c64>,
+        x: MatMut<'_, c64>,
+        par: Par,
+    ) -> usize {
+        debug_assert!(self.factored_at.is_some());
+        let (re, im, factors) = (&self.re, &self.im, &mut self.factors);
+        refine::refine(
+            pencil,
+            &|p| lower_entry(re, im, p),
+            refine::Stop::Componentwise,
+            b,
+            x,
+            |r| factors.solve(r, par),
+            par,
+        )
+    }
+}
+
+/// Entry p of the factored matrix on the pencil's lower pattern (`im` empty: real).
+fn lower_entry(re: &[f64], im: &[f64], p: usize) -> c64 {
+    c64::new(re[p], im.get(p).copied().unwrap_or(0.0))
 }
 
 /// Solves a complex block with a real factorization: [Re B | Im B] (N × 2k) in one solve.

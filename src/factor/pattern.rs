@@ -9,12 +9,13 @@
 //! - [`full`]: both triangles, for the unsymmetric LU backends (faer LU, UMFPACK), with the
 //!   position of every entry in the lower pattern so the values are gathered per frequency.
 //!
-//! Two products on the lower pattern serve the residuals of iterative refinement:
-//! [`symmetric_mul_sub`] (r ← r − A x) and [`symmetric_norm_inf`] (‖A‖∞).
+//! Two products on the lower pattern serve the residuals of iterative refinement (`refine`):
+//! [`symmetric_residual`] (b − A x and |A||x| + |b|) and [`symmetric_norm_inf`] (‖A‖∞), real or
+//! complex.
 
 use crate::pencil::Pencil;
 use faer::sparse::{SymbolicSparseColMat, SymbolicSparseColMatRef};
-use faer::{MatMut, MatRef};
+use faer::{MatMut, MatRef, Par};
 
 /// The pencil's N×N lower pattern as a faer view, without re-checking it (this runs for
 /// every factorization).
@@ -67,39 +68,90 @@ pub(super) fn full(pencil: &Pencil) -> (SymbolicSparseColMat<usize>, Vec<usize>)
     )
 }
 
-/// r ← r − A x for the symmetric A whose lower triangle has the values `vals` on the
-/// pencil's pattern.
-pub(super) fn symmetric_mul_sub(
-    pencil: &Pencil,
-    vals: &[f64],
-    x: MatRef<'_, f64>,
-    mut r: MatMut<'_, f64>,
-) {
-    let (cp, ri) = (pencil.col_ptr(), pencil.row_idx());
-    for c in 0..x.ncols() {
-        for j in 0..pencil.n() {
-            let xj = x[(j, c)];
-            let mut acc = 0.0;
-            for p in cp[j]..cp[j + 1] {
-                let (i, a) = (ri[p], vals[p]);
-                r[(i, c)] -= a * xj;
-                if i != j {
-                    acc += a * x[(i, c)];
-                }
-            }
-            r[(j, c)] -= acc;
-        }
+/// The entry types of the products below: real (the eigensolver's K − σM) and complex
+/// (A(iω)).
+pub(crate) trait Scalar:
+    faer::traits::ComplexField
+    + Copy
+    + Send
+    + Sync
+    + std::ops::Mul<Output = Self>
+    + std::ops::AddAssign
+    + std::ops::SubAssign
+{
+    /// |Re a| + |Im a| (LAPACK's CABS1: within √2 of |a|, without a square root).
+    fn abs1(self) -> f64;
+}
+
+impl Scalar for f64 {
+    fn abs1(self) -> f64 {
+        self.abs()
     }
 }
 
-/// ‖A‖∞ (max row sum of |a_ij|) of the symmetric A whose lower triangle has the values `vals`
-/// on the pencil's pattern.
-pub(super) fn symmetric_norm_inf(pencil: &Pencil, vals: &[f64]) -> f64 {
+impl Scalar for faer::c64 {
+    fn abs1(self) -> f64 {
+        self.re.abs() + self.im.abs()
+    }
+}
+
+/// r ← b − A x and s ← |A| |x| + |b| (magnitudes by [`Scalar::abs1`]) for the symmetric A
+/// whose lower triangle has the entries `entry(p)` (position p in the pencil's pattern);
+/// columns in parallel under `par`. s is the denominator of the componentwise backward error.
+pub(super) fn symmetric_residual<T: Scalar>(
+    pencil: &Pencil,
+    entry: &(impl Fn(usize) -> T + Sync),
+    b: MatRef<'_, T>,
+    x: MatRef<'_, T>,
+    r: MatMut<'_, T>,
+    s: MatMut<'_, f64>,
+    par: Par,
+) {
+    let (cp, ri) = (pencil.col_ptr(), pencil.row_idx());
+    let column = |c: usize, (mut r, mut s): (faer::ColMut<'_, T>, faer::ColMut<'_, f64>)| {
+        let (x, b) = (x.col(c), b.col(c));
+        for i in 0..pencil.n() {
+            r[i] = b[i];
+            s[i] = b[i].abs1();
+        }
+        for j in 0..pencil.n() {
+            let xj = x[j];
+            let (mut acc, mut acc_abs) = (T::zero_impl(), 0.0);
+            for p in cp[j]..cp[j + 1] {
+                let (i, a) = (ri[p], entry(p));
+                r[i] -= a * xj;
+                s[i] += a.abs1() * xj.abs1();
+                if i != j {
+                    acc += a * x[i];
+                    acc_abs += a.abs1() * x[i].abs1();
+                }
+            }
+            r[j] -= acc;
+            s[j] += acc_abs;
+        }
+    };
+    if par.degree() > 1 && x.ncols() > 1 {
+        use rayon::prelude::*;
+        r.par_col_iter_mut()
+            .zip(s.par_col_iter_mut())
+            .enumerate()
+            .for_each(|(c, rs)| column(c, rs));
+    } else {
+        r.col_iter_mut()
+            .zip(s.col_iter_mut())
+            .enumerate()
+            .for_each(|(c, rs)| column(c, rs));
+    }
+}
+
+/// ‖A‖∞ (max row sum of [`Scalar::abs1`]) of the symmetric A whose lower triangle has the
+/// entries `entry(p)` on the pencil's pattern.
+pub(super) fn symmetric_norm_inf<T: Scalar>(pencil: &Pencil, entry: impl Fn(usize) -> T) -> f64 {
     let (cp, ri) = (pencil.col_ptr(), pencil.row_idx());
     let mut rows = vec![0.0f64; pencil.n()];
     for j in 0..pencil.n() {
         for p in cp[j]..cp[j + 1] {
-            let (i, a) = (ri[p], vals[p].abs());
+            let (i, a) = (ri[p], entry(p).abs1());
             rows[i] += a;
             if i != j {
                 rows[j] += a;

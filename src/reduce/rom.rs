@@ -59,6 +59,9 @@ pub struct FitReport {
     pub residual_argmax_dof: usize,
     /// Rows of T_oᵀ (2pz).
     pub rows: usize,
+    /// How accurate the full-model solves behind the snapshots were (docs/design.md §3.1).
+    #[serde(default)]
+    pub solves: crate::sweep::SolveAccuracy,
 }
 
 /// Numerics of a Craig–Bampton reduction (docs/design.md §3.8), reported to the user and

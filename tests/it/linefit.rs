@@ -104,6 +104,13 @@ fn check_against_dense(model: &Model, scene: &Scene, interface: Vec<usize>, freq
         rom.fit().unwrap().cond_raw
     );
     assert!(e <= 1e-8, "W differs from the dense reference: {e:.2e}");
+    // the report counts every factorization and carries the worst accepted probe error
+    let solves = rom.fit().unwrap().solves;
+    assert_eq!(solves.frequencies, freqs.len());
+    assert!(
+        solves.probe_error_max > 0.0 && solves.probe_error_max <= 1e-6,
+        "{solves:?}"
+    );
     for (c, &d) in interface.iter().enumerate() {
         assert_eq!(v[(d, c)], 1.0);
     }

@@ -195,7 +195,7 @@ impl<'a> Loop<'a> {
             seconds: start.elapsed().as_secs_f64(),
             action: "seed".into(),
         }];
-        let rom = part.finish(body, scene, &qr, &opts.lsq, &sampled)?;
+        let rom = part.finish(body, scene, &qr, &opts.lsq, &sampled, solver.accuracy())?;
         Ok(Loop {
             body,
             scene,
@@ -229,6 +229,7 @@ impl<'a> Loop<'a> {
             &self.qr,
             &self.opts.lsq,
             &self.sampled,
+            self.solver.accuracy(),
         )?;
         Ok(())
     }
@@ -456,7 +457,8 @@ impl<'a> Loop<'a> {
             factorizations,
             spilled: self.store.as_ref().is_some_and(|s| s.spilled()),
         };
-        if let Provenance::LineFit { sampling, .. } = &mut rom.provenance {
+        if let Provenance::LineFit { sampling, fit, .. } = &mut rom.provenance {
+            fit.solves = self.solver.accuracy(); // every solve, the verification's too
             *sampling = Some(report);
         }
         if !self.opts.keep_basis {

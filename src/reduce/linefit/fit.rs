@@ -116,6 +116,7 @@ impl Partition {
         qr: &StreamedQr,
         lsq: &LsqOptions,
         ref_freqs_hz: &[f64],
+        solves: crate::sweep::SolveAccuracy,
     ) -> Result<Rom> {
         let n = self.interface.len();
         let sol = qr.finish(lsq)?;
@@ -150,6 +151,7 @@ impl Partition {
                     residual_mean: sol.residual_mean,
                     residual_argmax_dof: self.rest.get(sol.residual_argmax).copied().unwrap_or(0),
                     rows: sol.rows,
+                    solves,
                 },
                 sampling: None,
             },

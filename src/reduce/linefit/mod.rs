@@ -115,7 +115,7 @@ fn fixed(
 
     let t_fit = Instant::now();
     let qr = part.merge(workers, None)?;
-    let mut rom = part.finish(body, scene, &qr, &opts.lsq, freqs)?;
+    let mut rom = part.finish(body, scene, &qr, &opts.lsq, freqs, solver.accuracy())?;
     drop(qr);
     let fit_s = t_fit.elapsed().as_secs_f64();
     if !opts.keep_basis {

@@ -1,0 +1,201 @@
+//! Fixed-precision iterative refinement of the solves of a sparse symmetric factorization
+//! (docs/design.md §3.1).
+//!
+//! A supernodal LBLᵀ pivots inside each supernode only, so where a diagonal block is nearly
+//! singular — an interior shift of the eigensolver, a frequency next to a lightly damped
+//! resonance — a solve's backward error rises above ε; and where A is ill-conditioned, even a
+//! backward error of a few ε is a large forward error. As PARDISO does after its perturbed
+//! pivots and LAPACK's xGERFS for any solve, the solution is refined with the exact matrix,
+//! x ← x + A⁻¹(b − A x), at most [`MAX_REFINEMENTS`] steps, while a backward error says it
+//! pays ([`Stop`]). Refinement in working precision drives the backward error to ~ε; it does
+//! not lower the forward error below about cond(A)·ε, which the sweep's probe then measures.
+
+use super::pattern::{self, Scalar};
+use crate::pencil::Pencil;
+use faer::{Mat, MatMut, MatRef, Par};
+
+/// At most this many refinement steps per solve (each one solve and one product with A).
+pub const MAX_REFINEMENTS: usize = 3;
+
+/// When to take another refinement step; "worst" is the largest backward error over the
+/// columns.
+#[derive(Clone, Copy, Debug)]
+pub(super) enum Stop {
+    /// While the normwise backward error ‖b − A x‖∞ / (‖A‖∞ ‖x‖∞ + ‖b‖∞) exceeds `above`:
+    /// a cheap test for solves that are backward stable unless the factor grew.
+    Normwise {
+        /// ‖A‖∞ ([`pattern::symmetric_norm_inf`]).
+        norm_inf: f64,
+        /// The threshold.
+        above: f64,
+    },
+    /// LAPACK xGERFS's rule: while the componentwise backward error
+    /// maxᵢ |b − A x|ᵢ / (|A||x| + |b|)ᵢ exceeds ε and halved in the last step. The
+    /// componentwise error sees what the normwise one hides on smooth solutions: on the
+    /// 10⁶-DoF bar at 5 Hz (β = 1e-5) unrefined point-load responses had normwise 3e-16,
+    /// componentwise 1–3e-15 and a forward error of 1.2e-4 that two steps cut to ~3e-6.
+    Componentwise,
+}
+
+/// Refines the solution `x` of A x = `b` as the module doc says, for the symmetric A whose
+/// lower triangle has the entries `entry(p)` on the pencil's pattern; `solve` applies A⁻¹ in
+/// place. Returns the steps taken.
+pub(super) fn refine<T: Scalar>(
+    pencil: &Pencil,
+    entry: &(impl Fn(usize) -> T + Sync),
+    stop: Stop,
+    b: MatRef<'_, T>,
+    mut x: MatMut<'_, T>,
+    mut solve: impl FnMut(MatMut<'_, T>),
+    par: Par,
+) -> usize {
+    let mut r = Mat::<T>::zeros(b.nrows(), b.ncols());
+    let mut s = Mat::<f64>::zeros(b.nrows(), b.ncols());
+    let mut last = f64::INFINITY;
+    for step in 0..MAX_REFINEMENTS {
+        pattern::symmetric_residual(pencil, entry, b, x.as_ref(), r.as_mut(), s.as_mut(), par);
+        let worst = (0..x.ncols())
+            .map(|c| match stop {
+                Stop::Normwise { norm_inf, .. } => {
+                    max_abs1(r.col(c))
+                        / (norm_inf * max_abs1(x.as_ref().col(c)) + max_abs1(b.col(c)))
+                }
+                Stop::Componentwise => r
+                    .col(c)
+                    .iter()
+                    .zip(s.col(c).iter())
+                    .filter(|(_, &s)| s > 0.0)
+                    .fold(0.0f64, |m, (r, &s)| m.max(r.abs1() / s)),
+            })
+            .fold(0.0, f64::max);
+        let again = match stop {
+            Stop::Normwise { above, .. } => worst > above,
+            Stop::Componentwise => worst > f64::EPSILON / 2.0 && 2.0 * worst <= last,
+        };
+        if !again {
+            return step;
+        }
+        last = worst;
+        solve(r.as_mut());
+        x += &r;
+    }
+    MAX_REFINEMENTS
+}
+
+fn max_abs1<T: Scalar>(v: faer::ColRef<'_, T>) -> f64 {
+    v.iter().fold(0.0, |m, x| m.max(x.abs1()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fe::{bar_model, BoxSpec};
+    use faer::linalg::solvers::Solve;
+
+    /// The componentwise backward error maxᵢ |b − A x|ᵢ / (|A||x| + |b|)ᵢ of one column.
+    fn berr(pencil: &Pencil, vals: &[f64], b: MatRef<'_, f64>, x: MatRef<'_, f64>) -> f64 {
+        let (mut r, mut s) = (Mat::zeros(b.nrows(), 1), Mat::zeros(b.nrows(), 1));
+        let entry = |p: usize| vals[p];
+        pattern::symmetric_residual(pencil, &entry, b, x, r.as_mut(), s.as_mut(), Par::Seq);
+        (0..b.nrows())
+            .filter(|&i| s[(i, 0)] > 0.0)
+            .fold(0.0, |m: f64, i| m.max(r[(i, 0)].abs() / s[(i, 0)]))
+    }
+
+    /// Refinement with a solver of a perturbed matrix (A + E, |E| = 1e-8|A| on the diagonal)
+    /// converges to the solution of A: both rules end at a backward error of a few ε and cut
+    /// the distance to a dense solve of A by four orders or more.
+    #[test]
+    fn refinement_with_an_inexact_solver_reaches_the_exact_matrix() {
+        let spec = BoxSpec {
+            elements: [1, 1, 6],
+            ..BoxSpec::paper_bar()
+        };
+        let pencil = Pencil::new(&bar_model(&spec).unwrap());
+        let n = pencil.n();
+        let sigma = -1e6; // K + 10⁶ M: positive definite, cond ≈ 1e4
+        let mut vals = vec![0.0; pencil.nnz()];
+        pencil.fill_shifted(sigma, &mut vals);
+        let (cp, ri) = (pencil.col_ptr(), pencil.row_idx());
+        let mut a = Mat::<f64>::zeros(n, n);
+        for j in 0..n {
+            for p in cp[j]..cp[j + 1] {
+                a[(ri[p], j)] = vals[p];
+                a[(j, ri[p])] = vals[p];
+            }
+        }
+        let mut perturbed = a.clone();
+        for i in 0..n {
+            perturbed[(i, i)] *= 1.0 + 1e-8 * if i % 2 == 0 { 1.0 } else { -1.0 };
+        }
+        let inexact = perturbed.partial_piv_lu();
+        let b = Mat::<f64>::from_fn(n, 2, |i, c| ((i * 7 + c * 3) % 11) as f64 - 5.0);
+        let exact = a.partial_piv_lu().solve(&b);
+        let norm_inf = pattern::symmetric_norm_inf(&pencil, |p| vals[p]);
+        for stop in [
+            Stop::Componentwise,
+            Stop::Normwise {
+                norm_inf,
+                above: 1e-14,
+            },
+        ] {
+            let mut x = inexact.solve(&b);
+            let diff_before = (&x - &exact).norm_l2() / exact.norm_l2();
+            let before = berr(
+                &pencil,
+                &vals,
+                b.as_ref().subcols(0, 1),
+                x.as_ref().subcols(0, 1),
+            );
+            let steps = refine(
+                &pencil,
+                &|p| vals[p],
+                stop,
+                b.as_ref(),
+                x.as_mut(),
+                |mut r| {
+                    let s = inexact.solve(&r);
+                    r.copy_from(&s);
+                },
+                Par::Seq,
+            );
+            let after = berr(
+                &pencil,
+                &vals,
+                b.as_ref().subcols(0, 1),
+                x.as_ref().subcols(0, 1),
+            );
+            let diff = (&x - &exact).norm_l2() / exact.norm_l2();
+            assert!(
+                before > 1e-10,
+                "{stop:?}: the perturbed solve is not inexact: {before:.1e}"
+            );
+            assert!(
+                (1..=MAX_REFINEMENTS).contains(&steps),
+                "{stop:?}: {steps} steps"
+            );
+            // the componentwise rule runs to ~ε; the normwise one stops once ‖r‖∞ is below
+            // 1e-14 relative, which left the componentwise error at 1.9e-15 here
+            let bound = match stop {
+                Stop::Componentwise => 1e-15,
+                Stop::Normwise { .. } => 1e-14,
+            };
+            assert!(
+                after <= bound,
+                "{stop:?}: backward error {after:.1e} after {steps} steps"
+            );
+            println!("{stop:?}: {steps} steps, backward error {before:.1e} -> {after:.1e}, vs dense {diff_before:.1e} -> {diff:.1e}");
+            // both cut the distance to the dense solve by four orders at least; the
+            // componentwise rule, which runs on, reaches the floor cond(A)·ε (1.8e-11 here;
+            // the normwise one stopped at 5.2e-10)
+            let floor = match stop {
+                Stop::Componentwise => 1e-10,
+                Stop::Normwise { .. } => f64::INFINITY,
+            };
+            assert!(
+                diff <= 1e-4 * diff_before && diff <= floor,
+                "{stop:?}: differs from the dense solve by {diff:.1e} (unrefined {diff_before:.1e})"
+            );
+        }
+    }
+}
