@@ -24,8 +24,8 @@
 //! file and the line.
 
 use crate::io::import::{
-    for_each_line, parse_f64, parse_u64, tokens, uniform_nodes, Direction, Dof, Format, Imported,
-    NodeTable,
+    for_each_line, par_lines, parse_f64, parse_u64, tokens, uniform_nodes, Direction, Dof, Format,
+    Imported, NodeTable,
 };
 use crate::sparse::Triplets;
 use crate::{Error, Result};
@@ -72,12 +72,21 @@ impl Keys {
     }
 }
 
+/// One parsed entry line of a matrix file.
+enum Entry {
+    /// `row col value`, 0-based equations.
+    Coordinate(usize, usize, f64),
+    /// `node, dof, node, dof, value`.
+    NodeDof(Dof, Dof, f64),
+}
+
 /// One matrix file: its layout and its entries (0-based equations for COORDINATE, [`Keys`]
-/// ids for node–DoF).
+/// ids for node–DoF). Lines are parsed in parallel ([`par_lines`]); the DoF numbering, which
+/// depends on the order of appearance, runs in file order.
 fn read_matrix(path: &Path, keys: &mut Keys) -> Result<(Layout, Triplets)> {
     let mut layout = None;
     let mut t = Triplets::default();
-    for_each_line(path, |line, bytes| {
+    let parse = |line: usize, bytes: &[u8]| -> Result<Option<Entry>> {
         let mut tok: [&[u8]; 5] = [&[]; 5];
         let mut count = 0;
         for x in tokens(bytes) {
@@ -87,25 +96,7 @@ fn read_matrix(path: &Path, keys: &mut Keys) -> Result<(Layout, Triplets)> {
             count += 1;
         }
         if count == 0 || bytes.starts_with(b"**") {
-            return Ok(());
-        }
-        let this = match count {
-            3 => Layout::Coordinate,
-            5 => Layout::NodeDof,
-            _ => {
-                return Err(Error::parse(
-                    path,
-                    line,
-                    format!("expected `row col value` (COORDINATE) or `node, dof, node, dof, value`, found {count} fields"),
-                ))
-            }
-        };
-        if *layout.get_or_insert(this) != this {
-            return Err(Error::parse(
-                path,
-                line,
-                format!("{count} fields, but the file started in the other *MATRIX OUTPUT format"),
-            ));
+            return Ok(None);
         }
         let index = |t: &[u8], what: &str| -> Result<usize> {
             let v = parse_u64(t, path, line, what)?;
@@ -114,27 +105,53 @@ fn read_matrix(path: &Path, keys: &mut Keys) -> Result<(Layout, Triplets)> {
                 .filter(|&i| i < u32::MAX as usize)
                 .ok_or_else(|| Error::parse(path, line, format!("{what} {v} is too large")))
         };
-        match this {
-            Layout::Coordinate => {
-                let (i, j) = (index(tok[0], "row")?, index(tok[1], "column")?);
-                t.push(i, j, parse_f64(tok[2], path, line, "value")?);
-            }
-            Layout::NodeDof => {
-                let mut dof = |n: &[u8], d: &[u8]| -> Result<usize> {
-                    let node = parse_u64(n, path, line, "node")?;
-                    let key = parse_u64(d, path, line, "DoF")?;
-                    let dir = Direction::from_key(key as i64).ok_or_else(|| {
-                        Error::parse(
-                            path,
-                            line,
-                            format!("unknown DoF label {key} of node {node}: only DoFs 1-6 (translations, rotations) are supported"),
-                        )
-                    })?;
-                    Ok(keys.id(Dof { node, dir }))
-                };
-                let i = dof(tok[0], tok[1])?;
-                let j = dof(tok[2], tok[3])?;
-                t.push(i, j, parse_f64(tok[4], path, line, "value")?);
+        let dof = |n: &[u8], d: &[u8]| -> Result<Dof> {
+            let node = parse_u64(n, path, line, "node")?;
+            let key = parse_u64(d, path, line, "DoF")?;
+            let dir = Direction::from_key(key as i64).ok_or_else(|| {
+                Error::parse(
+                    path,
+                    line,
+                    format!("unknown DoF label {key} of node {node}: only DoFs 1-6 (translations, rotations) are supported"),
+                )
+            })?;
+            Ok(Dof { node, dir })
+        };
+        match count {
+            3 => Ok(Some(Entry::Coordinate(
+                index(tok[0], "row")?,
+                index(tok[1], "column")?,
+                parse_f64(tok[2], path, line, "value")?,
+            ))),
+            5 => Ok(Some(Entry::NodeDof(
+                dof(tok[0], tok[1])?,
+                dof(tok[2], tok[3])?,
+                parse_f64(tok[4], path, line, "value")?,
+            ))),
+            _ => Err(Error::parse(
+                path,
+                line,
+                format!("expected `row col value` (COORDINATE) or `node, dof, node, dof, value`, found {count} fields"),
+            )),
+        }
+    };
+    par_lines(path, parse, |line, entry| {
+        let this = match entry {
+            Entry::Coordinate(..) => Layout::Coordinate,
+            Entry::NodeDof(..) => Layout::NodeDof,
+        };
+        if *layout.get_or_insert(this) != this {
+            return Err(Error::parse(
+                path,
+                line,
+                "the line's fields are of the other *MATRIX OUTPUT format than the file's first entry",
+            ));
+        }
+        match entry {
+            Entry::Coordinate(i, j, v) => t.push(i, j, v),
+            Entry::NodeDof(a, b, v) => {
+                let (i, j) = (keys.id(a), keys.id(b));
+                t.push(i, j, v);
             }
         }
         Ok(())

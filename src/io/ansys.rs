@@ -49,13 +49,12 @@
 //! K and M may instead be Harwell–Boeing files (`*EXPORT,…,HBMAT`, the `HBMAT` command; read by
 //! [`crate::io::harwell_boeing`], told apart by their header); the rest of the set is the same.
 
+use crate::io::binary::BinaryFile;
 use crate::io::import::{read_node_table, uniform_nodes, Direction, Dof, Format, Imported};
 use crate::io::matrix_market;
 use crate::sparse::Triplets;
 use crate::{Error, Result};
-use std::fs::File;
-use std::io::{BufReader, Read, Seek, SeekFrom};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 const FLAG_INTEGER: u32 = 1 << 31;
 const FLAG_SHORT: u32 = 1 << 30;
@@ -65,29 +64,19 @@ const FLAG_BITSPARSE: u32 = 1 << 27;
 
 /// Sequential reader of ANSYS binary records.
 struct Records {
-    file: BufReader<File>,
-    path: PathBuf,
-    len: u64,
-    pos: u64,
-    big_endian: bool,
+    f: BinaryFile,
     bytes: Vec<u8>,
 }
 
 impl Records {
     fn open(path: &Path) -> Result<Self> {
-        let file = File::open(path).map_err(|e| Error::io(path, e))?;
-        let len = file.metadata().map_err(|e| Error::io(path, e))?.len();
         let mut r = Records {
-            file: BufReader::with_capacity(1 << 16, file),
-            path: path.to_path_buf(),
-            len,
-            pos: 0,
-            big_endian: false,
+            f: BinaryFile::open(path, false)?,
             bytes: Vec::new(),
         };
         let mut w = [0u8; 4];
         r.read_exact(&mut w, 0, "the standard header")?;
-        r.big_endian = match (u32::from_le_bytes(w), u32::from_be_bytes(w)) {
+        r.f.big_endian = match (u32::from_le_bytes(w), u32::from_be_bytes(w)) {
             (100, _) => false,
             (_, 100) => true,
             _ => {
@@ -102,55 +91,45 @@ impl Records {
     }
 
     fn error(&self, at: u64, msg: impl std::fmt::Display) -> Error {
-        Error::parse(&self.path, 0, format!("byte {at}: {msg}"))
+        self.f.error(at, msg)
     }
 
     fn word(&self, b: &[u8]) -> u32 {
-        super::word(b, self.big_endian)
+        self.f.word(b)
     }
 
     fn read_exact(&mut self, buf: &mut [u8], at: u64, what: &str) -> Result<()> {
-        self.file.read_exact(buf).map_err(|e| {
-            if e.kind() == std::io::ErrorKind::UnexpectedEof {
-                self.error(at, format!("the file ends inside {what} (truncated file?)"))
-            } else {
-                Error::io(&self.path, e)
-            }
-        })
+        self.f.read_exact(buf, at, what)
     }
 
     /// Moves to a word pointer of the full header.
     fn seek_word(&mut self, word: u64, what: &str) -> Result<()> {
         let at = word.saturating_mul(4);
-        if at >= self.len {
+        if at >= self.f.len {
             return Err(self.error(
                 at,
                 format!(
                     "the pointer to {what} (word {word}) lies beyond the end of the file ({} bytes; truncated file?)",
-                    self.len
+                    self.f.len
                 ),
             ));
         }
-        self.file
-            .seek(SeekFrom::Start(at))
-            .map_err(|e| Error::io(&self.path, e))?;
-        self.pos = at;
-        Ok(())
+        self.f.seek(at)
     }
 
     /// Reads the next record into `self.bytes`; checks its type, size and footer.
     fn record(&mut self, integer: bool, what: &str) -> Result<()> {
-        let at = self.pos;
+        let at = self.f.pos;
         let mut head = [0u8; 8];
         self.read_exact(&mut head, at, &format!("the header of the {what} record"))?;
         let (n, flags) = (self.word(&head[..4]), self.word(&head[4..]));
         let size = u64::from(n) * 4;
-        if n > i32::MAX as u32 || at + 12 + size > self.len {
+        if n > i32::MAX as u32 || at + 12 + size > self.f.len {
             return Err(self.error(
                 at,
                 format!(
                     "the {what} record claims {n} words but the file ends at byte {} (truncated file?)",
-                    self.len
+                    self.f.len
                 ),
             ));
         }
@@ -198,13 +177,13 @@ impl Records {
                 ),
             ));
         }
-        self.pos = at + 12 + size;
+        self.f.pos = at + 12 + size;
         Ok(())
     }
 
     /// The next record as 32-bit integers.
     fn ints(&mut self, what: &str, out: &mut Vec<i32>) -> Result<u64> {
-        let at = self.pos;
+        let at = self.f.pos;
         self.record(true, what)?;
         out.clear();
         out.extend(self.bytes.chunks_exact(4).map(|b| self.word(b) as i32));
@@ -215,7 +194,7 @@ impl Records {
     fn reals(&mut self, what: &str, out: &mut Vec<f64>) -> Result<()> {
         self.record(false, what)?;
         out.clear();
-        let big = self.big_endian;
+        let big = self.f.big_endian;
         out.extend(self.bytes.chunks_exact(8).map(|b| {
             let w = [b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7]];
             if big {
@@ -329,7 +308,7 @@ pub fn read_full(path: &Path, node_table: Option<&Path>) -> Result<Imported> {
             "the full file holds no mass matrix: run a modal analysis (ANTYPE,MODAL) or *EXPORT the mass",
         ));
     }
-    let set_at = r.pos;
+    let set_at = r.f.pos;
     let dof_set: Vec<Direction> = r
         .table("DoF set", numdof)?
         .into_iter()
@@ -350,7 +329,7 @@ pub fn read_full(path: &Path, node_table: Option<&Path>) -> Result<Imported> {
     }
     let node_numbers = r.table("nodal equivalence table", n_nodes)?;
     r.seek_word(ptr_dof, "the DoF counts (ptrDOF)")?;
-    let counts_at = r.pos;
+    let counts_at = r.f.pos;
     let counts = r.table("DoF counts per node", n_nodes)?;
     let constraints = r.table("constraint flags", neqn)?;
     // Equation -> DoF, in the file's internal order.
@@ -513,7 +492,7 @@ fn read_lower(
     }
     if terms != nterm {
         return Err(r.error(
-            r.pos,
+            r.f.pos,
             format!("the {what} matrix holds {terms} terms but the full header says {nterm}"),
         ));
     }

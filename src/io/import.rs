@@ -578,6 +578,103 @@ pub fn for_each_line(path: &Path, mut f: impl FnMut(usize, &[u8]) -> Result<()>)
     }
 }
 
+/// Bytes of text [`par_lines`] parses per block (the file is read block by block).
+const PAR_BLOCK: usize = 32 << 20;
+
+/// Parses every line of a text file on the rayon pool and hands the results to `consume` in
+/// file order: `parse(line_number, line)` (1-based, the line without `\r\n`/`\n`) runs in
+/// parallel and may skip a line (`None`); `consume(line_number, item)` runs on the calling
+/// thread. The file is read in blocks of [`PAR_BLOCK`] bytes (never whole); each block is cut at
+/// line ends into pieces ([`crate::io::split_at_lines`]), the pieces' first line numbers
+/// come from their newline counts, and the pieces are parsed in parallel. For a file of one
+/// block or less the buffer is the file's size.
+///
+/// # Errors
+/// [`Error::Io`], or the first error in file order that `parse` or `consume` returns (within a
+/// piece, a `parse` error comes before the `consume` errors of that piece's earlier lines).
+pub(crate) fn par_lines<T: Send>(
+    path: &Path,
+    parse: impl Fn(usize, &[u8]) -> Result<Option<T>> + Sync,
+    consume: impl FnMut(usize, T) -> Result<()>,
+) -> Result<()> {
+    par_lines_in_blocks(path, PAR_BLOCK, parse, consume)
+}
+
+/// [`par_lines`] with blocks of `block` bytes.
+fn par_lines_in_blocks<T: Send>(
+    path: &Path,
+    block: usize,
+    parse: impl Fn(usize, &[u8]) -> Result<Option<T>> + Sync,
+    mut consume: impl FnMut(usize, T) -> Result<()>,
+) -> Result<()> {
+    use rayon::prelude::*;
+    let mut file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let size = file.metadata().map_err(|e| Error::io(path, e))?.len();
+    let mut buf = vec![0u8; usize::try_from(size).unwrap_or(block).clamp(1, block)];
+    let (mut end, mut line, mut eof) = (0usize, 0usize, false);
+    let pieces = 4 * rayon::current_num_threads();
+    while !eof {
+        while end < buf.len() {
+            let got = file.read(&mut buf[end..]).map_err(|e| Error::io(path, e))?;
+            if got == 0 {
+                eof = true;
+                break;
+            }
+            end += got;
+        }
+        // the complete lines of this block; a line longer than the buffer grows it
+        let complete = if eof {
+            end
+        } else {
+            match memchr::memrchr(b'\n', &buf[..end]) {
+                Some(i) => i + 1,
+                None => {
+                    buf.resize(2 * buf.len(), 0);
+                    continue;
+                }
+            }
+        };
+        let text = &buf[..complete];
+        let ranges = crate::io::split_at_lines(text, pieces);
+        let firsts: Vec<usize> = ranges
+            .iter()
+            .scan(line, |l, r| {
+                let first = *l;
+                *l += memchr::memchr_iter(b'\n', &text[r.clone()]).count();
+                Some(first)
+            })
+            .collect();
+        let parsed: Vec<Result<Vec<(usize, T)>>> = ranges
+            .par_iter()
+            .zip(firsts.par_iter())
+            .map(|(r, &first)| {
+                let mut out = Vec::new();
+                let piece = &text[r.clone()];
+                let piece = piece.strip_suffix(b"\n").unwrap_or(piece);
+                if r.is_empty() {
+                    return Ok(out);
+                }
+                for (k, l) in piece.split(|&b| b == b'\n').enumerate() {
+                    let l = l.strip_suffix(b"\r").unwrap_or(l);
+                    if let Some(item) = parse(first + k + 1, l)? {
+                        out.push((first + k + 1, item));
+                    }
+                }
+                Ok(out)
+            })
+            .collect();
+        for piece in parsed {
+            for (l, item) in piece? {
+                consume(l, item)?;
+            }
+        }
+        line += memchr::memchr_iter(b'\n', text).count();
+        buf.copy_within(complete..end, 0);
+        end -= complete;
+    }
+    Ok(())
+}
+
 /// Splits a text line into tokens at spaces, tabs and commas.
 pub(crate) fn tokens(line: &[u8]) -> impl Iterator<Item = &[u8]> {
     line.split(|&b| b == b' ' || b == b'\t' || b == b',')
@@ -680,10 +777,14 @@ impl NodeTable {
 /// [`Error::Parse`] with the line: fewer than 4 fields, a number that is neither (`1.000,5`,
 /// `1,2,3` in one field), a node number that is not a positive integer.
 pub fn read_node_table(path: &Path) -> Result<NodeTable> {
-    let mut table = NodeTable::default();
-    let mut in_header = true;
-    let mut field = String::new();
-    for_each_line(path, |line, bytes| {
+    /// A line of the table, parsed on its own ([`par_lines`]): whether it is a header line
+    /// depends on the lines before it, so a line whose first field is no number carries both
+    /// readings — the unit a header line may name, and the error it is as a data line.
+    enum Line {
+        Row(u64, [f64; 3]),
+        Text(Option<String>, Error),
+    }
+    let parse = |line: usize, bytes: &[u8]| -> Result<Option<Line>> {
         let text = String::from_utf8_lossy(bytes);
         let fields: Vec<&str> = if text.contains(['\t', ';']) {
             text.split(['\t', ';']).map(str::trim).collect()
@@ -694,44 +795,64 @@ pub fn read_node_table(path: &Path) -> Result<NodeTable> {
         };
         let fields: Vec<&str> = fields.into_iter().filter(|f| !f.is_empty()).collect();
         if fields.is_empty() {
-            return Ok(());
+            return Ok(None);
         }
-        if in_header && fields[0].parse::<u64>().is_err() {
-            if table.length_unit.is_none() {
-                table.length_unit = fields.iter().find_map(|f| {
-                    let (_, rest) = f.split_once('(')?;
-                    Some(rest.split_once(')')?.0.trim().to_string())
-                });
-            }
-            return Ok(());
-        }
-        in_header = false;
-        if fields.len() < 4 {
-            return Err(Error::parse(
-                path,
-                line,
-                format!(
-                    "expected `node x y z`, found {} field(s) (separators: tab, semicolon, space or comma)",
-                    fields.len()
-                ),
-            ));
-        }
-        let node = parse_u64(fields[0].as_bytes(), path, line, "node number")?;
-        let mut xyz = [0.0; 3];
-        for (c, f) in xyz.iter_mut().zip(&fields[1..4]) {
-            field.clear();
-            field.push_str(f);
-            *c = parse_locale_number(&mut field).ok_or_else(|| {
-                Error::parse(
+        let as_data = || -> Result<Line> {
+            if fields.len() < 4 {
+                return Err(Error::parse(
                     path,
                     line,
                     format!(
-                        "coordinate '{f}' is not a number with a decimal point or a decimal comma"
+                        "expected `node x y z`, found {} field(s) (separators: tab, semicolon, space or comma)",
+                        fields.len()
                     ),
-                )
-            })?;
+                ));
+            }
+            let node = parse_u64(fields[0].as_bytes(), path, line, "node number")?;
+            let mut xyz = [0.0; 3];
+            let mut field = String::new();
+            for (c, f) in xyz.iter_mut().zip(&fields[1..4]) {
+                field.clear();
+                field.push_str(f);
+                *c = parse_locale_number(&mut field).ok_or_else(|| {
+                    Error::parse(
+                        path,
+                        line,
+                        format!(
+                            "coordinate '{f}' is not a number with a decimal point or a decimal comma"
+                        ),
+                    )
+                })?;
+            }
+            Ok(Line::Row(node, xyz))
+        };
+        if fields[0].parse::<u64>().is_ok() {
+            return as_data().map(Some);
         }
-        table.rows.push((node, xyz));
+        let unit = fields.iter().find_map(|f| {
+            let (_, rest) = f.split_once('(')?;
+            Some(rest.split_once(')')?.0.trim().to_string())
+        });
+        let error = as_data()
+            .err()
+            .unwrap_or_else(|| Error::parse(path, line, "not a node line"));
+        Ok(Some(Line::Text(unit, error)))
+    };
+    let mut table = NodeTable::default();
+    let mut in_header = true;
+    par_lines(path, parse, |_, l| {
+        match l {
+            Line::Row(node, xyz) => {
+                in_header = false;
+                table.rows.push((node, xyz));
+            }
+            Line::Text(_, error) if !in_header => return Err(error),
+            Line::Text(unit, _) => {
+                if table.length_unit.is_none() {
+                    table.length_unit = unit;
+                }
+            }
+        }
         Ok(())
     })?;
     Ok(table)
@@ -782,6 +903,56 @@ pub(crate) fn uniform_nodes(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every line, with its number, in file order, for blocks from smaller than a line to
+    /// larger than the file, with `\r\n` endings, empty lines and no final newline.
+    #[test]
+    fn par_lines_sees_every_line_once_in_order_with_its_number() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.txt");
+        let mut text = String::new();
+        let mut want = Vec::new();
+        for i in 0..500usize {
+            let l = match i % 7 {
+                0 => String::new(),
+                3 => "x".repeat(40 + i % 13),
+                _ => format!("{i} {}", i * i),
+            };
+            text.push_str(&l);
+            text.push_str(if i % 5 == 0 { "\r\n" } else { "\n" });
+            want.push((i + 1, l));
+        }
+        text.push_str("last");
+        want.push((501, "last".to_string()));
+        std::fs::write(&path, &text).unwrap();
+        for block in [1, 5, 64, 1000, 1 << 20] {
+            let mut got = Vec::new();
+            par_lines_in_blocks(
+                &path,
+                block,
+                |n, l| Ok(Some((n, String::from_utf8(l.to_vec()).unwrap()))),
+                |n, (m, l)| {
+                    assert_eq!(n, m);
+                    got.push((n, l));
+                    Ok(())
+                },
+            )
+            .unwrap();
+            assert_eq!(got, want, "block {block}");
+            // the first error in file order wins
+            let err = par_lines_in_blocks(
+                &path,
+                block,
+                |n, _| match n % 97 {
+                    0 => Err(Error::parse(&path, n, "bad")),
+                    _ => Ok(Some(())),
+                },
+                |_, ()| Ok(()),
+            )
+            .unwrap_err();
+            assert!(matches!(err, Error::Parse { line: 97, .. }), "{err:?}");
+        }
+    }
 
     #[test]
     fn dof_names_round_trip() {

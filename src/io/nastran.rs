@@ -53,6 +53,7 @@
 //! component 1–6) gives it; without one, N must be a multiple of 6 and the DoFs are assumed
 //! to be nodes 1, 2, ... with components 1–6 each (said in the notes).
 
+use crate::io::binary::BinaryFile;
 use crate::io::import::{
     for_each_line, head, parse_u64, role_from_name, show, tokens, uniform_nodes, Direction, Dof,
     Format, Imported, Role,
@@ -60,8 +61,6 @@ use crate::io::import::{
 use crate::sparse::Triplets;
 use crate::{Error, Result};
 use std::fmt;
-use std::fs::File;
-use std::io::{BufReader, Read};
 use std::path::{Path, PathBuf};
 
 /// Where a matrix starts in its file.
@@ -269,21 +268,17 @@ fn ascii_header(line: &[u8]) -> Option<([i64; 4], String, (usize, usize))> {
 
 /// Sequential reader of Fortran unformatted records.
 struct Records {
-    file: BufReader<File>,
-    path: PathBuf,
-    len: u64,
-    pos: u64,
-    big: bool,
+    f: BinaryFile,
     buf: Vec<u8>,
 }
 
 impl Records {
     fn error(&self, at: u64, msg: impl fmt::Display) -> Error {
-        Error::parse(&self.path, 0, format!("byte {at}: {msg}"))
+        self.f.error(at, msg)
     }
 
     fn word(&self, b: &[u8]) -> u32 {
-        super::word(b, self.big)
+        self.f.word(b)
     }
 
     fn int(&self, i: usize) -> i32 {
@@ -292,25 +287,18 @@ impl Records {
 
     fn read_exact(&mut self, n: usize, at: u64, what: &str) -> Result<()> {
         self.buf.resize(n, 0);
-        let r = self.file.read_exact(&mut self.buf[..n]);
-        r.map_err(|e| {
-            if e.kind() == std::io::ErrorKind::UnexpectedEof {
-                self.error(at, format!("the file ends inside {what} (truncated file?)"))
-            } else {
-                Error::io(&self.path, e)
-            }
-        })
+        self.f.read_exact(&mut self.buf[..n], at, what)
     }
 
     /// Reads the next record into `buf`; returns its byte offset.
     fn record(&mut self, what: &str) -> Result<u64> {
-        let at = self.pos;
-        if self.len - at < 4 {
+        let at = self.f.pos;
+        if self.f.len - at < 4 {
             return Err(self.error(at, format!("the file ends before {what} (truncated file?)")));
         }
         self.read_exact(4, at, what)?;
         let n = u64::from(self.word(&self.buf[..4]));
-        let left = self.len - at - 4;
+        let left = self.f.len - at - 4;
         if n > left.saturating_sub(4) {
             return Err(self.error(
                 at,
@@ -333,7 +321,7 @@ impl Records {
             ));
         }
         self.buf.truncate(n);
-        self.pos = at + 8 + n as u64;
+        self.f.pos = at + 8 + n as u64;
         Ok(at)
     }
 
@@ -345,7 +333,7 @@ impl Records {
         } else {
             let mut w = [0u8; 8];
             w.copy_from_slice(&b[..8]);
-            f64::from_bits(if self.big {
+            f64::from_bits(if self.f.big_endian {
                 u64::from_be_bytes(w)
             } else {
                 u64::from_le_bytes(w)
@@ -376,14 +364,8 @@ fn put(
 }
 
 fn read_binary(path: &Path, big: bool, keep: &dyn Fn(&str) -> bool) -> Result<Vec<Op4Matrix>> {
-    let file = File::open(path).map_err(|e| Error::io(path, e))?;
-    let len = file.metadata().map_err(|e| Error::io(path, e))?.len();
     let mut r = Records {
-        file: BufReader::with_capacity(1 << 16, file),
-        path: path.to_path_buf(),
-        len,
-        pos: 0,
-        big,
+        f: BinaryFile::open(path, big)?,
         buf: Vec::new(),
     };
     let encoding = if big {
@@ -392,7 +374,7 @@ fn read_binary(path: &Path, big: bool, keep: &dyn Fn(&str) -> bool) -> Result<Ve
         Encoding::BinaryLittleEndian
     };
     let mut out = Vec::new();
-    while r.pos < r.len {
+    while r.f.pos < r.f.len {
         let at = r.record("the matrix header record")?;
         if r.buf.len() != 24 {
             return Err(r.error(
@@ -562,14 +544,22 @@ impl Current {
     }
 }
 
-fn all_ints(line: &[u8]) -> Option<Vec<i64>> {
-    let t: Vec<&[u8]> = line
-        .split(|b| b.is_ascii_whitespace())
+/// The integers of a line whose every token is one: the first four and the count; `None`
+/// when a token is not an integer (a line of values). No allocation: this runs per line.
+fn all_ints(line: &[u8]) -> Option<([i64; 4], usize)> {
+    let mut out = [0i64; 4];
+    let mut count = 0;
+    for t in line
+        .split(u8::is_ascii_whitespace)
         .filter(|t| !t.is_empty())
-        .collect();
-    t.iter()
-        .map(|t| std::str::from_utf8(t).ok()?.parse::<i64>().ok())
-        .collect()
+    {
+        let v = std::str::from_utf8(t).ok()?.parse::<i64>().ok()?;
+        if count < 4 {
+            out[count] = v;
+        }
+        count += 1;
+    }
+    Some((out, count))
 }
 
 /// Starts a matrix at an ASCII header line.
@@ -618,16 +608,18 @@ fn ascii_start(
 
 /// One line inside a matrix: a column record, a string header or values.
 fn ascii_line(path: &Path, line: usize, bytes: &[u8], c: &mut Current) -> Result<()> {
-    let name = c.m.name.clone();
-    let err = |m: String| Error::parse(path, line, format!("matrix {name}: {m}"));
-    if let Some(ints) = all_ints(bytes) {
+    let err =
+        |c: &Current, m: String| Error::parse(path, line, format!("matrix {}: {m}", c.m.name));
+    if let Some((ints, count)) = all_ints(bytes) {
+        let ints = &ints[..count.min(4)];
         if c.col.is_none() {
             return Err(err(
+                c,
                 "an integer line after the end record; expected the next matrix header".into(),
             ));
         }
         let rows = c.m.rows as i64;
-        match *ints.as_slice() {
+        match *ints {
             [icol, irow, nw] => {
                 c.check_dense(path)?;
                 if icol == c.m.cols as i64 + 1 {
@@ -636,54 +628,65 @@ fn ascii_line(path: &Path, line: usize, bytes: &[u8], c: &mut Current) -> Result
                     return Ok(());
                 }
                 if icol < 1 || icol > c.m.cols as i64 {
-                    return Err(err(format!(
-                        "column {icol} outside 1..={} (and not the end record {})",
-                        c.m.cols,
-                        c.m.cols + 1
-                    )));
+                    return Err(err(
+                        c,
+                        format!(
+                            "column {icol} outside 1..={} (and not the end record {})",
+                            c.m.cols,
+                            c.m.cols + 1
+                        ),
+                    ));
                 }
                 c.col = Some(icol as usize - 1);
                 if irow > 0 {
                     if irow > rows {
-                        return Err(err(format!("column {icol}: row {irow} outside 1..={rows}")));
+                        return Err(err(
+                            c,
+                            format!("column {icol}: row {irow} outside 1..={rows}"),
+                        ));
                     }
                     c.row = Some(irow as usize - 1);
                     c.dense = Some((line, nw, 0));
                 } else if irow == 0 {
                     c.row = None;
                 } else {
-                    return Err(err(format!("column {icol}: IROW = {irow} is negative")));
+                    return Err(err(c, format!("column {icol}: IROW = {irow} is negative")));
                 }
             }
             [is] if !c.m.bigmat && c.dense.is_none() => {
                 let l = is / 65536 - 1;
                 let first = is - 65536 * (l + 1);
                 if first < 1 || first > rows {
-                    return Err(err(format!(
-                        "string header {is}: row {first} outside 1..={rows}"
-                    )));
+                    return Err(err(
+                        c,
+                        format!("string header {is}: row {first} outside 1..={rows}"),
+                    ));
                 }
                 c.row = Some(first as usize - 1);
             }
             [_, first] if c.m.bigmat && c.dense.is_none() => {
                 if first < 1 || first > rows {
-                    return Err(err(format!(
-                        "BIGMAT string header: row {first} outside 1..={rows}"
-                    )));
+                    return Err(err(
+                        c,
+                        format!("BIGMAT string header: row {first} outside 1..={rows}"),
+                    ));
                 }
                 c.row = Some(first as usize - 1);
             }
             _ => {
-                return Err(err(format!(
+                return Err(err(
+                    c,
+                    format!(
                 "unexpected line of {} integer(s) '{}': expected a column record `ICOL IROW NW`{}",
-                ints.len(),
+                count,
                 show(bytes),
                 if c.m.bigmat {
                     " or a BIGMAT string header `L+1 IROW`"
                 } else {
                     " or a string header IS"
                 }
-            )))
+            ),
+                ))
             }
         }
         return Ok(());
@@ -693,49 +696,59 @@ fn ascii_line(path: &Path, line: usize, bytes: &[u8], c: &mut Current) -> Result
         return Ok(());
     };
     let Some(mut row) = c.row else {
-        return Err(err(format!(
-            "values '{}' before a column record or string header",
-            show(bytes)
-        )));
+        return Err(err(
+            c,
+            format!(
+                "values '{}' before a column record or string header",
+                show(bytes)
+            ),
+        ));
     };
     let bytes = bytes.strip_suffix(b"\r").unwrap_or(bytes);
     let mut got = 0;
-    let mut field = String::new();
     for chunk in bytes.chunks(c.width) {
-        let s = String::from_utf8_lossy(chunk);
-        let s = s.trim();
+        let s = chunk.trim_ascii();
         if s.is_empty() {
             continue;
         }
-        field.clear();
-        field.push_str(s);
-        if field.contains(['D', 'd']) {
-            field = field.replace(['D', 'd'], "E");
-        }
-        let v: f64 = field.parse().map_err(|_| {
-            err(format!(
-                "'{s}' is not a number (values are {} characters wide per the header's format)",
-                c.width
-            ))
+        // `E` exponents parse as they are; a Fortran `D` exponent is rewritten first
+        let v = fast_float2::parse::<f64, _>(s).or_else(|_| {
+            let e: Vec<u8> = s
+                .iter()
+                .map(|&b| if b == b'D' || b == b'd' { b'E' } else { b })
+                .collect();
+            fast_float2::parse::<f64, _>(&e)
+        });
+        let v: f64 = v.map_err(|_| {
+            err(
+                c,
+                format!(
+                    "'{}' is not a number (values are {} characters wide per the header's format)",
+                    show(s),
+                    c.width
+                ),
+            )
         })?;
         if row >= c.m.rows {
-            return Err(err(format!(
-                "column {}: more values than the {} rows",
-                col + 1,
-                c.m.rows
-            )));
+            return Err(err(
+                c,
+                format!("column {}: more values than the {} rows", col + 1, c.m.rows),
+            ));
         }
         // Single precision as the binary files hold it.
         let v = if c.wpv == 1 { f64::from(v as f32) } else { v };
-        put(&mut c.m.entries, c.kept, row, col, v).map_err(err)?;
+        put(&mut c.m.entries, c.kept, row, col, v).map_err(|m| err(c, m))?;
         row += 1;
         got += 1;
     }
     if got > c.per_line {
-        return Err(err(format!(
-            "{got} values on one line; the header's format has {} a line",
-            c.per_line
-        )));
+        return Err(err(
+            c,
+            format!(
+                "{got} values on one line; the header's format has {} a line",
+                c.per_line
+            ),
+        ));
     }
     c.row = Some(row);
     if let Some(d) = &mut c.dense {

@@ -1,6 +1,5 @@
 //! Coordinate entries: parallel line parsing (fast path + precise errors) and CSC assembly.
 
-use std::ops::Range;
 use std::path::Path;
 
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
@@ -74,7 +73,7 @@ pub(super) fn parse_coordinate_body<I: Ix>(
 ) -> Result<Vec<Vec<Entry<I>>>> {
     let threads = rayon::current_num_threads();
     if threads > 1 && body.len() >= PARALLEL_MIN_BYTES {
-        let ranges = split_at_lines(body, threads * 4);
+        let ranges = crate::io::split_at_lines(body, threads * 4);
         let per_byte = h.nnz as f64 / body.len() as f64;
         let chunks: Vec<Option<CoordChunk<I>>> = ranges
             .into_par_iter()
@@ -108,33 +107,6 @@ pub(super) fn parse_coordinate_body<I: Ix>(
         ));
     }
     Ok(vec![chunk.entries])
-}
-
-/// Splits `body` into about `pieces` ranges that end just after a newline (the last one at the
-/// end of `body`).
-pub(super) fn split_at_lines(body: &[u8], pieces: usize) -> Vec<Range<usize>> {
-    let pieces = pieces.max(1);
-    let mut out = Vec::with_capacity(pieces);
-    let mut start = 0;
-    for k in 1..pieces {
-        let target = (body.len() / pieces * k).max(start);
-        if target >= body.len() {
-            break;
-        }
-        let end = match memchr::memchr(b'\n', &body[target..]) {
-            Some(i) => target + i + 1,
-            None => body.len(),
-        };
-        out.push(start..end);
-        start = end;
-        if start >= body.len() {
-            break;
-        }
-    }
-    if start < body.len() || out.is_empty() {
-        out.push(start..body.len());
-    }
-    out
 }
 
 /// Parses the coordinate entry lines of `text`, whose first line is number `first_line`.
@@ -677,20 +649,5 @@ mod tests {
         ] {
             assert_eq!(f(bad), None, "{:?}", String::from_utf8_lossy(bad));
         }
-    }
-
-    #[test]
-    fn split_at_lines_covers_everything_at_line_ends() {
-        let text = b"a\nbb\nccc\n\ndddd\neeeee";
-        for pieces in 1..12 {
-            let r = split_at_lines(text, pieces);
-            assert_eq!(r.first().map(|r| r.start), Some(0));
-            assert_eq!(r.last().map(|r| r.end), Some(text.len()));
-            for w in r.windows(2) {
-                assert_eq!(w[0].end, w[1].start);
-                assert_eq!(text[w[0].end - 1], b'\n');
-            }
-        }
-        assert_eq!(split_at_lines(b"", 4), vec![0..0]);
     }
 }
