@@ -785,51 +785,49 @@ pub fn read_node_table(path: &Path) -> Result<NodeTable> {
         Text(Option<String>, Error),
     }
     let parse = |line: usize, bytes: &[u8]| -> Result<Option<Line>> {
-        let text = String::from_utf8_lossy(bytes);
-        let fields: Vec<&str> = if text.contains(['\t', ';']) {
-            text.split(['\t', ';']).map(str::trim).collect()
-        } else if text.trim().contains(char::is_whitespace) {
-            text.split_whitespace().collect()
-        } else {
-            text.split(',').map(str::trim).collect()
-        };
-        let fields: Vec<&str> = fields.into_iter().filter(|f| !f.is_empty()).collect();
-        if fields.is_empty() {
+        // the first four fields and the count, without allocating: this runs per line
+        let mut f: [&[u8]; 4] = [&[]; 4];
+        let mut count = 0;
+        for x in table_fields(bytes) {
+            if count < 4 {
+                f[count] = x;
+            }
+            count += 1;
+        }
+        if count == 0 {
             return Ok(None);
         }
         let as_data = || -> Result<Line> {
-            if fields.len() < 4 {
+            if count < 4 {
                 return Err(Error::parse(
                     path,
                     line,
                     format!(
-                        "expected `node x y z`, found {} field(s) (separators: tab, semicolon, space or comma)",
-                        fields.len()
+                        "expected `node x y z`, found {count} field(s) (separators: tab, semicolon, space or comma)"
                     ),
                 ));
             }
-            let node = parse_u64(fields[0].as_bytes(), path, line, "node number")?;
+            let node = parse_u64(f[0], path, line, "node number")?;
             let mut xyz = [0.0; 3];
-            let mut field = String::new();
-            for (c, f) in xyz.iter_mut().zip(&fields[1..4]) {
-                field.clear();
-                field.push_str(f);
-                *c = parse_locale_number(&mut field).ok_or_else(|| {
+            for (c, f) in xyz.iter_mut().zip(&f[1..4]) {
+                *c = parse_locale_number(f).ok_or_else(|| {
                     Error::parse(
                         path,
                         line,
                         format!(
-                            "coordinate '{f}' is not a number with a decimal point or a decimal comma"
+                            "coordinate '{}' is not a number with a decimal point or a decimal comma",
+                            show(f)
                         ),
                     )
                 })?;
             }
             Ok(Line::Row(node, xyz))
         };
-        if fields[0].parse::<u64>().is_ok() {
+        if std::str::from_utf8(f[0]).is_ok_and(|t| t.parse::<u64>().is_ok()) {
             return as_data().map(Some);
         }
-        let unit = fields.iter().find_map(|f| {
+        let unit = table_fields(bytes).find_map(|f| {
+            let f = String::from_utf8_lossy(f);
             let (_, rest) = f.split_once('(')?;
             Some(rest.split_once(')')?.0.trim().to_string())
         });
@@ -858,15 +856,40 @@ pub fn read_node_table(path: &Path) -> Result<NodeTable> {
     Ok(table)
 }
 
+/// The fields of a node-table line: split at tabs and semicolons when the line has one, else
+/// at blanks when the trimmed line has some, else at commas; trimmed, empty ones dropped.
+fn table_fields(line: &[u8]) -> impl Iterator<Item = &[u8]> {
+    let sep: fn(&u8) -> bool = if line.iter().any(|&b| b == b'\t' || b == b';') {
+        |&b| b == b'\t' || b == b';'
+    } else if line.trim_ascii().iter().any(u8::is_ascii_whitespace) {
+        u8::is_ascii_whitespace
+    } else {
+        |&b| b == b','
+    };
+    line.split(sep)
+        .map(<[u8]>::trim_ascii)
+        .filter(|f| !f.is_empty())
+}
+
 /// A number with a decimal point or one decimal comma (`0,15` → 0.15; `1,e-001` → 0.1);
 /// `None` for anything else (`1.000,5`, `1,2,3`, non-finite).
-fn parse_locale_number(s: &mut String) -> Option<f64> {
-    match (s.matches(',').count(), s.contains('.')) {
-        (0, _) => {}
-        (1, false) => *s = s.replacen(',', ".", 1),
+fn parse_locale_number(s: &[u8]) -> Option<f64> {
+    let mut buf = [0u8; 64];
+    let s = match (s.iter().filter(|&&b| b == b',').count(), s.contains(&b'.')) {
+        (0, _) => s,
+        (1, false) if s.len() <= buf.len() => {
+            let buf = &mut buf[..s.len()];
+            buf.copy_from_slice(s);
+            buf.iter_mut()
+                .filter(|b| **b == b',')
+                .for_each(|b| *b = b'.');
+            buf
+        }
         _ => return None,
-    }
-    s.parse::<f64>().ok().filter(|v| v.is_finite())
+    };
+    fast_float2::parse::<f64, _>(s)
+        .ok()
+        .filter(|v| v.is_finite())
 }
 
 /// Node coordinates in DoF-map order when every node keeps all `dofs_per_node` DoFs, the
@@ -969,7 +992,7 @@ mod tests {
 
     #[test]
     fn locale_numbers() {
-        let p = |s: &str| parse_locale_number(&mut s.to_string());
+        let p = |s: &str| parse_locale_number(s.as_bytes());
         assert_eq!(p("0,15"), Some(0.15));
         assert_eq!(p("1,e-001"), Some(0.1));
         assert_eq!(p("-5,e-002"), Some(-0.05));
