@@ -300,13 +300,20 @@ impl Basis {
         for j in (start..me).step_by(bs) {
             let mut w = self.mq.as_ref().subcols(j, bs).to_owned();
             op.solve_in_place(w.as_mut());
+            // the first Gram–Schmidt pass against the columns before this block's results,
+            // for the whole block at once: Q and MQ are read once per block, not per vector
+            let base = j + bs;
+            let done = self.mq.as_ref().subcols(0, base).transpose() * &w;
+            w -= self.q.as_ref().subcols(0, base) * &done;
             for c in 0..bs {
                 let mut wc = w.as_ref().subcols(c, 1).to_owned();
-                let top = j + bs + c;
+                let top = base + c;
+                let pre: Vec<f64> = done.col(c).iter().copied().collect();
                 let (coef, norm0, beta, mw) = orthogonalize(
                     op,
                     self.q.as_ref().subcols(0, top),
                     self.mq.as_ref().subcols(0, top),
+                    &pre,
                     &mut wc,
                 );
                 for i in nl..top {
@@ -374,6 +381,7 @@ fn fresh_vector(
         op,
         q.as_ref().subcols(0, j),
         mq.as_ref().subcols(0, j),
+        &[],
         &mut w,
     );
     if !(beta > 0.0) {
@@ -389,19 +397,25 @@ fn fresh_vector(
 
 /// Classical Gram–Schmidt in the M-inner product against the M-orthonormal columns of `q`
 /// (with `mq` = M q): w ← w − Q c, c = (MQ)ᵀ w, a second pass when ‖w‖_M fell below 1/√2 of
-/// its size (DGKS). Returns (c summed over the passes, ‖w‖_M before, ‖w‖_M after, M w).
+/// its size (DGKS). The first pass against the leading `done.len()` columns has already been
+/// made (by the caller, for a whole block), with coefficients `done`; this one continues it
+/// against the rest, and the second pass, when needed, runs against all. Returns (c summed over
+/// the passes, ‖w‖_M before, ‖w‖_M after, M w).
 fn orthogonalize(
     op: &ShiftInvert<'_>,
     q: MatRef<'_, f64>,
     mq: MatRef<'_, f64>,
+    done: &[f64],
     w: &mut Mat<f64>,
 ) -> (Vec<f64>, f64, f64, Mat<f64>) {
+    let k = q.ncols();
     let mut mw = Mat::<f64>::zeros(w.nrows(), 1);
-    let mut total = vec![0.0; q.ncols()];
-    let pass = |w: &mut Mat<f64>, total: &mut Vec<f64>| {
-        let c = mq.transpose() * &*w;
-        *w -= q * &c;
-        for (t, i) in total.iter_mut().zip(0..) {
+    let mut total = vec![0.0; k];
+    total[..done.len()].copy_from_slice(done);
+    let pass = |from: usize, w: &mut Mat<f64>, total: &mut Vec<f64>| {
+        let c = mq.subcols(from, k - from).transpose() * &*w;
+        *w -= q.subcols(from, k - from) * &c;
+        for (t, i) in total[from..].iter_mut().zip(0..) {
             *t += c[(i, 0)];
         }
     };
@@ -409,15 +423,13 @@ fn orthogonalize(
         op.mass_mul(w.as_ref(), mw.as_mut());
         (w.transpose() * &*mw)[(0, 0)].max(0.0).sqrt()
     };
-    let mut beta = if q.ncols() == 0 {
-        m_norm(w, &mut mw)
-    } else {
-        pass(w, &mut total);
-        m_norm(w, &mut mw)
-    };
+    if k > done.len() {
+        pass(done.len(), w, &mut total);
+    }
+    let mut beta = m_norm(w, &mut mw);
     let norm0 = (total.iter().map(|c| c * c).sum::<f64>() + beta * beta).sqrt();
-    if q.ncols() > 0 && beta < std::f64::consts::FRAC_1_SQRT_2 * norm0 {
-        pass(w, &mut total);
+    if k > 0 && beta < std::f64::consts::FRAC_1_SQRT_2 * norm0 {
+        pass(0, w, &mut total);
         beta = m_norm(w, &mut mw);
     }
     (total, norm0, beta, mw)

@@ -157,7 +157,10 @@ impl<'b, 'm> Slicer<'b, 'm> {
         let total = upper.1.saturating_sub(nu_lo);
         let u = |l: f64| l.max(0.0).powf(1.5);
         let inv = |x: f64| x.powf(2.0 / 3.0);
-        let parts = total.div_ceil(size).max(1);
+        let mut parts = total.div_ceil(size).max(1);
+        if parts > 1 {
+            parts = parts.next_multiple_of(self.threads.max(1));
+        }
         let interior: Vec<f64> = (1..parts)
             .map(|k| inv(u(lo) + (u(upper.0) - u(lo)) * k as f64 / parts as f64))
             .collect();

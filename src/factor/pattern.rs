@@ -95,52 +95,109 @@ impl Scalar for faer::c64 {
     }
 }
 
-/// r ← b − A x and s ← |A| |x| + |b| (magnitudes by [`Scalar::abs1`]) for the symmetric A
-/// whose lower triangle has the entries `entry(p)` (position p in the pencil's pattern);
-/// columns in parallel under `par`. s is the denominator of the componentwise backward error.
+/// r ← b − A x, and with `s` also s ← |A| |x| + |b| (magnitudes by [`Scalar::abs1`]), for the
+/// symmetric A whose lower triangle has the entries `entry(p)` (position p in the pencil's
+/// pattern); columns in parallel under `par`. s is the denominator of the componentwise
+/// backward error; the normwise one needs r only, and skipping s halves the work (this runs
+/// after every solve of the eigensolver's interior shifts).
 pub(super) fn symmetric_residual<T: Scalar>(
     pencil: &Pencil,
     entry: &(impl Fn(usize) -> T + Sync),
     b: MatRef<'_, T>,
     x: MatRef<'_, T>,
     r: MatMut<'_, T>,
-    s: MatMut<'_, f64>,
+    s: Option<MatMut<'_, f64>>,
     par: Par,
 ) {
-    let (cp, ri) = (pencil.col_ptr(), pencil.row_idx());
-    let column = |c: usize, (mut r, mut s): (faer::ColMut<'_, T>, faer::ColMut<'_, f64>)| {
-        let (x, b) = (x.col(c), b.col(c));
-        for i in 0..pencil.n() {
-            r[i] = b[i];
-            s[i] = b[i].abs1();
-        }
-        for j in 0..pencil.n() {
-            let xj = x[j];
-            let (mut acc, mut acc_abs) = (T::zero_impl(), 0.0);
-            for p in cp[j]..cp[j + 1] {
-                let (i, a) = (ri[p], entry(p));
-                r[i] -= a * xj;
-                s[i] += a.abs1() * xj.abs1();
-                if i != j {
-                    acc += a * x[i];
-                    acc_abs += a.abs1() * x[i].abs1();
-                }
-            }
-            r[j] -= acc;
-            s[j] += acc_abs;
-        }
+    let column = |c: usize, r: faer::ColMut<'_, T>, s: Option<faer::ColMut<'_, f64>>| {
+        let (mut bt, mut xt) = (Vec::new(), Vec::new());
+        residual_column(
+            pencil,
+            entry,
+            contiguous(b.col(c), &mut bt),
+            contiguous(x.col(c), &mut xt),
+            r.try_as_col_major_mut()
+                .expect("a column of an owned Mat is contiguous")
+                .as_slice_mut(),
+            s.map(|s| {
+                s.try_as_col_major_mut()
+                    .expect("a column of an owned Mat is contiguous")
+                    .as_slice_mut()
+            }),
+        );
     };
-    if par.degree() > 1 && x.ncols() > 1 {
-        use rayon::prelude::*;
-        r.par_col_iter_mut()
+    use rayon::prelude::*;
+    let parallel = par.degree() > 1 && x.ncols() > 1;
+    match s {
+        Some(s) if parallel => r
+            .par_col_iter_mut()
             .zip(s.par_col_iter_mut())
             .enumerate()
-            .for_each(|(c, rs)| column(c, rs));
-    } else {
-        r.col_iter_mut()
+            .for_each(|(c, (r, s))| column(c, r, Some(s))),
+        Some(s) => r
+            .col_iter_mut()
             .zip(s.col_iter_mut())
             .enumerate()
-            .for_each(|(c, rs)| column(c, rs));
+            .for_each(|(c, (r, s))| column(c, r, Some(s))),
+        None if parallel => r
+            .par_col_iter_mut()
+            .enumerate()
+            .for_each(|(c, r)| column(c, r, None)),
+        None => r
+            .col_iter_mut()
+            .enumerate()
+            .for_each(|(c, r)| column(c, r, None)),
+    }
+}
+
+/// The entries of `v` as a slice: borrowed when contiguous, else copied into `tmp`.
+fn contiguous<'a, T: Copy>(v: faer::ColRef<'a, T>, tmp: &'a mut Vec<T>) -> &'a [T] {
+    match v.try_as_col_major() {
+        Some(v) => v.as_slice(),
+        None => {
+            tmp.extend(v.iter().copied());
+            tmp
+        }
+    }
+}
+
+/// One column of [`symmetric_residual`] on slices.
+fn residual_column<T: Scalar>(
+    pencil: &Pencil,
+    entry: &impl Fn(usize) -> T,
+    b: &[T],
+    x: &[T],
+    r: &mut [T],
+    mut s: Option<&mut [f64]>,
+) {
+    let (cp, ri) = (pencil.col_ptr(), pencil.row_idx());
+    r.copy_from_slice(b);
+    for (j, &xj) in x.iter().enumerate() {
+        let mut acc = T::zero_impl();
+        for p in cp[j]..cp[j + 1] {
+            let (i, a) = (ri[p], entry(p));
+            r[i] -= a * xj;
+            if i != j {
+                acc += a * x[i];
+            }
+        }
+        r[j] -= acc;
+    }
+    if let Some(s) = s.as_deref_mut() {
+        for (s, b) in s.iter_mut().zip(b) {
+            *s = b.abs1();
+        }
+        for (j, &xj) in x.iter().enumerate() {
+            let (xa, mut acc) = (xj.abs1(), 0.0);
+            for p in cp[j]..cp[j + 1] {
+                let (i, a) = (ri[p], entry(p).abs1());
+                s[i] += a * xa;
+                if i != j {
+                    acc += a * x[i].abs1();
+                }
+            }
+            s[j] += acc;
+        }
     }
 }
 
