@@ -168,7 +168,7 @@ fn residual_column<T: Scalar>(
     b: &[T],
     x: &[T],
     r: &mut [T],
-    mut s: Option<&mut [f64]>,
+    s: Option<&mut [f64]>,
 ) {
     let (cp, ri) = (pencil.col_ptr(), pencil.row_idx());
     r.copy_from_slice(b);
@@ -183,7 +183,7 @@ fn residual_column<T: Scalar>(
         }
         r[j] -= acc;
     }
-    if let Some(s) = s.as_deref_mut() {
+    if let Some(s) = s {
         for (s, b) in s.iter_mut().zip(b) {
             *s = b.abs1();
         }
