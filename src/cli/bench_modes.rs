@@ -1,5 +1,6 @@
 //! `sparsemor bench modes`: the eigensolver table of docs/design.md §8 — the lowest c modes
-//! of generated bodies (cubes with repeated eigenvalues, a slender bar), per phase, with the
+//! of generated bodies (cubes with repeated eigenvalues, the L-shaped bracket, a slender bar),
+//! per phase, with the
 //! peak memory and SciPy's `eigsh` (ARPACK + SuperLU shift-invert, `benches/eigsh_reference.py`)
 //! measured in the same run on the same files. SciPy is a reference, not a dependency: when
 //! `python3 -c "import scipy"` fails its columns say so. Timings are single runs.
@@ -7,20 +8,73 @@
 use super::args::human_bytes;
 use sparsemor::body::Body;
 use sparsemor::eigen::{eigenpairs, EigenOptions, Modes, Request};
+use sparsemor::fe::bracket::{bracket_model, BracketSpec};
 use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
 use sparsemor::io::model_dir;
+use sparsemor::model::Model;
+use sparsemor::scene::Scene;
 use sparsemor::{memory, Error, Result};
 use std::path::Path;
 use std::process::Command;
 
-/// (name, elements, size, mode counts).
-type Case = (&'static str, [usize; 3], [f64; 3], &'static [usize]);
+/// A generated body of the table.
+enum Body3d {
+    /// A hex8 box (cube or bar): elements and size.
+    Box([usize; 3], [f64; 3]),
+    /// The steel bracket with this cell size (m).
+    Bracket(f64),
+}
 
-const CASES: [Case; 4] = [
-    ("cube 10^3", [10, 10, 10], [0.1; 3], &[106, 306]),
-    ("cube 14^3", [14, 14, 14], [0.1; 3], &[106, 306]),
-    ("bar 3x4x200", [3, 4, 200], [0.006, 0.008, 0.3], &[20, 106]),
-    ("bar 4x6x9520", [4, 6, 9520], [0.006, 0.008, 3.0], &[20]),
+impl Body3d {
+    /// The model and its scene, or `None` when it has more than `max_n` DoFs (a box is
+    /// counted before it is meshed).
+    fn generate(&self, max_n: usize) -> Result<Option<(Model, Scene)>> {
+        let (model, scene) = match *self {
+            Body3d::Box(elements, size_m) => {
+                let spec = BoxSpec {
+                    elements,
+                    size_m,
+                    ..BoxSpec::paper_bar()
+                };
+                if spec.n_dofs() > max_n {
+                    return Ok(None);
+                }
+                (bar_model(&spec)?, paper_scene(&spec))
+            }
+            Body3d::Bracket(cell_m) => bracket_model(&BracketSpec {
+                cell_m,
+                ..BracketSpec::steel()
+            })?,
+        };
+        Ok((model.n() <= max_n).then_some((model, scene)))
+    }
+}
+
+/// (name, body, mode counts).
+type Case = (&'static str, Body3d, &'static [usize]);
+
+const CASES: [Case; 5] = [
+    (
+        "cube 10^3",
+        Body3d::Box([10, 10, 10], [0.1; 3]),
+        &[106, 306],
+    ),
+    (
+        "cube 14^3",
+        Body3d::Box([14, 14, 14], [0.1; 3]),
+        &[106, 306],
+    ),
+    ("bracket 5 mm", Body3d::Bracket(0.005), &[106, 306]),
+    (
+        "bar 3x4x200",
+        Body3d::Box([3, 4, 200], [0.006, 0.008, 0.3]),
+        &[20, 106],
+    ),
+    (
+        "bar 4x6x9520",
+        Body3d::Box([4, 6, 9520], [0.006, 0.008, 3.0]),
+        &[20],
+    ),
 ];
 
 /// SciPy's result for one case: seconds and ascending eigenvalues.
@@ -38,20 +92,14 @@ pub fn run(max_n: usize, scipy_max_n: usize, threads: &[usize]) -> Result<()> {
     println!("| model | N | modes | threads | slices | factorizations | inertia counts s | factor s | Krylov s | wall s | peak RSS | SciPy eigsh s | sparsemor ÷ SciPy | max rel. λ diff vs SciPy |");
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let tmp = std::env::temp_dir().join(format!("sparsemor-bench-modes-{}", std::process::id()));
-    for (name, elements, size_m, counts) in CASES {
-        let spec = BoxSpec {
-            elements,
-            size_m,
-            ..BoxSpec::paper_bar()
-        };
-        if spec.n_dofs() > max_n {
+    for (name, body3d, counts) in CASES {
+        let Some((model, scene)) = body3d.generate(max_n)? else {
             continue;
-        }
-        let model = bar_model(&spec)?;
+        };
         let dir = tmp.join(name.replace([' ', '^'], "_"));
         let use_scipy = scipy && model.n() <= scipy_max_n;
         if use_scipy {
-            model_dir::write(&dir, &model, &paper_scene(&spec))?;
+            model_dir::write(&dir, &model, &scene)?;
         }
         let body = Body::new(&model)?;
         for &c in counts {
@@ -65,7 +113,7 @@ pub fn run(max_n: usize, scipy_max_n: usize, threads: &[usize]) -> Result<()> {
                 // as `modes` does: the first shift from the scene's band end
                 let opts = EigenOptions {
                     threads: t,
-                    ..EigenOptions::for_band(paper_scene(&spec).band_hz[1])
+                    ..EigenOptions::for_band(scene.band_hz[1])
                 };
                 let m = eigenpairs(&body, Request::Lowest(c), &opts)?;
                 let peak = memory::peak_rss_bytes().unwrap_or(0);

@@ -102,7 +102,8 @@ pub struct EigenOptions {
     pub max_restarts: usize,
     /// Restarts in a row without a newly converged mode after which a slice gives up.
     pub patience: usize,
-    /// Target number of modes per slice.
+    /// Target number of modes per slice; smaller when the Krylov bases of the slices that run
+    /// at once would take more than half the memory budget (module `slicing`).
     pub slice_size: usize,
     /// Block size of the Krylov–Schur iteration: vectors solved at once (a block solve costs
     /// far less than as many single ones) and the largest multiplicity resolved without a
@@ -135,7 +136,7 @@ impl Default for EigenOptions {
             krylov_dim: None,
             max_restarts: 500,
             patience: 60,
-            slice_size: 48,
+            slice_size: 96,
             block: 4,
             threads: 0,
             memory_budget: None,
@@ -406,9 +407,11 @@ fn band(
     Ok((slicer.solve(&slicer.split(lower, upper)?, progress)?, below))
 }
 
-/// The c lowest modes: the bottom slice's c' = min(c, slice size) lowest first (below the
-/// spectrum, which also estimates where the c-th lies), then a bound B with ν(B) ≥ c found by
-/// counting, and the rest sliced as a band. Every slice is checked against its count, so
+/// The c lowest modes: the bottom slice's c' lowest first (below the spectrum, which also
+/// estimates where the c-th lies): c' = c when c fits one slice, else a quarter of a slice
+/// (at least 8), because this solve runs before the others and alone. Then a bound B with
+/// ν(B) ≥ c is found by counting (Weyl's growth, then brought down towards c), and (b₁, B] is
+/// sliced as a band, its slices in parallel. Every slice is checked against its count, so
 /// copies of multiple eigenvalues are not lost. Also returns the cost of the first solve when
 /// it served only as the estimate.
 fn lowest(
@@ -418,7 +421,12 @@ fn lowest(
     progress: &(dyn Fn(EigenProgress) -> bool + Sync),
 ) -> Result<(Vec<Solved>, Option<SliceStats>)> {
     let n = slicer.body().n();
-    let first = c.min(opts.slice_size.max(1));
+    let size = slicer.slice_size();
+    let first = if c > size {
+        (size / 4).max(8).min(c)
+    } else {
+        c
+    };
     let probe = krylov::Target {
         lower: f64::NEG_INFINITY,
         upper: f64::INFINITY,
@@ -477,6 +485,27 @@ fn lowest(
             break;
         }
         lower = upper;
+    }
+    // a step of the loop may overshoot c by a third or more, and every mode above the c-th
+    // costs Krylov work: count two bounds interpolated (in ν ~ λ^{3/2}) towards c + 2 % and
+    // c + 6 % at once, and keep the lowest with ν ≥ c
+    if upper.1 > c + c / 10 {
+        let u = |l: f64| l.max(0.0).powf(1.5);
+        let inv = |x: f64| x.powf(2.0 / 3.0);
+        let (nl, nu) = (lower.1 as f64, upper.1 as f64);
+        let at = |target: f64| {
+            let t = ((target - nl) / (nu - nl)).clamp(0.0, 1.0);
+            inv(u(lower.0) + (u(upper.0) - u(lower.0)) * t)
+        };
+        let tries = [at(c as f64 * 1.02), at(c as f64 * 1.06)];
+        if let Some(b) = slicer
+            .count(&tries)?
+            .into_iter()
+            .filter(|&(l, k)| k >= c && l > lower.0)
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+        {
+            upper = b;
+        }
     }
     let targets = slicer.split(Some((b1, bottom.lambdas.len())), upper)?;
     let mut rest = slicer.solve(&targets, progress)?;

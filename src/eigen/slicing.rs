@@ -70,6 +70,8 @@ pub(super) struct Slicer<'b, 'm> {
     pool: Option<rayon::ThreadPool>,
     threads: usize,
     budget: usize,
+    /// Target modes per slice ([`Self::slice_size`]).
+    size: usize,
     /// Seconds and factorizations of the inertia counts.
     counts: Mutex<(f64, usize)>,
 }
@@ -94,6 +96,11 @@ impl<'b, 'm> Slicer<'b, 'm> {
         let budget = opts
             .memory_budget
             .unwrap_or_else(|| crate::memory::default_budget(2));
+        // a slice of s modes keeps Q and M Q, N × (m + b) with m ≈ 2·(5/4)s: at most half the
+        // budget for the bases of `threads` slices at once
+        let per_slice = budget / 2 / threads.max(1) / (16 * body.n().max(1));
+        let fits = per_slice.saturating_sub(opts.block) * 2 / 5;
+        let size = opts.slice_size.min(fits.max(16)).max(1);
         Ok(Slicer {
             body,
             sym: body.symbolic()?,
@@ -101,6 +108,7 @@ impl<'b, 'm> Slicer<'b, 'm> {
             pool,
             threads,
             budget,
+            size,
             counts: Mutex::new((0.0, 0)),
         })
     }
@@ -108,6 +116,14 @@ impl<'b, 'm> Slicer<'b, 'm> {
     /// The body being solved.
     pub(super) fn body(&self) -> &'b Body<'m> {
         self.body
+    }
+
+    /// Target modes per slice: [`EigenOptions::slice_size`], lowered when the Krylov bases of
+    /// the slices that run at once (Q and M Q, 16·N·(m + b) bytes each, m ≈ 2.5 × the size)
+    /// would take more than half the memory budget; never below 16 (at N = 10⁶ with an 11 GB
+    /// budget and 2 threads: 67).
+    pub(super) fn slice_size(&self) -> usize {
+        self.size
     }
 
     /// (seconds, factorizations) spent on inertia counts so far.
@@ -152,11 +168,13 @@ impl<'b, 'm> Slicer<'b, 'm> {
         lower: Option<(f64, usize)>,
         upper: (f64, usize),
     ) -> Result<Vec<Target>> {
-        let size = self.opts.slice_size.max(1);
+        let size = self.size;
         let (lo, nu_lo) = lower.map_or((0.0, 0), |(l, c)| (l.max(0.0), c));
         let total = upper.1.saturating_sub(nu_lo);
         let u = |l: f64| l.max(0.0).powf(1.5);
         let inv = |x: f64| x.powf(2.0 / 3.0);
+        // a multiple of the workers' count of slices: a slice left over for a second round
+        // would keep one worker busy while the others idle
         let mut parts = total.div_ceil(size).max(1);
         if parts > 1 {
             parts = parts.next_multiple_of(self.threads.max(1));

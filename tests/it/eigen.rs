@@ -763,3 +763,37 @@ fn one_slice_of_106_modes_matches_dense() {
     );
     check_cube(&modes, lam, "one slice of 106");
 }
+
+/// The slice size is capped by memory: with a budget too small for the Krylov bases of
+/// 96-mode slices the slices hold at most 5/4 · 16 modes (the floor), and the lowest 150 modes
+/// still equal the dense eigenvalues; with the default budget they come in fewer, larger
+/// slices with the same values.
+#[test]
+fn lowest_modes_in_memory_capped_slices_match_dense() {
+    let (model, lam) = cube6();
+    let body = Body::new(model).unwrap();
+    let wide = eigenpairs(&body, Request::Lowest(150), &EigenOptions::default()).unwrap();
+    let capped = EigenOptions {
+        memory_budget: Some(1 << 20),
+        ..Default::default()
+    };
+    let narrow = eigenpairs(&body, Request::Lowest(150), &capped).unwrap();
+    assert!(
+        narrow.stats.slices.iter().all(|s| s.count <= 20),
+        "{:?}",
+        narrow
+            .stats
+            .slices
+            .iter()
+            .map(|s| s.count)
+            .collect::<Vec<_>>()
+    );
+    assert!(narrow.stats.slices.len() > wide.stats.slices.len());
+    for modes in [&wide, &narrow] {
+        assert_eq!(modes.lambdas.len(), 150);
+        for (k, (&l, &d)) in modes.lambdas.iter().zip(lam.iter()).enumerate().skip(6) {
+            assert!((l - d).abs() <= 1e-9 * d, "mode {k}: {l} vs {d}");
+        }
+        assert!(m_orthonormality(model, &modes.vectors) <= 1e-10);
+    }
+}
