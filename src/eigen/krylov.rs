@@ -13,7 +13,8 @@
 //! converged ones, keeps the next best (thick restart) and expands the basis again. M Q is
 //! kept beside Q, so a step costs one solve, one product with M and the Gram–Schmidt passes
 //! (classical, a second pass only when the first cancelled more than half the norm — the
-//! DGKS criterion).
+//! DGKS criterion; the first pass against the columns before a block runs for the whole block
+//! at once, two matrix products instead of one per vector).
 //!
 //! **Convergence.** The pair i is converged when |b_aᵀ y_i| ≤ tol·|θ_i| + 4ε·θ_max, θ_max the
 //! largest active |θ| (the norm of S deflated of the locked pairs, on the Krylov space). The first term is ARPACK's

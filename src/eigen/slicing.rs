@@ -5,7 +5,8 @@
 //!   K − xM (Sylvester). A slice (a, b] holds ν(b) − ν(a) eigenvalues; a bound that is an
 //!   eigenvalue to working precision (zero pivot) is moved by 10⁻⁷ relative.
 //! - **Bounds.** The count of a 3-D elastic body grows like λ^{3/2} (Weyl's law), so the
-//!   interior bounds are first placed at equal steps of λ^{3/2}, then counted; a slice that
+//!   interior bounds are first placed at equal steps of λ^{3/2} (for a number of slices
+//!   rounded up to a multiple of the workers), then counted; a slice that
 //!   holds more than 5/4 of the target size is halved (in λ^{3/2}) and recounted, adjacent
 //!   slices that hold together no more than the target are merged, empty ones dropped. Other
 //!   geometries (bars, plates) only cost a few extra counts.
@@ -15,7 +16,8 @@
 //!   slice's (an LBLᵀ factor).
 //! - **Parallel.** Slices are independent: they run on a pool of worker threads, as many at a
 //!   time as cores and the memory budget allow (each holds its factor and a basis of 2·m
-//!   vectors); a lone slice gets the threads inside its Cholesky factorization instead.
+//!   vectors); a lone slice gets the threads inside its Cholesky factorization, its solves
+//!   and its products with M instead.
 //! - **Across slices.** Vectors of one slice are M-orthonormal by construction; two
 //!   eigenvalues on either side of a bound come from different factorizations, so their
 //!   vectors are M-orthogonal only to the accuracy of the pair (residual / gap). Where the
