@@ -409,7 +409,8 @@ fn band(
 
 /// The c lowest modes: the bottom slice's c' lowest first (below the spectrum, which also
 /// estimates where the c-th lies): c' = c when c fits one slice, else a quarter of a slice
-/// (at least 8), because this solve runs before the others and alone. Then a bound B with
+/// (at least 8), because this solve runs before the others and alone (ARPACK: c fits one slice
+/// only when c with its guard stays below N). Then a bound B with
 /// ν(B) ≥ c is found by counting (Weyl's growth, then brought down towards c), and (b₁, B] is
 /// sliced as a band, its slices in parallel. Every slice is checked against its count, so
 /// copies of multiple eigenvalues are not lost. Also returns the cost of the first solve when
@@ -422,10 +423,13 @@ fn lowest(
 ) -> Result<(Vec<Solved>, Option<SliceStats>)> {
     let n = slicer.body().n();
     let size = slicer.slice_size();
-    let first = if c > size {
-        (size / 4).max(8).min(c)
-    } else {
+    // one slice holds c when it fits (ARPACK computes at most N − 1 pairs of one slice, so
+    // there a c whose guard reaches N is sliced too)
+    let one_slice = c <= size && (opts.backend == EigenBackend::Krylov || c + 2 + c / 8 < n);
+    let first = if one_slice {
         c
+    } else {
+        (size / 4).max(8).min(c)
     };
     let probe = krylov::Target {
         lower: f64::NEG_INFINITY,
