@@ -66,6 +66,7 @@ pub mod memory;
 pub mod metrics;
 pub mod model;
 pub mod pencil;
+pub mod pool;
 pub mod reduce;
 pub mod report;
 pub mod rigid;

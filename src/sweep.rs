@@ -325,12 +325,6 @@ impl<'a> Solver<'a> {
             }
         }
         let schedule = self.schedule(freqs_hz.len());
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(self.threads)
-            .build()
-            .map_err(|e| {
-                Error::InvalidSetting(format!("cannot start {} threads: {e}", self.threads))
-            })?;
         let (workers, par) = match schedule {
             Schedule::FrequencyParallel { workers } => (workers, Par::Seq),
             Schedule::FactorParallel { threads } => (
@@ -396,11 +390,13 @@ impl<'a> Solver<'a> {
             }
             states.lock().unwrap_or_else(|p| p.into_inner()).push(state);
         };
-        pool.scope(|s| {
-            for _ in 0..workers {
-                s.spawn(|_| worker());
-            }
-        });
+        crate::pool::with_pool(self.threads, || {
+            rayon::scope(|s| {
+                for _ in 0..workers {
+                    s.spawn(|_| worker());
+                }
+            })
+        })?;
         if let Some(e) = first_error.into_inner().unwrap_or_else(|p| p.into_inner()) {
             return Err(e);
         }

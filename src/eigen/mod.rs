@@ -317,6 +317,18 @@ pub fn eigenpairs_with_progress(
             return Err(Error::InvalidSetting(format!("shift sigma = {s}: must be finite and < 0 so that K - sigma M is positive definite")));
         }
     }
+    // every worker runs in a pool that lives for this call (`crate::pool`)
+    let threads = crate::sweep::resolve_threads(opts.threads);
+    crate::pool::with_pool(threads, || solve_request(body, req, opts, progress))?
+}
+
+/// [`eigenpairs_with_progress`] inside its pool.
+fn solve_request(
+    body: &Body<'_>,
+    req: Request,
+    opts: &EigenOptions,
+    progress: &(dyn Fn(EigenProgress) -> bool + Sync),
+) -> Result<Modes> {
     let wall = Instant::now();
     let n = body.n();
     let slicer = Slicer::new(body, opts)?;

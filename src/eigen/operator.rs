@@ -28,9 +28,6 @@ pub(crate) struct ShiftInvert<'a> {
     factor: Factor<'a>,
     mass: SparseColMatRef<'a, usize, f64>,
     pub(crate) sigma: f64,
-    /// Threads of the products with M and of the Cholesky solves: more than one only for a
-    /// slice that runs alone (its iteration would otherwise leave the other cores idle).
-    par: Par,
 }
 
 impl<'a> ShiftInvert<'a> {
@@ -64,7 +61,6 @@ impl<'a> ShiftInvert<'a> {
             factor,
             mass: model.mass.as_ref(),
             sigma,
-            par,
         })
     }
 
@@ -99,13 +95,13 @@ impl<'a> ShiftInvert<'a> {
 
     /// y ← M x.
     pub(crate) fn mass_mul(&self, x: MatRef<'_, f64>, y: MatMut<'_, f64>) {
-        sparse_dense_matmul(y, Accum::Replace, self.mass, x, 1.0, self.par);
+        sparse_dense_matmul(y, Accum::Replace, self.mass, x, 1.0, Par::Seq);
     }
 
     /// X ← (K − σM)⁻¹ X (at most the `rhs` columns of [`Self::new`]).
     pub(crate) fn solve_in_place(&mut self, x: MatMut<'_, f64>) {
         match &mut self.factor {
-            Factor::Definite(f) => f.solve_block(x, self.par),
+            Factor::Definite(f) => f.solve_block(x, Par::Seq),
             Factor::Indefinite(f) => f.solve_in_place(x),
         }
     }

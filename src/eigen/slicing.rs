@@ -16,8 +16,7 @@
 //!   slice's (an LBLᵀ factor).
 //! - **Parallel.** Slices are independent: they run on a pool of worker threads, as many at a
 //!   time as cores and the memory budget allow (each holds its factor and a basis of 2·m
-//!   vectors); a lone slice gets the threads inside its Cholesky factorization, its solves
-//!   and its products with M instead.
+//!   vectors); a lone slice gets the threads inside its Cholesky factorization instead.
 //! - **Across slices.** Vectors of one slice are M-orthonormal by construction; two
 //!   eigenvalues on either side of a bound come from different factorizations, so their
 //!   vectors are M-orthogonal only to the accuracy of the pair (residual / gap). Where the
@@ -67,9 +66,7 @@ pub(super) struct Slicer<'b, 'm> {
     body: &'b Body<'m>,
     sym: Arc<SymbolicCholesky<usize>>,
     opts: &'b EigenOptions,
-    /// Worker pool when more than one thread is wanted and the caller is not already in a
-    /// pool of that size (a C caller's process must not keep idle threads).
-    pool: Option<rayon::ThreadPool>,
+    /// Workers: the size of the pool [`super::eigenpairs`] runs in (`crate::pool`).
     threads: usize,
     budget: usize,
     /// Target modes per slice ([`Self::slice_size`]).
@@ -81,20 +78,6 @@ pub(super) struct Slicer<'b, 'm> {
 impl<'b, 'm> Slicer<'b, 'm> {
     pub(super) fn new(body: &'b Body<'m>, opts: &'b EigenOptions) -> Result<Self> {
         let threads = crate::sweep::resolve_threads(opts.threads);
-        let in_pool =
-            rayon::current_thread_index().is_some() && rayon::current_num_threads() == threads;
-        let pool = if threads > 1 && !in_pool {
-            Some(
-                rayon::ThreadPoolBuilder::new()
-                    .num_threads(threads)
-                    .build()
-                    .map_err(|e| {
-                        Error::InvalidSetting(format!("cannot start {threads} threads: {e}"))
-                    })?,
-            )
-        } else {
-            None
-        };
         let budget = opts
             .memory_budget
             .unwrap_or_else(|| crate::memory::default_budget(2));
@@ -107,7 +90,6 @@ impl<'b, 'm> Slicer<'b, 'm> {
             body,
             sym: body.symbolic()?,
             opts,
-            pool,
             threads,
             budget,
             size,
@@ -157,7 +139,7 @@ impl<'b, 'm> Slicer<'b, 'm> {
         };
         let workers = self.workers(lambdas.len(), 8 * self.sym.len_val() + 64 * self.body.n());
         if workers > 1 {
-            self.install(|| lambdas.par_iter().map(one).collect())
+            lambdas.par_iter().map(one).collect()
         } else {
             lambdas.iter().map(one).collect()
         }
@@ -221,14 +203,6 @@ impl<'b, 'm> Slicer<'b, 'm> {
             .collect())
     }
 
-    /// Runs `f` in the worker pool (or in the caller's pool, or sequentially).
-    fn install<T: Send>(&self, f: impl FnOnce() -> T + Send) -> T {
-        match &self.pool {
-            Some(pool) => pool.install(f),
-            None => f(),
-        }
-    }
-
     /// How many slices of `bytes` each may run at once.
     fn workers(&self, jobs: usize, bytes: usize) -> usize {
         let by_memory = (self.budget / bytes.max(1)).max(1);
@@ -278,17 +252,15 @@ impl<'b, 'm> Slicer<'b, 'm> {
             r
         };
         if workers > 1 {
-            self.install(|| {
-                targets
-                    .par_iter()
-                    .enumerate()
-                    .with_max_len(1)
-                    .map(run)
-                    .collect()
-            })
+            targets
+                .par_iter()
+                .enumerate()
+                .with_max_len(1)
+                .map(run)
+                .collect()
         } else {
             // a lone slice: the pool's threads work inside its factorization
-            self.install(|| targets.iter().enumerate().map(run).collect())
+            targets.iter().enumerate().map(run).collect()
         }
     }
 
