@@ -12,7 +12,7 @@
 use arbitrary::Arbitrary;
 use libfuzzer_sys::fuzz_target;
 use sparsemor_ffi::*;
-use sparsemor_fuzz::{check_bound, measured};
+use sparsemor_fuzz::{check_bound, measured, page_pool_bytes};
 use std::ptr::{null, null_mut};
 
 #[derive(Arbitrary, Debug)]
@@ -391,6 +391,6 @@ unsafe fn reduce_and_check(
 fuzz_target!(|inp: Input| {
     let ((), peak) = measured(|| run(&inp));
     // n ≤ 24 DoFs: every dense or sparse object is tiny; the fixed part bounds the call, plus
-    // 64 MiB for each of the (up to two) rayon workers' faer page pools
-    check_bound("C ABI", peak, 0, 2 * (64 << 20));
+    // one page pool for each of the (up to two) rayon workers
+    check_bound("C ABI", peak, 0, 2 * page_pool_bytes());
 });

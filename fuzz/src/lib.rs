@@ -6,13 +6,15 @@
 //! Allocation bound, checked by every target after every call:
 //!
 //! ```text
-//! peak live bytes ≤ FIXED_BYTES + BYTES_PER_INPUT_BYTE · input bytes + declared
+//! peak live bytes ≤ fixed_bytes() + BYTES_PER_INPUT_BYTE · input bytes + declared
 //! ```
 //!
-//! `FIXED_BYTES` (66 MiB) holds what does not depend on the input: faer's dense kernels keep a
-//! 64 MiB page pool per thread, allocated on a thread's first larger product and kept (found by
-//! the `rom_dir` target on its first seed: the definiteness check of Mr), and I/O buffers of
-//! up to 1 MiB (the importers' format sniffing).
+//! [`fixed_bytes`] holds what does not depend on the input: faer's dense kernels
+//! (private-gemm-x86) keep a page pool of twice the L3 cache per thread, reserved (not touched)
+//! on a thread's first product and kept ([`page_pool_bytes`]; found by the `rom_dir` target on
+//! its first seed, the definiteness check of Mr: 64 MiB on a 32 MiB-L3 machine, and 960 MiB on
+//! this project's 480 MiB-L3 machine, where the `ffi` smoke run tripped over the old constant
+//! 64 MiB), plus 2 MiB for I/O buffers (the importers' format sniffing reads up to 1 MiB).
 //!
 //! where `declared` is what the format lets a file ask for without holding the data:
 //! `8·(ncols + 1)` per coordinate file (the CSC column pointers) and `8·nrows·ncols` per file
@@ -27,8 +29,34 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 /// The stated multiple of the input size (uncompressed) that one call may hold live at once.
 pub const BYTES_PER_INPUT_BYTE: usize = 256;
 
-/// The input-independent part of the bound (see the module doc).
-pub const FIXED_BYTES: usize = 66 << 20;
+/// The page pool faer's dense kernels reserve per thread: twice the L3 cache, as
+/// private-gemm-x86 sizes it (read from Linux's sysfs; 32 MiB assumed where it is not there).
+pub fn page_pool_bytes() -> usize {
+    static BYTES: std::sync::OnceLock<usize> = std::sync::OnceLock::new();
+    *BYTES.get_or_init(|| {
+        let l3 = std::fs::read_to_string("/sys/devices/system/cpu/cpu0/cache/index3/size")
+            .ok()
+            .and_then(|s| {
+                let s = s.trim();
+                let (digits, unit) =
+                    s.split_at(s.find(|c: char| !c.is_ascii_digit()).unwrap_or(s.len()));
+                let k = match unit {
+                    "K" => 1 << 10,
+                    "M" => 1 << 20,
+                    "" => 1,
+                    _ => return None,
+                };
+                digits.parse::<usize>().ok().map(|d| d * k)
+            })
+            .unwrap_or(32 << 20);
+        2 * l3
+    })
+}
+
+/// The input-independent part of the bound: one thread's page pool and 2 MiB (module doc).
+pub fn fixed_bytes() -> usize {
+    page_pool_bytes() + (2 << 20)
+}
 
 /// Inputs whose declared sizes ask for more than this are skipped (see the module doc).
 pub const DECLARED_MAX: usize = 256 << 20;
@@ -36,6 +64,8 @@ pub const DECLARED_MAX: usize = 256 << 20;
 struct Counting;
 
 static LIVE: AtomicUsize = AtomicUsize::new(0);
+/// [`fixed_bytes`] once [`measured`] has run (0 before), for the allocator's hook.
+static FIXED: AtomicUsize = AtomicUsize::new(0);
 static PEAK: AtomicUsize = AtomicUsize::new(0);
 
 // SAFETY: forwards to the system allocator; the counters do not affect the allocations.
@@ -70,13 +100,15 @@ unsafe impl GlobalAlloc for Counting {
 
 fn grow(size: usize) {
     let live = LIVE.fetch_add(size, Ordering::Relaxed) + size;
-    if live >= FIXED_BYTES && live - size < FIXED_BYTES {
+    // the allocator must not compute it (that reads a file, which allocates)
+    let fixed = FIXED.load(Ordering::Relaxed);
+    if fixed > 0 && live >= fixed && live - size < fixed {
         large(size);
     }
     PEAK.fetch_max(live, Ordering::Relaxed);
 }
 
-/// Called when the live heap crosses `FIXED_BYTES`: a place for a debugger breakpoint
+/// Called when the live heap crosses [`fixed_bytes`]: a place for a debugger breakpoint
 /// (`nm` the binary for `sparsemor_fuzz5large`) when a target reports a bound exceeded.
 #[inline(never)]
 pub fn large(size: usize) {
@@ -88,6 +120,7 @@ static ALLOC: Counting = Counting;
 
 /// Runs `f` and returns its result with the peak of live heap bytes above the level at entry.
 pub fn measured<T>(f: impl FnOnce() -> T) -> (T, usize) {
+    FIXED.store(fixed_bytes(), Ordering::Relaxed);
     let base = LIVE.load(Ordering::Relaxed);
     PEAK.store(base, Ordering::Relaxed);
     let out = f();
@@ -97,10 +130,11 @@ pub fn measured<T>(f: impl FnOnce() -> T) -> (T, usize) {
 /// Panics (a fuzz finding) when `peak` exceeds the stated bound for `input_len` bytes of
 /// input plus `declared` bytes the format lets the input ask for.
 pub fn check_bound(what: &str, peak: usize, input_len: usize, declared: usize) {
-    let bound = FIXED_BYTES + BYTES_PER_INPUT_BYTE * input_len + declared;
+    let fixed = fixed_bytes();
+    let bound = fixed + BYTES_PER_INPUT_BYTE * input_len + declared;
     assert!(
         peak <= bound,
-        "{what}: peak heap {peak} B > bound {bound} B ({FIXED_BYTES} fixed + {BYTES_PER_INPUT_BYTE} x {input_len} input bytes + {declared} declared)"
+        "{what}: peak heap {peak} B > bound {bound} B ({fixed} fixed + {BYTES_PER_INPUT_BYTE} x {input_len} input bytes + {declared} declared)"
     );
 }
 
