@@ -506,12 +506,10 @@ fn lowest(
     // costs Krylov work: count two bounds interpolated (in ν ~ λ^{3/2}) towards c + 2 % and
     // c + 6 % at once, and keep the lowest with ν ≥ c
     if upper.1 > c + c / 10 {
-        let u = |l: f64| l.max(0.0).powf(1.5);
-        let inv = |x: f64| x.powf(2.0 / 3.0);
         let (nl, nu) = (lower.1 as f64, upper.1 as f64);
         let at = |target: f64| {
             let t = ((target - nl) / (nu - nl)).clamp(0.0, 1.0);
-            inv(u(lower.0) + (u(upper.0) - u(lower.0)) * t)
+            slicing::weyl_between(lower.0, upper.0, t)
         };
         let tries = [at(c as f64 * 1.02), at(c as f64 * 1.06)];
         if let Some(b) = slicer

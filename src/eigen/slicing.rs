@@ -155,8 +155,6 @@ impl<'b, 'm> Slicer<'b, 'm> {
         let size = self.size;
         let (lo, nu_lo) = lower.map_or((0.0, 0), |(l, c)| (l.max(0.0), c));
         let total = upper.1.saturating_sub(nu_lo);
-        let u = |l: f64| l.max(0.0).powf(1.5);
-        let inv = |x: f64| x.powf(2.0 / 3.0);
         // a multiple of the workers' count of slices: a slice left over for a second round
         // would keep one worker busy while the others idle
         let mut parts = total.div_ceil(size).max(1);
@@ -164,7 +162,7 @@ impl<'b, 'm> Slicer<'b, 'm> {
             parts = parts.next_multiple_of(self.threads.max(1));
         }
         let interior: Vec<f64> = (1..parts)
-            .map(|k| inv(u(lo) + (u(upper.0) - u(lo)) * k as f64 / parts as f64))
+            .map(|k| weyl_between(lo, upper.0, k as f64 / parts as f64))
             .collect();
         // (bound, ν) ascending, ends included; the lower end is −∞ when None
         let mut bounds = vec![lower.unwrap_or((f64::NEG_INFINITY, 0))];
@@ -174,7 +172,7 @@ impl<'b, 'm> Slicer<'b, 'm> {
             let crowded: Vec<f64> = bounds
                 .windows(2)
                 .filter(|w| w[1].1 - w[0].1 > size + size / 4)
-                .map(|w| inv(0.5 * (u(w[0].0.max(0.0)) + u(w[1].0))))
+                .map(|w| weyl_between(w[0].0, w[1].0, 0.5))
                 .collect();
             if crowded.is_empty() {
                 break;
@@ -398,6 +396,13 @@ impl<'b, 'm> Slicer<'b, 'm> {
             },
         })
     }
+}
+
+/// The point a fraction `t` of the way from λ = `a` to `b` in λ^{3/2} (negative λ as 0): where
+/// a 3-D body's count ν(λ) (Weyl's law) has grown by the fraction t of ν(b) − ν(a).
+pub(super) fn weyl_between(a: f64, b: f64, t: f64) -> f64 {
+    let u = |l: f64| l.max(0.0).powf(1.5);
+    (u(a) + (u(b) - u(a)) * t).powf(2.0 / 3.0)
 }
 
 /// Concatenates the slices (ascending) and restores M-orthonormality across each bound

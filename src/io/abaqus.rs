@@ -25,8 +25,8 @@
 //! ([`crate::io::import::for_each_line`]); errors name the file and the line.
 
 use crate::io::import::{
-    for_each_line, par_lines, parse_f64, parse_u64, tokens, uniform_nodes, Direction, Dof, Format,
-    Imported, NodeTable,
+    first_fields, for_each_line, par_lines, parse_f64, parse_u64, tokens, uniform_nodes, Direction,
+    Dof, Format, Imported, NodeTable,
 };
 use crate::sparse::Triplets;
 use crate::{Error, Result};
@@ -88,14 +88,7 @@ fn read_matrix(path: &Path, keys: &mut Keys) -> Result<(Layout, Triplets)> {
     let mut layout = None;
     let mut t = Triplets::default();
     let parse = |line: usize, bytes: &[u8]| -> Result<Option<Entry>> {
-        let mut tok: [&[u8]; 5] = [&[]; 5];
-        let mut count = 0;
-        for x in tokens(bytes) {
-            if count < 5 {
-                tok[count] = x;
-            }
-            count += 1;
-        }
+        let (tok, count) = first_fields::<5>(tokens(bytes));
         if count == 0 || bytes.starts_with(b"**") {
             return Ok(None);
         }

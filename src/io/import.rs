@@ -675,6 +675,21 @@ fn par_lines_in_blocks<T: Send>(
     Ok(())
 }
 
+/// The first `K` fields of a line and how many it has, without allocating (this runs per line).
+pub(crate) fn first_fields<'a, const K: usize>(
+    fields: impl Iterator<Item = &'a [u8]>,
+) -> ([&'a [u8]; K], usize) {
+    let mut f: [&[u8]; K] = [&[]; K];
+    let mut count = 0;
+    for x in fields {
+        if count < K {
+            f[count] = x;
+        }
+        count += 1;
+    }
+    (f, count)
+}
+
 /// Splits a text line into tokens at spaces, tabs and commas.
 pub(crate) fn tokens(line: &[u8]) -> impl Iterator<Item = &[u8]> {
     line.split(|&b| b == b' ' || b == b'\t' || b == b',')
@@ -785,15 +800,7 @@ pub fn read_node_table(path: &Path) -> Result<NodeTable> {
         Text(Option<String>, Error),
     }
     let parse = |line: usize, bytes: &[u8]| -> Result<Option<Line>> {
-        // the first four fields and the count, without allocating: this runs per line
-        let mut f: [&[u8]; 4] = [&[]; 4];
-        let mut count = 0;
-        for x in table_fields(bytes) {
-            if count < 4 {
-                f[count] = x;
-            }
-            count += 1;
-        }
+        let (f, count) = first_fields::<4>(table_fields(bytes));
         if count == 0 {
             return Ok(None);
         }
