@@ -128,8 +128,11 @@ pub struct FreqStats {
     pub probe_error: f64,
     /// Iterative refinement steps of the solves (0 when the first solve was backward stable).
     pub refinement_steps: usize,
-    /// min/max pivot magnitude (LBLᵀ), rcond (UMFPACK) or NaN (faer LU).
+    /// min/max pivot magnitude (LBLᵀ, LDLᵀ), rcond (UMFPACK) or NaN (faer LU).
     pub pivot_ratio: f64,
+    /// True when the complex LDLᵀ's static pivoting was not enough and the frequency was
+    /// factored again by the pivoting LBLᵀ ([`Numeric::factor_with_pivoting`]).
+    pub pivoted: bool,
 }
 
 /// The accuracy a [`Solver`]'s factorizations showed over all its runs: reported with a ROM
@@ -142,6 +145,9 @@ pub struct SolveAccuracy {
     pub probe_error_max: f64,
     /// Frequencies whose solves were refined.
     pub refined: usize,
+    /// Frequencies the complex LDLᵀ handed to the pivoting LBLᵀ ([`FreqStats::pivoted`]).
+    #[serde(default)]
+    pub pivoted: usize,
 }
 
 impl SolveAccuracy {
@@ -149,6 +155,7 @@ impl SolveAccuracy {
         self.frequencies += 1;
         self.probe_error_max = self.probe_error_max.max(s.probe_error);
         self.refined += usize::from(s.refinement_steps > 0);
+        self.pivoted += usize::from(s.pivoted);
     }
 }
 
@@ -433,24 +440,19 @@ impl<'a> Solver<'a> {
             Some((s, scale)) => numeric.factor_supported(self.body.pencil(), s, *scale, par)?,
             None => numeric.factor(self.body.pencil(), omega, par)?,
         }
-        let factor_s = t0.elapsed().as_secs_f64();
+        let mut factor_s = t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
-        self.right_hand_sides(omega, rhs.as_mut());
-        for &d in held.iter().flat_map(|(s, _)| s) {
-            for c in 0..=p {
-                rhs[(d, c)] = c64::new(0.0, 0.0);
+        let (mut probe_error, mut refinement_steps) =
+            self.solve_checked(numeric, omega, held.is_some(), rhs, par);
+        // the complex LDLᵀ pivots statically: when its solves stay inaccurate, the pivoting
+        // LBLᵀ gets the frequency
+        if !(probe_error <= self.probe_tol) && held.is_none() {
+            let t = Instant::now();
+            if numeric.factor_with_pivoting(self.body.pencil(), par)? {
+                factor_s += t.elapsed().as_secs_f64();
+                (probe_error, refinement_steps) =
+                    self.solve_checked(numeric, omega, false, rhs, par);
             }
-        }
-        numeric.solve(rhs.as_mut(), par);
-        let mut probe_error = self.probe_error(rhs.as_ref().col(p));
-        // refine all columns when the probe shows lost digits (not at 0 Hz, where the factored
-        // matrix is the supported K and its right-hand sides were modified)
-        let mut refinement_steps = 0;
-        if probe_error > REFINE_ABOVE && held.is_none() {
-            let mut b = Mat::<c64>::zeros(rhs.nrows(), p + 1);
-            self.right_hand_sides(omega, b.as_mut());
-            refinement_steps = numeric.refine(self.body.pencil(), b.as_ref(), rhs.as_mut(), par);
-            probe_error = self.probe_error(rhs.as_ref().col(p));
         }
         let solve_s = t1.elapsed().as_secs_f64();
         if let (Some(rb), Response::Elastic) = (self.body.rigid(), self.response) {
@@ -478,7 +480,37 @@ impl<'a> Solver<'a> {
             probe_error,
             refinement_steps,
             pivot_ratio: numeric.pivot_ratio(),
+            pivoted: numeric.pivoted(),
         })
+    }
+
+    /// Solves load + probe into `rhs` with the current factorization and refines all columns
+    /// when the probe shows lost digits (not with the supported K at 0 Hz, whose right-hand
+    /// sides are modified). Returns the probe error and the refinement steps.
+    fn solve_checked(
+        &self,
+        numeric: &mut Numeric,
+        omega: f64,
+        held: bool,
+        rhs: &mut Mat<c64>,
+        par: Par,
+    ) -> (f64, usize) {
+        let p = self.inputs.len();
+        self.right_hand_sides(omega, rhs.as_mut());
+        for &d in self.supports.iter().filter(|_| held).flat_map(|(s, _)| s) {
+            for c in 0..=p {
+                rhs[(d, c)] = c64::new(0.0, 0.0);
+            }
+        }
+        numeric.solve(rhs.as_mut(), par);
+        let probe_error = self.probe_error(rhs.as_ref().col(p));
+        if probe_error > REFINE_ABOVE && !held {
+            let mut b = Mat::<c64>::zeros(rhs.nrows(), p + 1);
+            self.right_hand_sides(omega, b.as_mut());
+            let steps = numeric.refine(self.body.pencil(), b.as_ref(), rhs.as_mut(), par);
+            return (self.probe_error(rhs.as_ref().col(p)), steps);
+        }
+        (probe_error, 0)
     }
 
     /// [load | A(iω) z]: the load columns and the probe's right-hand side.

@@ -1,10 +1,12 @@
 //! `sparsemor bench sweep`: the performance table of docs/design.md §8 for the sweep phases.
 //!
 //! For each model (the bar at growing N, a chunky cube) and backend: symbolic time, numeric
-//! factorization time per frequency (complex = damped, real = undamped path), solve time,
-//! factor fill, peak memory of the phase, the reference real Cholesky time of K + σM on the
-//! same pattern and the ratio complex ÷ Cholesky (4 is the arithmetic limit), and a 4-frequency
-//! sweep on 1 vs 2 threads. Timings are single runs: quote ratios from one table.
+//! factorization time per frequency (complex = damped, on 1 and 2 threads; real = undamped
+//! path), solve time, factor fill, peak memory of the phase, the reference real Cholesky time
+//! of K + σM on the same pattern and the ratio complex ÷ Cholesky, MKL PARDISO's factor time of
+//! the same complex-symmetric A(iω) (matrix type 6, `benches/pardiso_reference.py`, when
+//! `pypardiso` is installed) and the ratio to it, and a 4-frequency sweep on 1 vs 2 threads.
+//! Timings are single runs: quote ratios from one table.
 
 use super::args::human_bytes;
 use sparsemor::body::Body;
@@ -25,7 +27,7 @@ pub struct BenchArgs {
     /// Largest N to include (the 10⁶ bar takes minutes and ~10 GB).
     #[arg(long, default_value_t = 1_100_000)]
     max_n: usize,
-    /// Backends, comma-separated (faer-lblt, faer-lu, umfpack); default: all in this build.
+    /// Backends, comma-separated (ldlt, faer-lblt, faer-lu, umfpack); default: all in this build.
     #[arg(long)]
     backends: Option<String>,
     /// Largest N for faer LU (its COLAMD fill explodes on 3-D pencils).
@@ -83,9 +85,14 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     }
     let backends: Vec<Backend> = match &a.backends {
         None if cfg!(feature = "umfpack") => {
-            vec![Backend::FaerLblt, Backend::FaerLu, Backend::Umfpack]
+            vec![
+                Backend::Ldlt,
+                Backend::FaerLblt,
+                Backend::FaerLu,
+                Backend::Umfpack,
+            ]
         }
-        None => vec![Backend::FaerLblt, Backend::FaerLu],
+        None => vec![Backend::Ldlt, Backend::FaerLblt, Backend::FaerLu],
         Some(list) => list
             .split(',')
             .map(|b| b.trim().parse())
@@ -98,8 +105,11 @@ pub fn run(a: &BenchArgs) -> Result<()> {
                 .into(),
         ));
     }
-    println!("| model | N | backend | symbolic s | factor s (complex) | factor s (real) | solve s | nnz(factor) | peak mem | chol(K) s | complex ÷ chol | sweep 1 thr s | sweep 2 thr s | speed-up |");
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let pardiso_dir =
+        std::env::temp_dir().join(format!("sparsemor-bench-sweep-{}", std::process::id()));
+    let mut pardiso_note = None;
+    println!("| model | N | backend | symbolic s | factor s (complex) | factor s, 2 thr | factor s (real) | solve s | nnz(factor) | peak mem | chol(K) s | complex ÷ chol | PARDISO factor s (1 / 2 thr) | ÷ PARDISO (1 / 2 thr) | sweep 1 thr s | sweep 2 thr s | speed-up |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for case in &CASES {
         let spec = BoxSpec {
             elements: case.elements,
@@ -110,6 +120,14 @@ pub fn run(a: &BenchArgs) -> Result<()> {
             continue;
         }
         let model = sparsemor::fe::bar_model(&spec)?;
+        let scene = paper_scene(&spec);
+        let pardiso = match pardiso_reference(&pardiso_dir, &model, &scene) {
+            Ok(p) => Some(p),
+            Err(e) => {
+                pardiso_note = Some(e.to_string());
+                None
+            }
+        };
         for &backend in &backends {
             if backend == Backend::FaerLu && model.n() > a.lu_max_n {
                 continue;
@@ -120,14 +138,26 @@ pub fn run(a: &BenchArgs) -> Result<()> {
             {
                 continue;
             }
-            let row = measure(&model, &paper_scene(&spec), backend)?;
+            let row = measure(&model, &scene, backend)?;
+            let (pardiso_s, ratio) = match &pardiso {
+                Some([p1, p2]) => (
+                    format!("{p1:.3} / {p2:.3}"),
+                    format!(
+                        "{:.2} / {:.2}",
+                        row.factor_complex_s / p1,
+                        row.factor_complex2_s / p2
+                    ),
+                ),
+                None => ("—".into(), "—".into()),
+            };
             println!(
-                "| {} | {} | {} | {:.3} | {:.3} | {:.3} | {:.4} | {} | {} | {:.3} | {:.2} | {:.2} | {:.2} | {:.2} |",
+                "| {} | {} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.4} | {} | {} | {:.3} | {:.2} | {pardiso_s} | {ratio} | {:.2} | {:.2} | {:.2} |",
                 case.name,
                 model.n(),
                 backend,
                 row.symbolic_s,
                 row.factor_complex_s,
+                row.factor_complex2_s,
                 row.factor_real_s,
                 row.solve_s,
                 if row.nnz > 0 {
@@ -144,14 +174,56 @@ pub fn run(a: &BenchArgs) -> Result<()> {
             );
         }
     }
+    let _ = std::fs::remove_dir_all(&pardiso_dir);
     println!();
     println!("(a) faer LU and UMFPACK size their factors during the numeric factorization; their symbolic analysis reports no fill.");
+    if let Some(note) = pardiso_note {
+        println!("PARDISO columns empty: {note}");
+    }
     Ok(())
+}
+
+/// MKL PARDISO's factor time (phase 22, matrix type 6) of the same A(iω) at 300 Hz with 1 and
+/// 2 threads, by `benches/pardiso_reference.py` on the model written to `dir`.
+fn pardiso_reference(dir: &std::path::Path, model: &Model, scene: &Scene) -> Result<[f64; 2]> {
+    let script =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/pardiso_reference.py");
+    let _ = std::fs::remove_dir_all(dir);
+    sparsemor::io::model_dir::write(dir, model, scene)?;
+    let mut seconds = [0.0; 2];
+    for (t, s) in seconds.iter_mut().enumerate() {
+        let run = std::process::Command::new("python3")
+            .arg(&script)
+            .arg(dir)
+            .args([
+                "300",
+                &(scene.inputs.len() + 1).to_string(),
+                &(t + 1).to_string(),
+            ])
+            .output()
+            .map_err(|e| Error::io(&script, e))?;
+        let stdout = String::from_utf8_lossy(&run.stdout);
+        *s = stdout
+            .split("\"factor_s\": ")
+            .nth(1)
+            .and_then(|s| s.split([',', '}']).next())
+            .and_then(|s| s.trim().parse::<f64>().ok())
+            .filter(|_| run.status.success())
+            .ok_or_else(|| {
+                Error::InvalidSetting(format!(
+                    "{}: {}",
+                    script.display(),
+                    String::from_utf8_lossy(&run.stderr).trim()
+                ))
+            })?;
+    }
+    Ok(seconds)
 }
 
 struct Row {
     symbolic_s: f64,
     factor_complex_s: f64,
+    factor_complex2_s: f64,
     factor_real_s: f64,
     solve_s: f64,
     nnz: usize,
@@ -172,6 +244,9 @@ fn measure(model: &Model, scene: &Scene, backend: Backend) -> Result<Row> {
     let t = Instant::now();
     num.factor(&pencil, omega, faer::Par::Seq)?;
     let factor_complex_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    sparsemor::pool::with_pool(2, || num.factor(&pencil, omega, faer::Par::rayon(2)))??;
+    let factor_complex2_s = t.elapsed().as_secs_f64();
     let body = Body::new(model)?;
     let mut rhs = body.unit_load(&scene.inputs);
     let t = Instant::now();
@@ -225,6 +300,7 @@ fn measure(model: &Model, scene: &Scene, backend: Backend) -> Result<Row> {
     Ok(Row {
         symbolic_s,
         factor_complex_s,
+        factor_complex2_s,
         factor_real_s,
         solve_s,
         nnz,

@@ -60,7 +60,7 @@ pub fn info(dir: &Path) -> Result<()> {
     let pencil = Pencil::new(&model);
     let chol = sparsemor::factor::symbolic_cholesky(&pencil)?;
     // what `sweep`, `reduce` and `evaluate` will do: the same decision (Backend::resolved)
-    let backend = Backend::Auto.resolved(model.n());
+    let backend = Backend::Auto.resolved(model.n(), pencil.is_real());
     let an = Analysis::new(&pencil, backend, scene.inputs.len() + 1)?;
     let s = an.stats();
     let path = match (s.backend, s.real) {
@@ -68,17 +68,25 @@ pub fn info(dir: &Path) -> Result<()> {
         (Backend::FaerLblt, false) => {
             "faer LBLᵀ of the complex pencil as its interleaved 2N×2N real form"
         }
+        (Backend::Ldlt, _) => {
+            "complex-symmetric supernodal LDLᵀ (static pivoting) of the complex pencil"
+        }
         (Backend::FaerLu, true) => "faer LU (COLAMD) of the real pencil (D = 0)",
         (Backend::FaerLu, false) => "faer LU (COLAMD) of the complex pencil",
         (_, true) => "UMFPACK, real",
         (_, false) => "UMFPACK, complex",
     };
     println!(
-        "factorization    {} (backend auto → {}, N {} {}); real Cholesky fill nnz(L) = {}; factor {}, ~{} per factorization",
+        "factorization    {} (backend auto → {}: {}); real Cholesky fill nnz(L) = {}; factor {}, ~{} per factorization",
         path,
         s.backend,
-        if model.n() <= sparsemor::factor::LU_MAX_N { "<=" } else { ">" },
-        sparsemor::factor::LU_MAX_N,
+        if !s.real {
+            "damped".to_string()
+        } else {
+            let lu_max = sparsemor::factor::LU_MAX_N;
+            let cmp = if model.n() <= lu_max { "<=" } else { ">" };
+            format!("undamped, N {cmp} {lu_max}")
+        },
         chol.len_val(),
         if s.factor_nnz > 0 {
             format!("{} entries", s.factor_nnz)

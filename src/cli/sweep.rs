@@ -31,7 +31,7 @@ pub struct SweepArgs {
     /// Worker threads (0 = all cores).
     #[arg(long, default_value_t = 0)]
     threads: usize,
-    /// Factorization backend: auto, faer-lblt, faer-lu, umfpack.
+    /// Factorization backend: auto, ldlt, faer-lblt, faer-lu, umfpack.
     #[arg(long, default_value = "auto")]
     backend: String,
     /// Memory budget for concurrent factorizations in GB (default: half of available).
@@ -88,9 +88,10 @@ pub fn sweep(a: &SweepArgs, verbose: bool) -> Result<()> {
             let mean_factor = fs.iter().map(|s| s.factor_s).sum::<f64>() / fs.len().max(1) as f64;
             let refined = fs.iter().filter(|s| s.refinement_steps > 0).count();
             let steps: usize = fs.iter().map(|s| s.refinement_steps).sum();
+            let pivoted = fs.iter().filter(|s| s.pivoted).count();
             eprintln!(
                 "backend {} ({}), symbolic {:.3} s, factor nnz {}, {:?}, mean factor {:.4} s, worst probe error {:.1e}, \
-                 refined {refined} of {} frequencies ({steps} steps)",
+                 refined {refined} of {} frequencies ({steps} steps), {pivoted} handed to the pivoting LBLᵀ",
                 s.backend,
                 if s.real { "real" } else { "complex" },
                 s.seconds,

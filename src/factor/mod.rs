@@ -7,12 +7,14 @@
 //! the first use) and used by [`Numeric::solve`].
 //!
 //! One file per backend ([`Backend`]), each with its own symbolic and numeric type:
-//! - `lblt` — **faer LBLᵀ** (default): faer's supernodal symmetric machinery with intranode
+//! - `ldlt` — **complex-symmetric LDLᵀ** (default when damped): our supernodal LDLᵀ in c64
+//!   (transpose, not adjoint) on faer's symbolic Cholesky and dense kernels, static pivoting;
+//! - `lblt` — **faer LBLᵀ** (default for large undamped pencils): faer's supernodal symmetric machinery with intranode
 //!   Bunch–Kaufman pivoting; the real N×N pencil when D = 0, otherwise the equivalent real
 //!   symmetric 2N×2N form [[Ar, Ai], [Ai, −Ar]] with the unknowns interleaved.
 //! - `lu` — **faer LU**: faer's sparse LU (COLAMD) of the full pattern, real or complex. Fine
-//!   for small models; it blows up on 3-D pencils at 10⁵ DoF (docs/design.md §3.1), so
-//!   [`Backend::Auto`] uses it only up to [`LU_MAX_N`].
+//!   for small undamped models; it blows up on 3-D pencils at 10⁵ DoF (docs/design.md
+//!   §3.1), so [`Backend::Auto`] uses it only up to [`LU_MAX_N`].
 //! - `umfpack` — **UMFPACK** (cargo feature `umfpack`), real or complex LU.
 //!
 //! Beside them: `cholesky` (the real LLᵀ of K − σM of the eigensolver and the benches'
@@ -29,6 +31,7 @@
 mod cholesky;
 mod inertia;
 mod lblt;
+mod ldlt;
 mod lu;
 mod pattern;
 mod refine;
@@ -52,17 +55,23 @@ use faer::{c64, Mat, MatMut, MatRef, Par};
 use std::sync::Arc;
 use std::time::Instant;
 
-/// Largest N for which [`Backend::Auto`] picks faer LU. Measured (`sparsemor bench sweep`,
-/// README): on the bar, faer LU and the LBLᵀ form factor equally fast at N = 1656 and LU
-/// sweeps 1.4–1.6× faster at N = 12 060 (its solve is 2× cheaper); at 10⁵ DoF LU's COLAMD fill
-/// explodes on 3-D pencils (docs/design.md §3.1), so above this size Auto uses LBLᵀ.
+/// Largest N for which [`Backend::Auto`] picks faer LU for an undamped (real) pencil.
+/// Measured (`sparsemor bench sweep`, README): on the real bar pencil faer LU sweeps faster
+/// than the real LBLᵀ at N = 1656 and 12 060 (its solve is 2× cheaper); at 10⁵ DoF LU's
+/// COLAMD fill explodes on 3-D pencils (docs/design.md §3.1), so above this size Auto uses
+/// LBLᵀ. Damped pencils always take the complex LDLᵀ, which factors faster than both at
+/// every size measured.
 pub const LU_MAX_N: usize = 15_000;
 
 /// Which sparse factorization to use.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Backend {
-    /// faer LBLᵀ, except faer LU for N ≤ [`LU_MAX_N`] (measured rule, see README).
+    /// The measured rule of [`Backend::resolved`]: complex LDLᵀ when damped; faer LU up to
+    /// [`LU_MAX_N`] and faer LBLᵀ above when undamped.
     Auto,
+    /// Complex-symmetric supernodal LDLᵀ with static pivoting (damped pencils; an undamped
+    /// pencil takes the real N×N LBLᵀ).
+    Ldlt,
     /// faer supernodal LBLᵀ (real N×N undamped, interleaved real 2N×2N damped).
     FaerLblt,
     /// faer sparse LU (COLAMD), real or complex.
@@ -77,23 +86,27 @@ impl std::str::FromStr for Backend {
         match s {
             "auto" => Ok(Backend::Auto),
             "lblt" | "faer-lblt" => Ok(Backend::FaerLblt),
+            "ldlt" => Ok(Backend::Ldlt),
             "lu" | "faer-lu" => Ok(Backend::FaerLu),
             "umfpack" => Ok(Backend::Umfpack),
             _ => Err(Error::InvalidSetting(format!(
-                "backend '{s}': choose auto, faer-lblt, faer-lu or umfpack"
+                "backend '{s}': choose auto, ldlt, faer-lblt, faer-lu or umfpack"
             ))),
         }
     }
 }
 
 impl Backend {
-    /// The backend a factorization of an N-DoF pencil uses: [`Backend::Auto`] becomes faer
-    /// LU up to [`LU_MAX_N`] and faer LBLᵀ above; the others stay. The one place that decides
-    /// (the analysis and `sparsemor info` both ask it).
-    pub fn resolved(self, n: usize) -> Backend {
+    /// The backend a factorization of an N-DoF pencil uses, `real` when it is undamped
+    /// (D = 0): [`Backend::Auto`] becomes the complex LDLᵀ when damped, faer LU up to
+    /// [`LU_MAX_N`] and faer LBLᵀ above when real; [`Backend::Ldlt`] of a real pencil is the
+    /// real LBLᵀ (the real path has no complex arithmetic to save); the others stay. The one
+    /// place that decides (the analysis and `sparsemor info` both ask it).
+    pub fn resolved(self, n: usize, real: bool) -> Backend {
         match self {
+            Backend::Auto if !real => Backend::Ldlt,
             Backend::Auto if n <= LU_MAX_N => Backend::FaerLu,
-            Backend::Auto => Backend::FaerLblt,
+            Backend::Auto | Backend::Ldlt if real => Backend::FaerLblt,
             b => b,
         }
     }
@@ -104,6 +117,7 @@ impl std::fmt::Display for Backend {
         f.write_str(match self {
             Backend::Auto => "auto",
             Backend::FaerLblt => "faer-lblt",
+            Backend::Ldlt => "ldlt",
             Backend::FaerLu => "faer-lu",
             Backend::Umfpack => "umfpack",
         })
@@ -131,6 +145,7 @@ pub struct SymbolicStats {
 #[allow(clippy::large_enum_variant)]
 enum Symbolic {
     Lblt(lblt::Symbolic),
+    Ldlt(ldlt::Symbolic),
     Lu(lu::Symbolic),
     #[cfg(feature = "umfpack")]
     Umfpack(umfpack::Symbolic),
@@ -159,6 +174,9 @@ impl Footprint {
 /// The once-per-model part of the factorization: ordering and symbolic analysis.
 pub struct Analysis {
     symbolic: Symbolic,
+    /// The LDLᵀ's pivoting fallback (the 2N LBLᵀ), analysed on first use.
+    pivoting: std::sync::OnceLock<lblt::Symbolic>,
+    max_rhs: usize,
     n: usize,
     real: bool,
     stats: SymbolicStats,
@@ -192,11 +210,23 @@ impl Analysis {
         let start = Instant::now();
         let n = pencil.n();
         let real = pencil.is_real();
-        let backend = backend.resolved(n);
+        let mut backend = backend.resolved(n, real);
         let (symbolic, footprint) = match backend {
             Backend::FaerLblt => {
                 let (s, f) = lblt::Symbolic::new(pencil, symbolic_n()?, max_rhs)?;
                 (Symbolic::Lblt(s), f)
+            }
+            Backend::Ldlt => {
+                let sym = symbolic_n()?;
+                if ldlt::supports(&sym) {
+                    let (s, f) = ldlt::Symbolic::new(pencil, sym, max_rhs)?;
+                    (Symbolic::Ldlt(s), f)
+                } else {
+                    // a pattern without off-diagonal entries has no supernodes
+                    backend = Backend::FaerLblt;
+                    let (s, f) = lblt::Symbolic::new(pencil, sym, max_rhs)?;
+                    (Symbolic::Lblt(s), f)
+                }
             }
             Backend::FaerLu => {
                 let (s, f) = lu::Symbolic::new(pencil, max_rhs)?;
@@ -217,6 +247,8 @@ impl Analysis {
         };
         Ok(Analysis {
             symbolic,
+            pivoting: std::sync::OnceLock::new(),
+            max_rhs,
             n,
             real,
             stats: SymbolicStats {
@@ -246,13 +278,17 @@ impl Analysis {
     pub fn numeric(&self, pencil: &Pencil) -> Result<Numeric<'_>> {
         let factors: Box<dyn Factorization + '_> = match &self.symbolic {
             Symbolic::Lblt(s) => Box::new(s.numeric()?),
+            Symbolic::Ldlt(s) => Box::new(s.numeric()?),
             Symbolic::Lu(s) => Box::new(s.numeric()?),
             #[cfg(feature = "umfpack")]
             Symbolic::Umfpack(s) => Box::new(s.numeric()?),
         };
         let nnz_lower = pencil.nnz();
         Ok(Numeric {
+            analysis: self,
             factors,
+            pivoting: None,
+            pivoted: false,
             real: self.real,
             re: try_vec(nnz_lower)?,
             im: if self.real {
@@ -262,6 +298,20 @@ impl Analysis {
             },
             factored_at: None,
         })
+    }
+
+    /// The pivoting factorization the LDLᵀ falls back to (the 2N LBLᵀ on its ordering),
+    /// analysed on the first call; `None` for the other backends, which pivot themselves.
+    fn pivoting(&self, pencil: &Pencil) -> Result<Option<&lblt::Symbolic>> {
+        let Symbolic::Ldlt(s) = &self.symbolic else {
+            return Ok(None);
+        };
+        if self.pivoting.get().is_none() {
+            let (fallback, _) = lblt::Symbolic::new(pencil, s.cholesky(), self.max_rhs)?;
+            // another thread may have set it meanwhile: either value is the same analysis
+            let _ = self.pivoting.set(fallback);
+        }
+        Ok(self.pivoting.get())
     }
 }
 
@@ -282,11 +332,20 @@ trait Factorization: Send {
     fn solve(&mut self, rhs: MatMut<'_, c64>, par: Par);
     /// min |pivot| / max |pivot| of the last factorization, as the backend reports it.
     fn pivot_ratio(&self) -> f64;
+    /// Pivots the last factorization replaced by a static perturbation (LDLᵀ only).
+    fn perturbed(&self) -> usize {
+        0
+    }
 }
 
 /// One numeric factorization of A(iω), refilled per frequency; borrows its [`Analysis`].
 pub struct Numeric<'a> {
+    analysis: &'a Analysis,
     factors: Box<dyn Factorization + 'a>,
+    /// The LDLᵀ's pivoting fallback, allocated on first use, and whether it holds the
+    /// factorization of the current frequency.
+    pivoting: Option<Box<dyn Factorization + 'a>>,
+    pivoted: bool,
     real: bool,
     /// Values of A(iω) on the pencil's lower pattern (`im` empty on the real path).
     re: Vec<f64>,
@@ -294,21 +353,32 @@ pub struct Numeric<'a> {
     factored_at: Option<f64>,
 }
 
-impl Numeric<'_> {
+impl<'a> Numeric<'a> {
     /// Factors A(iω) = K − ω²M + iωD in place. `par` is the parallelism inside the
     /// factorization (use `Par::Seq` when frequencies run in parallel).
+    ///
+    /// The complex LDLᵀ pivots statically; when it had to perturb a pivot (a numerically zero
+    /// one), the frequency is factored again by the pivoting LBLᵀ of the 2N form
+    /// ([`Self::pivoted`]).
     ///
     /// # Errors
     /// [`Error::Singular`] when a pivot breaks down exactly, [`Error::Factor`] on backend
     /// failure.
     pub fn factor(&mut self, pencil: &Pencil, omega: f64, par: Par) -> Result<()> {
         self.factored_at = None;
-        let freq_hz = omega / (2.0 * std::f64::consts::PI);
         if self.real {
             pencil.fill_real(omega, &mut self.re);
         } else {
             pencil.fill_complex(omega, &mut self.re, &mut self.im);
         }
+        self.factor_values(pencil, omega, par)
+    }
+
+    /// Factors the values in `re`/`im` at ω (0 for the supported K), with the pivoting
+    /// fallback after perturbed pivots.
+    fn factor_values(&mut self, pencil: &Pencil, omega: f64, par: Par) -> Result<()> {
+        let freq_hz = omega / (2.0 * std::f64::consts::PI);
+        self.pivoted = false;
         let values = Values {
             pattern: pattern::lower(pencil),
             re: &self.re,
@@ -316,7 +386,59 @@ impl Numeric<'_> {
         };
         self.factors.factor(&values, freq_hz, par)?;
         self.factored_at = Some(omega);
+        if self.factors.perturbed() > 0 {
+            self.factor_with_pivoting(pencil, par)?;
+        }
         Ok(())
+    }
+
+    /// Factors the current frequency again with the pivoting LBLᵀ of the 2N form, when the
+    /// backend is the complex LDLᵀ and it has not done so yet: the sweep's remedy when a
+    /// solve stays inaccurate after refinement (growth at a small pivot of the static order).
+    /// Returns false when there is nothing else to try. The 2N factor is allocated on the
+    /// first call and kept (about twice the LDLᵀ's bytes).
+    ///
+    /// # Errors
+    /// As [`Self::factor`].
+    pub fn factor_with_pivoting(&mut self, pencil: &Pencil, par: Par) -> Result<bool> {
+        let Some(omega) = self.factored_at else {
+            return Ok(false);
+        };
+        if self.pivoted {
+            return Ok(false);
+        }
+        let Some(symbolic) = self.analysis.pivoting(pencil)? else {
+            return Ok(false);
+        };
+        if self.pivoting.is_none() {
+            self.pivoting = Some(Box::new(symbolic.numeric()?));
+        }
+        let values = Values {
+            pattern: pattern::lower(pencil),
+            re: &self.re,
+            im: &self.im,
+        };
+        let freq_hz = omega / (2.0 * std::f64::consts::PI);
+        self.factored_at = None;
+        let pivoting = self.pivoting.as_mut().expect("allocated above");
+        pivoting.factor(&values, freq_hz, par)?;
+        self.pivoted = true;
+        self.factored_at = Some(omega);
+        Ok(true)
+    }
+
+    /// True when the current frequency was factored by the pivoting fallback of the complex
+    /// LDLᵀ ([`Self::factor_with_pivoting`]).
+    pub fn pivoted(&self) -> bool {
+        self.pivoted
+    }
+
+    /// The factorization of the current frequency.
+    fn active(&mut self) -> &mut (dyn Factorization + 'a) {
+        match (&mut self.pivoting, self.pivoted) {
+            (Some(p), true) => p.as_mut(),
+            _ => self.factors.as_mut(),
+        }
     }
 
     /// Factors K with the rows and columns of the `supports` DoFs replaced by those of a
@@ -354,26 +476,29 @@ impl Numeric<'_> {
                 }
             }
         }
-        let values = Values {
-            pattern: pattern::lower(pencil),
-            re: &self.re,
-            im: &self.im,
-        };
-        self.factors.factor(&values, 0.0, par)?;
-        self.factored_at = Some(0.0);
-        Ok(())
+        self.factor_values(pencil, 0.0, par)
     }
 
     /// min |pivot| / max |pivot| of the last factorization (1×1 pivots and the eigenvalues of
     /// 2×2 pivots for LBLᵀ; UMFPACK's rcond estimate; NaN for faer LU).
     pub fn pivot_ratio(&self) -> f64 {
-        self.factors.pivot_ratio()
+        match (&self.pivoting, self.pivoted) {
+            (Some(p), true) => p.pivot_ratio(),
+            _ => self.factors.pivot_ratio(),
+        }
+    }
+
+    /// Pivots the last factorization replaced by a static perturbation (the LDLᵀ backend;
+    /// 0 for the others, which pivot). Its solves then need the refinement of
+    /// [`Self::refine`].
+    pub fn perturbed_pivots(&self) -> usize {
+        self.factors.perturbed()
     }
 
     /// Solves A(iω) X = B in place for a complex block (N × k, k ≤ the analysis' max_rhs + 1).
     pub fn solve(&mut self, rhs: MatMut<'_, c64>, par: Par) {
         debug_assert!(self.factored_at.is_some());
-        self.factors.solve(rhs, par);
+        self.active().solve(rhs, par);
     }
 
     /// Refines a solution `x` of A X = `b` from [`Self::solve`] with the factored matrix
@@ -387,7 +512,11 @@ impl Numeric<'_> {
         par: Par,
     ) -> usize {
         debug_assert!(self.factored_at.is_some());
-        let (re, im, factors) = (&self.re, &self.im, &mut self.factors);
+        let factors = match (&mut self.pivoting, self.pivoted) {
+            (Some(p), true) => p.as_mut(),
+            _ => self.factors.as_mut(),
+        };
+        let (re, im) = (&self.re, &self.im);
         refine::refine(
             pencil,
             &|p| lower_entry(re, im, p),

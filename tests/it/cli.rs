@@ -133,10 +133,11 @@ fn generate_info_sweep_matches_the_library_bit_exactly() {
     };
     assert_eq!(field("N "), "1656", "info:\n{info}");
     assert!(field("rigid modes").starts_with("6:"), "info:\n{info}");
-    // info says what the sweep will do: at N = 1656 the automatic backend is faer LU
+    // info says what the sweep will do: the damped bar takes the complex LDLᵀ
     let factorization = field("factorization");
     assert!(
-        factorization.contains("faer LU") && factorization.contains("auto → faer-lu"),
+        factorization.contains("complex-symmetric supernodal LDLᵀ")
+            && factorization.contains("auto → ldlt: damped"),
         "{factorization}"
     );
     assert!(!factorization.contains("2N"), "{factorization}");

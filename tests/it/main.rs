@@ -8,6 +8,7 @@ mod dense;
 mod eigen;
 mod export;
 mod extremes;
+mod factor_ldlt;
 mod fe_bar;
 mod fuzz_regressions;
 mod harwell_boeing;

@@ -52,6 +52,23 @@ fn lblt_undamped_real_path_matches_dense() {
 }
 
 #[test]
+fn ldlt_damped_matches_dense() {
+    check(
+        Damping::Rayleigh {
+            alpha: 0.5,
+            beta: 1e-5,
+        },
+        Backend::Ldlt,
+        2,
+    );
+}
+
+#[test]
+fn ldlt_undamped_real_path_matches_dense() {
+    check(Damping::None, Backend::Ldlt, 1);
+}
+
+#[test]
 fn lu_damped_matches_dense() {
     check(
         Damping::Rayleigh {

@@ -1,0 +1,98 @@
+"""MKL PARDISO reference for `sparsemor bench sweep`: factors the same complex-symmetric
+A(i omega) = K - omega^2 M + i omega (alpha M + beta K) with PARDISO, matrix type 6 (complex
+symmetric), default iparm from pardisoinit (METIS ordering, Bunch-Kaufman pivoting with
+perturbation), and times its phases 11 (analysis), 22 (factor) and 33 (solve) separately.
+
+    python3 benches/pardiso_reference.py MODEL_DIR FREQ_HZ NRHS [THREADS]
+
+MODEL_DIR is a sparsemor model directory with Rayleigh damping. PARDISO comes from the
+`mkl_rt` library of the PyPI wheel `pypardiso` (called through ctypes, not through its
+Python solver, which supports real matrices only). Prints one JSON line: n, threads, the
+three phase times (s), nnz of the factor (iparm[17]), PARDISO's peak memory (KB, iparm[14]
+and iparm[15] + iparm[16]) and the relative residual of the solve. Exit status 2 with a
+message on stderr when pypardiso is not installed. PARDISO is a reference here, not a
+dependency of sparsemor.
+"""
+
+import ctypes
+import json
+import os
+import sys
+import time
+
+import numpy as np
+import scipy.sparse as sp
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from eigsh_reference import read_symmetric, tomllib  # noqa: E402
+
+
+def mkl():
+    try:
+        import pypardiso
+    except ImportError:
+        sys.stderr.write("pypardiso is not installed (pip install pypardiso)\n")
+        sys.exit(2)
+    # a handle of our own: pypardiso sets argument types on its handle's `pardiso`
+    return ctypes.CDLL(pypardiso.PyPardisoSolver().libmkl._name)
+
+
+def main():
+    model_dir, freq, nrhs = sys.argv[1], float(sys.argv[2]), int(sys.argv[3])
+    threads = int(sys.argv[4]) if len(sys.argv) > 4 else 2
+    lib = mkl()
+    lib.MKL_Set_Num_Threads(ctypes.c_int(threads))
+    with open(f"{model_dir}/model.toml", "rb") as f:
+        manifest = tomllib.load(f)
+    k = read_symmetric(f"{model_dir}/{manifest['stiffness']}")
+    m = read_symmetric(f"{model_dir}/{manifest['mass']}")
+    ray = manifest.get("rayleigh", {})
+    alpha, beta = ray.get("alpha", 0.0), ray.get("beta", 0.0)
+    w = 2 * np.pi * freq
+    a = (k - w * w * m).astype(np.complex128) + 1j * w * (alpha * m + beta * k)
+    upper = sp.triu(sp.csr_matrix(a), format="csr")
+    upper.sort_indices()
+    n = upper.shape[0]
+    vals = np.ascontiguousarray(upper.data, dtype=np.complex128)
+    ia = np.ascontiguousarray(upper.indptr + 1, dtype=np.int32)
+    ja = np.ascontiguousarray(upper.indices + 1, dtype=np.int32)
+    rng = np.random.default_rng(1)
+    b = np.asfortranarray(rng.standard_normal((n, nrhs)) + 1j * rng.standard_normal((n, nrhs)))
+    x = np.zeros_like(b, order="F")
+
+    pt = np.zeros(64, dtype=np.int64)
+    iparm = np.zeros(64, dtype=np.int32)
+    mtype = ctypes.c_int32(6)
+    lib.pardisoinit(pt.ctypes.data_as(ctypes.c_void_p), ctypes.byref(mtype),
+                    iparm.ctypes.data_as(ctypes.c_void_p))
+    iparm[17] = -1  # report nnz of the factor
+    err = ctypes.c_int32(0)
+
+    def phase(p):
+        lib.pardiso(pt.ctypes.data_as(ctypes.c_void_p), ctypes.byref(ctypes.c_int32(1)),
+                    ctypes.byref(ctypes.c_int32(1)), ctypes.byref(mtype),
+                    ctypes.byref(ctypes.c_int32(p)), ctypes.byref(ctypes.c_int32(n)),
+                    vals.ctypes.data_as(ctypes.c_void_p), ia.ctypes.data_as(ctypes.c_void_p),
+                    ja.ctypes.data_as(ctypes.c_void_p), ctypes.c_void_p(),
+                    ctypes.byref(ctypes.c_int32(nrhs)), iparm.ctypes.data_as(ctypes.c_void_p),
+                    ctypes.byref(ctypes.c_int32(0)), b.ctypes.data_as(ctypes.c_void_p),
+                    x.ctypes.data_as(ctypes.c_void_p), ctypes.byref(err))
+        if err.value != 0:
+            sys.stderr.write(f"PARDISO phase {p} failed with error {err.value}\n")
+            sys.exit(1)
+
+    times = {}
+    for p, name in [(11, "analysis_s"), (22, "factor_s"), (33, "solve_s")]:
+        start = time.perf_counter()
+        phase(p)
+        times[name] = time.perf_counter() - start
+    residual = np.linalg.norm(b - a @ x) / np.linalg.norm(b)
+    out = {"n": n, "threads": threads, **times, "nnz_l": int(iparm[17]),
+           "peak_kb": int(max(iparm[14], iparm[15] + iparm[16])),
+           "residual": float(residual)}
+    phase(-1)
+    print(json.dumps(out))
+
+
+if __name__ == "__main__":
+    main()

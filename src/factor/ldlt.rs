@@ -1,0 +1,517 @@
+//! Complex-symmetric supernodal LDLᵀ of a damped A(iω) = K − ω²M + iωD (docs/design.md §3.1 (b)).
+//!
+//! P A Pᵀ = L D Lᵀ with the transpose, never the adjoint: A is complex *symmetric*
+//! (Aᵀ = A, Aᴴ ≠ A), L unit lower triangular in c64 and D diagonal in c64. The structure is
+//! the AMD-ordered supernodal symbolic Cholesky of the pencil's N×N pattern
+//! ([`super::symbolic_cholesky`]), shared with the real path and the eigensolver, so the
+//! factor has the fill of a real Cholesky in complex numbers: half the bytes of the
+//! interleaved 2N×2N LBLᵀ form and a quarter of its entries.
+//!
+//! **Left-looking supernodal factorization.** For each supernode s (columns c₀..c₁, rows
+//! below them `pattern(s)`), its panel [L_top; L_bot] is assembled from A, then every
+//! descendant d whose pattern meets c₀..c₁ subtracts L_d,rows · D_d · L_d,colsᵀ (one dense
+//! product, scattered through a row map), then the diagonal block is factored by a recursive
+//! blocked dense LDLᵀ and L_bot ← L_bot L_top⁻ᵀ D⁻¹ (triangular solve). Every flop outside the
+//! smallest diagonal blocks is a faer GEMM or triangular solve on c64 (`Par` inside them).
+//!
+//! **Pivoting: static, with a pivoting fallback** (docs/design.md §3.1). The order is fixed by
+//! the symbolic analysis; a numerically zero pivot, |d| < τ = ε·max|aᵢⱼ|, is replaced by
+//! τ·d/|d| (τ for d = 0) and counted ([`Factorization::perturbed`]), and `factor::Numeric`
+//! then factors that frequency again with the pivoting LBLᵀ of the 2N form; so does the
+//! sweep when a solve stays inaccurate after refinement. The threshold is ε, not PARDISO's
+//! 1e-8: the last pivots of a free body at low frequency are legitimately ~ω²m, ~1e-9 of
+//! max|aᵢⱼ| at 1 Hz on the paper bar, and perturbing them made refinement diverge. Tested
+//! against dense complex solves, zero-diagonal and near-resonance cases included (tests
+//! `factor_ldlt`).
+
+use super::{try_vec, Factorization, Footprint, Values};
+use crate::pencil::Pencil;
+use crate::{Error, Result};
+use faer::linalg::matmul::triangular::{self, BlockStructure};
+use faer::linalg::matmul::{matmul, matmul_with_conj};
+use faer::linalg::triangular_solve::{
+    solve_unit_lower_triangular_in_place, solve_unit_upper_triangular_in_place,
+};
+use faer::reborrow::{Reborrow, ReborrowMut};
+use faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky;
+use faer::sparse::linalg::cholesky::{SymbolicCholesky, SymbolicCholeskyRaw};
+use faer::{c64, Accum, Conj, Mat, MatMut, MatRef, Par};
+use std::sync::Arc;
+
+/// Diagonal blocks up to this size are factored column by column.
+const UNBLOCKED: usize = 32;
+
+/// The analysis: the supernodal structure, where each entry of A lands in L, and which
+/// supernodes update which.
+pub(super) struct Symbolic {
+    sym: Arc<SymbolicCholesky<usize>>,
+    /// The fill-reducing order: row i of P A Pᵀ is row `fwd[i]` of A.
+    fwd: Vec<usize>,
+    /// The entries of A by supernode, in the order of L's values: (position p in the
+    /// pencil's lower pattern, position in L's values), supernode s's at
+    /// `assembly[assembly_ptr[s]..assembly_ptr[s + 1]]`.
+    assembly: Vec<(usize, usize)>,
+    assembly_ptr: Vec<usize>,
+    /// Supernodes d updating supernode s: `desc[desc_ptr[s]..desc_ptr[s + 1]]`, increasing.
+    desc_ptr: Vec<usize>,
+    desc: Vec<usize>,
+    /// Largest descendant update (rows × columns) and largest supernode pattern: workspace.
+    max_update: usize,
+    max_pattern: usize,
+    max_cols: usize,
+    max_rhs: usize,
+}
+
+/// True when `sym` has the supernodal structure this factorization works on: faer builds
+/// it for every pattern with an off-diagonal entry (`supernodal_params`), not for a diagonal
+/// one.
+pub(super) fn supports(sym: &SymbolicCholesky<usize>) -> bool {
+    matches!(sym.raw(), SymbolicCholeskyRaw::Supernodal(_))
+}
+
+/// The supernodal part of `sym` ([`supports`] is checked before a [`Symbolic`] is built).
+fn supernodal(sym: &SymbolicCholesky<usize>) -> &SymbolicSupernodalCholesky<usize> {
+    match sym.raw() {
+        SymbolicCholeskyRaw::Supernodal(s) => s,
+        SymbolicCholeskyRaw::Simplicial(_) => {
+            unreachable!("Analysis checks ldlt::supports before building the LDLᵀ")
+        }
+    }
+}
+
+/// Rows of supernode `s`'s pattern (below its diagonal block).
+fn pattern(s: &SymbolicSupernodalCholesky<usize>, sn: usize) -> &[usize] {
+    s.supernode(sn).pattern()
+}
+
+impl Symbolic {
+    /// The analysis of the damped pencil on `sym_n`, the AMD-ordered symbolic Cholesky of its
+    /// N×N pattern.
+    pub(super) fn new(
+        pencil: &Pencil,
+        sym_n: Arc<SymbolicCholesky<usize>>,
+        max_rhs: usize,
+    ) -> Result<(Self, Footprint)> {
+        let n = pencil.n();
+        let s = supernodal(&sym_n);
+        let ns = s.n_supernodes();
+        let (begin, end, cpv) = (s.supernode_begin(), s.supernode_end(), s.col_ptr_for_val());
+        let mut owner = vec![0usize; n];
+        for sn in 0..ns {
+            owner[begin[sn]..end[sn]].fill(sn);
+        }
+        let (fwd, inv) = match sym_n.perm() {
+            Some(p) => (p.arrays().0.to_vec(), p.arrays().1.to_vec()),
+            None => ((0..n).collect(), (0..n).collect()),
+        };
+        // where entry (i, j) of A lands: (max, min) of the permuted indices, in the panel of
+        // the supernode owning the column
+        let (cp, ri) = (pencil.col_ptr(), pencil.row_idx());
+        let mut assembly: Vec<(usize, usize)> = try_vec(ri.len())?;
+        for j in 0..n {
+            for p in cp[j]..cp[j + 1] {
+                let (a, b) = (inv[ri[p]], inv[j]);
+                let (row, col) = (a.max(b), a.min(b));
+                let sn = owner[col];
+                let ncols = end[sn] - begin[sn];
+                let pat = pattern(s, sn);
+                let local = if row < end[sn] {
+                    row - begin[sn]
+                } else {
+                    ncols
+                        + pat.binary_search(&row).map_err(|_| {
+                            Error::Factor(
+                                "symbolic analysis: an entry of A outside the pattern of L".into(),
+                            )
+                        })?
+                };
+                assembly[p] = (p, cpv[sn] + (col - begin[sn]) * (ncols + pat.len()) + local);
+            }
+        }
+        assembly.sort_unstable_by_key(|&(_, q)| q);
+        let mut assembly_ptr = Vec::with_capacity(ns + 1);
+        assembly_ptr.push(0);
+        for sn in 0..ns {
+            let next = assembly_ptr[sn]
+                + assembly[assembly_ptr[sn]..].partition_point(|&(_, q)| q < cpv[sn + 1]);
+            assembly_ptr.push(next);
+        }
+        // descendants: d updates every supernode owning a row of its pattern
+        let mut lists: Vec<Vec<usize>> = vec![Vec::new(); ns];
+        let (mut max_update, mut max_pattern, mut max_cols) = (0, 0, 0);
+        for d in 0..ns {
+            let pat = pattern(s, d);
+            max_pattern = max_pattern.max(pat.len());
+            max_cols = max_cols.max(end[d] - begin[d]);
+            let mut i = 0;
+            while i < pat.len() {
+                let t = owner[pat[i]];
+                let k = pat[i..].partition_point(|&r| r < end[t]);
+                lists[t].push(d);
+                max_update = max_update.max((pat.len() - i + end[d] - begin[d]) * k);
+                i += k;
+            }
+        }
+        let mut desc_ptr = Vec::with_capacity(ns + 1);
+        desc_ptr.push(0);
+        let mut desc = Vec::new();
+        for l in lists {
+            desc.extend(l);
+            desc_ptr.push(desc.len());
+        }
+        let factor_nnz = s.len_val();
+        let bytes = 16 * factor_nnz
+            + 16 * (max_update + max_cols * max_cols / 2)
+            + 16 * (n + max_pattern) * (max_rhs + 1)
+            + 8 * (n + 2 * assembly.len() + desc.len())
+            + 16 * pencil.nnz();
+        let symbolic = Symbolic {
+            sym: sym_n,
+            fwd,
+            assembly,
+            assembly_ptr,
+            desc_ptr,
+            desc,
+            max_update,
+            max_pattern,
+            max_cols,
+            max_rhs,
+        };
+        Ok((symbolic, Footprint { factor_nnz, bytes }))
+    }
+
+    /// The AMD-ordered symbolic Cholesky it works on (the pivoting fallback's ordering).
+    pub(super) fn cholesky(&self) -> Arc<SymbolicCholesky<usize>> {
+        self.sym.clone()
+    }
+
+    /// Allocates one numeric factorization.
+    pub(super) fn numeric(&self) -> Result<Numeric<'_>> {
+        let n = self.sym.nrows();
+        let rhs = self.max_rhs + 1;
+        Ok(Numeric {
+            symbolic: self,
+            l: try_vec(supernodal(&self.sym).len_val())?,
+            update: try_vec(self.max_update)?,
+            dense: try_vec(self.max_cols * self.max_cols.div_ceil(2))?,
+            local: vec![usize::MAX; n],
+            x: Mat::zeros(n, rhs),
+            gathered: Mat::zeros(self.max_pattern, rhs),
+            pivot_ratio: f64::NAN,
+            perturbed: 0,
+        })
+    }
+}
+
+/// One numeric LDLᵀ factorization, refilled per frequency.
+pub(super) struct Numeric<'a> {
+    symbolic: &'a Symbolic,
+    /// L (strictly lower part) and D (its diagonal) in faer's supernodal layout.
+    l: Vec<c64>,
+    /// A descendant's update block before it is scattered.
+    update: Vec<c64>,
+    /// L21·D1 inside the recursive dense LDLᵀ.
+    dense: Vec<c64>,
+    /// Row → position in the current supernode's pattern (usize::MAX elsewhere).
+    local: Vec<usize>,
+    /// The permuted right-hand sides of a solve and one supernode's gathered rows.
+    x: Mat<c64>,
+    gathered: Mat<c64>,
+    pivot_ratio: f64,
+    perturbed: usize,
+}
+
+impl Factorization for Numeric<'_> {
+    fn factor(&mut self, a: &Values<'_>, freq_hz: f64, par: Par) -> Result<()> {
+        let sy = self.symbolic;
+        let s = supernodal(&sy.sym);
+        let (begin, end, cpv) = (s.supernode_begin(), s.supernode_end(), s.col_ptr_for_val());
+        let amax =
+            a.re.iter()
+                .zip(a.im)
+                .fold(0.0f64, |m, (&re, &im)| m.max(re.hypot(im)));
+        let tau = f64::EPSILON * amax;
+        let mut pivots = Pivots {
+            tau,
+            lo: f64::INFINITY,
+            hi: 0.0,
+            perturbed: 0,
+        };
+        for sn in 0..s.n_supernodes() {
+            let (c0, c1) = (begin[sn], end[sn]);
+            let ncols = c1 - c0;
+            let pat = pattern(s, sn);
+            let nrows = ncols + pat.len();
+            for (i, &r) in pat.iter().enumerate() {
+                self.local[r] = ncols + i;
+            }
+            // A's entries into the zeroed panel
+            self.l[cpv[sn]..cpv[sn + 1]].fill(c64::new(0.0, 0.0));
+            for &(p, q) in &sy.assembly[sy.assembly_ptr[sn]..sy.assembly_ptr[sn + 1]] {
+                self.l[q] += c64::new(a.re[p], a.im[p]);
+            }
+            let (head, tail) = self.l.split_at_mut(cpv[sn]);
+            let mut ls =
+                MatMut::from_column_major_slice_mut(&mut tail[..nrows * ncols], nrows, ncols);
+            for &d in &sy.desc[sy.desc_ptr[sn]..sy.desc_ptr[sn + 1]] {
+                let dpat = pattern(s, d);
+                let dcols = end[d] - begin[d];
+                let ld = MatRef::from_column_major_slice(
+                    &head[cpv[d]..cpv[d + 1]],
+                    dcols + dpat.len(),
+                    dcols,
+                );
+                let first = dpat.partition_point(|&r| r < c0);
+                let k = dpat[first..].partition_point(|&r| r < c1);
+                let rows = &dpat[first..];
+                let below = ld.subrows(dcols + first, rows.len());
+                let mid = below.subrows(0, k);
+                // W = L_d,rows · (L_d,cols · D_d)ᵀ, then scattered into the lower part of s
+                let (dmid, rest) = self.update.split_at_mut(k * dcols);
+                let mut dmid = MatMut::from_column_major_slice_mut(dmid, k, dcols);
+                for j in 0..dcols {
+                    let dj = ld[(j, j)];
+                    for i in 0..k {
+                        dmid[(i, j)] = mid[(i, j)] * dj;
+                    }
+                }
+                let mut w =
+                    MatMut::from_column_major_slice_mut(&mut rest[..rows.len() * k], rows.len(), k);
+                matmul(
+                    w.rb_mut(),
+                    Accum::Replace,
+                    below,
+                    dmid.rb().transpose(),
+                    c64::new(1.0, 0.0),
+                    par,
+                );
+                for (jj, &cj) in rows[..k].iter().enumerate() {
+                    let col = cj - c0;
+                    let dst = ls
+                        .rb_mut()
+                        .col_mut(col)
+                        .try_as_col_major_mut()
+                        .expect("a panel column is contiguous")
+                        .as_slice_mut();
+                    let src = w
+                        .rb()
+                        .col(jj)
+                        .try_as_col_major()
+                        .expect("contiguous")
+                        .as_slice();
+                    for (ii, &r) in rows.iter().enumerate().skip(jj) {
+                        let row = if ii < k { r - c0 } else { self.local[r] };
+                        dst[row] -= src[ii];
+                    }
+                }
+            }
+            let (mut top, mut bot) = ls.split_at_row_mut(ncols);
+            dense_ldlt(top.rb_mut(), &mut self.dense, &mut pivots, par);
+            solve_unit_lower_triangular_in_place(top.rb(), bot.rb_mut().transpose_mut(), par);
+            for j in 0..ncols {
+                let inv = top[(j, j)].inv();
+                for v in bot.rb_mut().col_mut(j).iter_mut() {
+                    *v *= inv;
+                }
+            }
+            for &r in pat {
+                self.local[r] = usize::MAX;
+            }
+        }
+        self.perturbed = pivots.perturbed;
+        self.pivot_ratio = if pivots.hi > 0.0 {
+            pivots.lo / pivots.hi
+        } else {
+            f64::NAN
+        };
+        if !(self.pivot_ratio > 0.0) {
+            return Err(Error::Singular {
+                freq_hz,
+                detail: "the complex LDLᵀ factorization met a non-finite or all-zero pivot (NaN in the model, or A(iω) = 0)".into(),
+            });
+        }
+        Ok(())
+    }
+
+    fn solve(&mut self, mut rhs: MatMut<'_, c64>, par: Par) {
+        let width = self.x.ncols();
+        let k = rhs.ncols();
+        for c in (0..k).step_by(width) {
+            self.solve_block(rhs.rb_mut().subcols_mut(c, width.min(k - c)), par);
+        }
+    }
+
+    fn pivot_ratio(&self) -> f64 {
+        self.pivot_ratio
+    }
+
+    fn perturbed(&self) -> usize {
+        self.perturbed
+    }
+}
+
+impl Numeric<'_> {
+    /// Solves A X = B in place for at most `x.ncols()` columns: P, L, D, Lᵀ, Pᵀ.
+    fn solve_block(&mut self, mut rhs: MatMut<'_, c64>, par: Par) {
+        let sy = self.symbolic;
+        let s = supernodal(&sy.sym);
+        let (begin, end, cpv) = (s.supernode_begin(), s.supernode_end(), s.col_ptr_for_val());
+        let (n, k) = (rhs.nrows(), rhs.ncols());
+        let fwd = &sy.fwd;
+        let mut x = self.x.as_mut().submatrix_mut(0, 0, n, k);
+        for c in 0..k {
+            for i in 0..n {
+                x[(i, c)] = rhs[(fwd[i], c)];
+            }
+        }
+        let one = c64::new(1.0, 0.0);
+        let l = &self.l;
+        let panel = |sn: usize| {
+            let (ncols, np) = (end[sn] - begin[sn], pattern(s, sn).len());
+            MatRef::from_column_major_slice(&l[cpv[sn]..cpv[sn + 1]], ncols + np, ncols)
+                .split_at_row(ncols)
+        };
+        // L y = P b
+        for sn in 0..s.n_supernodes() {
+            let (top, bot) = panel(sn);
+            let pat = pattern(s, sn);
+            let mut xs = x.rb_mut().subrows_mut(begin[sn], top.nrows());
+            solve_unit_lower_triangular_in_place(top, xs.rb_mut(), par);
+            let mut g = self.gathered.as_mut().submatrix_mut(0, 0, pat.len(), k);
+            matmul(g.rb_mut(), Accum::Replace, bot, xs.rb(), one, par);
+            for c in 0..k {
+                for (i, &r) in pat.iter().enumerate() {
+                    x[(r, c)] -= g[(i, c)];
+                }
+            }
+        }
+        // D z = y
+        for sn in 0..s.n_supernodes() {
+            let (top, _) = panel(sn);
+            for j in 0..top.ncols() {
+                let inv = top[(j, j)].inv();
+                for c in 0..k {
+                    x[(begin[sn] + j, c)] *= inv;
+                }
+            }
+        }
+        // Lᵀ (P x) = z
+        for sn in (0..s.n_supernodes()).rev() {
+            let (top, bot) = panel(sn);
+            let pat = pattern(s, sn);
+            let mut g = self.gathered.as_mut().submatrix_mut(0, 0, pat.len(), k);
+            for c in 0..k {
+                for (i, &r) in pat.iter().enumerate() {
+                    g[(i, c)] = x[(r, c)];
+                }
+            }
+            let mut xs = x.rb_mut().subrows_mut(begin[sn], top.nrows());
+            matmul_with_conj(
+                xs.rb_mut(),
+                Accum::Add,
+                bot.transpose(),
+                Conj::No,
+                g.rb(),
+                Conj::No,
+                -one,
+                par,
+            );
+            solve_unit_upper_triangular_in_place(top.transpose(), xs, par);
+        }
+        for c in 0..k {
+            for i in 0..n {
+                rhs[(fwd[i], c)] = x[(i, c)];
+            }
+        }
+    }
+}
+
+/// The pivots of one factorization: the static threshold and what was seen.
+struct Pivots {
+    tau: f64,
+    lo: f64,
+    hi: f64,
+    perturbed: usize,
+}
+
+impl Pivots {
+    /// The pivot to use for `d`: d itself, or τ·d/|d| (τ for d = 0) when |d| < τ.
+    fn take(&mut self, d: c64) -> c64 {
+        let m = d.norm();
+        let d = if m < self.tau {
+            self.perturbed += 1;
+            if m > 0.0 {
+                d * (self.tau / m)
+            } else {
+                c64::new(self.tau, 0.0)
+            }
+        } else {
+            d
+        };
+        let m = d.norm();
+        self.lo = self.lo.min(m);
+        self.hi = self.hi.max(m);
+        d
+    }
+}
+
+/// Dense LDLᵀ (transpose) of the lower triangle of `a` in place: the strictly lower part
+/// becomes L, the diagonal D. Recursive halving: A₁₁ = L₁₁D₁L₁₁ᵀ, L₂₁D₁ = A₂₁L₁₁⁻ᵀ,
+/// A₂₂ ← A₂₂ − (L₂₁D₁)L₂₁ᵀ, then A₂₂ itself. `work` holds L₂₁D₁.
+fn dense_ldlt(mut a: MatMut<'_, c64>, work: &mut [c64], pivots: &mut Pivots, par: Par) {
+    let n = a.nrows();
+    if n <= UNBLOCKED {
+        for j in 0..n {
+            let (left, mut right) = a.rb_mut().split_at_col_mut(j + 1);
+            let mut lj = left.col_mut(j).subrows_mut(j, n - j);
+            let lj = lj
+                .rb_mut()
+                .try_as_col_major_mut()
+                .expect("a column of a column-major block is contiguous")
+                .as_slice_mut();
+            let d = pivots.take(lj[0]);
+            lj[0] = d;
+            let inv = d.inv();
+            // a[c.., c] −= (L d)[c.., j] · (L d)[c, j] / d for the columns right of j
+            for (c, col) in right.rb_mut().col_iter_mut().enumerate() {
+                let f = lj[c + 1] * inv;
+                let col = col
+                    .try_as_col_major_mut()
+                    .expect("a column of a column-major block is contiguous")
+                    .as_slice_mut();
+                for (x, &l) in col[j + 1 + c..].iter_mut().zip(&lj[c + 1..]) {
+                    *x -= l * f;
+                }
+            }
+            for x in &mut lj[1..] {
+                *x *= inv;
+            }
+        }
+        return;
+    }
+    let h = n / 2;
+    let (mut a11, _, mut a21, mut a22) = a.rb_mut().split_at_mut(h, h);
+    dense_ldlt(a11.rb_mut(), work, pivots, par);
+    solve_unit_lower_triangular_in_place(a11.rb(), a21.rb_mut().transpose_mut(), par);
+    let (wd, rest) = work.split_at_mut((n - h) * h);
+    let mut wd = MatMut::from_column_major_slice_mut(wd, n - h, h);
+    wd.copy_from(a21.rb());
+    for j in 0..h {
+        let inv = a11[(j, j)].inv();
+        for v in a21.rb_mut().col_mut(j).iter_mut() {
+            *v *= inv;
+        }
+    }
+    triangular::matmul(
+        a22.rb_mut(),
+        BlockStructure::TriangularLower,
+        Accum::Add,
+        wd.rb(),
+        BlockStructure::Rectangular,
+        a21.rb().transpose(),
+        BlockStructure::Rectangular,
+        c64::new(-1.0, 0.0),
+        par,
+    );
+    dense_ldlt(a22, rest, pivots, par);
+}

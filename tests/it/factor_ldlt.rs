@@ -1,0 +1,158 @@
+//! The complex-symmetric LDLᵀ backend (issue 19): its solves (with the sweep's refinement)
+//! equal dense complex LU solves on random small complex-symmetric pencils, including
+//! zero diagonal entries of A(iω) that a 2×2 pivot would take and frequencies next to a
+//! resonance of a nearly undamped pencil.
+
+use crate::common::*;
+use faer::linalg::solvers::Solve;
+use faer::{c64, Mat, Par};
+use proptest::prelude::*;
+use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
+use sparsemor::factor::{Analysis, Backend};
+use sparsemor::model::{Damping, Model};
+use sparsemor::pencil::Pencil;
+
+/// A random banded pencil of order n and half-bandwidth bw: K symmetric (springs plus a
+/// diagonal), M diagonally dominant SPD, D an explicit symmetric matrix with a random
+/// pattern (`damping` its scale, 0 for none). At the circular frequency `omega` the DoFs
+/// `zero` get K_jj = ω² M_jj and D_jj = 0, so A(iω)_jj = 0.
+fn pencil_model(n: usize, bw: usize, seed: u64, damping: f64, omega: f64, zero: &[usize]) -> Model {
+    let mut rng = StdRng::seed_from_u64(seed);
+    let base = random_model(n, bw, seed, Damping::None);
+    let mut k = dense(&base.stiffness);
+    let m = dense(&base.mass);
+    let mut d = Mat::<f64>::zeros(n, n);
+    if damping > 0.0 {
+        for i in 0..n {
+            for j in i..(i + bw + 1).min(n) {
+                let v = damping * rng.gen_range(0.1..1.0) * k[(i, j)].abs().max(1e5);
+                d[(i, j)] = v;
+                d[(j, i)] = v;
+            }
+        }
+    }
+    for &j in zero {
+        k[(j, j)] = omega * omega * m[(j, j)];
+        d[(j, j)] = 0.0;
+    }
+    let damping = if damping > 0.0 {
+        Damping::Matrix(sparse(&d))
+    } else {
+        Damping::None
+    };
+    Model::new("ldlt".into(), sparse(&m), sparse(&k), damping, None, 3)
+        .expect("valid model")
+        .0
+}
+
+/// Dense A(iω) of `model`.
+fn dense_a(model: &Model, omega: f64) -> Mat<c64> {
+    let (m, k) = (dense(&model.mass), dense(&model.stiffness));
+    let d = match &model.damping {
+        Damping::Matrix(d) => dense(d),
+        Damping::Rayleigh { alpha, beta } => Mat::from_fn(m.nrows(), m.ncols(), |i, j| {
+            alpha * m[(i, j)] + beta * k[(i, j)]
+        }),
+        Damping::None => Mat::zeros(m.nrows(), m.ncols()),
+    };
+    Mat::from_fn(m.nrows(), m.ncols(), |i, j| {
+        c64::new(k[(i, j)] - omega * omega * m[(i, j)], omega * d[(i, j)])
+    })
+}
+
+/// Solves A(iω) X = B (three random columns) with the LDLᵀ backend and the sweep's
+/// refinement; returns (relative forward error against the dense LU solve, the normwise
+/// backward error ‖B − AX‖ / (‖A‖‖X‖ + ‖B‖) measured on the dense A, perturbed pivots of
+/// the LDLᵀ, whether the pivoting LBLᵀ took over).
+fn solve_both(model: &Model, omega: f64, seed: u64) -> (f64, f64, usize, bool) {
+    let n = model.n();
+    let mut rng = StdRng::seed_from_u64(seed ^ 0x5eed);
+    let b = Mat::<c64>::from_fn(n, 3, |_, _| {
+        c64::new(rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0))
+    });
+    let pencil = Pencil::new(model);
+    let an = Analysis::new(&pencil, Backend::Ldlt, 3).unwrap();
+    assert_eq!(
+        an.stats().backend,
+        if pencil.is_real() {
+            Backend::FaerLblt
+        } else {
+            Backend::Ldlt
+        }
+    );
+    let mut num = an.numeric(&pencil).unwrap();
+    num.factor(&pencil, omega, Par::Seq).unwrap();
+    let mut x = b.clone();
+    num.solve(x.as_mut(), Par::Seq);
+    num.refine(&pencil, b.as_ref(), x.as_mut(), Par::Seq);
+    let a = dense_a(model, omega);
+    let reference = a.partial_piv_lu().solve(&b);
+    let forward = (&x - &reference).norm_l2() / reference.norm_l2();
+    let backward = (&b - &a * &x).norm_l2() / (a.norm_l2() * x.norm_l2() + b.norm_l2());
+    (forward, backward, num.perturbed_pivots(), num.pivoted())
+}
+
+/// The exact value of 2 cos(jπ/(n+1)) style resonances is not needed: the undamped
+/// eigenvalues of the dense pencil give the resonance next to which the pencil is solved.
+fn resonance(model: &Model, k: usize) -> f64 {
+    dense_eigenvalues(model)[k].sqrt()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+
+    /// Damped pencils at random frequencies across the spectrum, some with zero diagonal
+    /// entries of A(iω) (pairs of neighbours: the case a 2×2 pivot exists for).
+    #[test]
+    fn ldlt_solves_equal_dense_solves(
+        n in 4usize..60,
+        bw in 1usize..6,
+        seed in 0u64..10_000,
+        f in 1.0f64..2000.0,
+        damping in prop::sample::select(vec![1e-6, 1e-4, 1e-2]),
+        zeros in 0usize..4,
+    ) {
+        let omega = 2.0 * std::f64::consts::PI * f;
+        let zero: Vec<usize> = (0..zeros.min(n / 2)).flat_map(|z| [2 * z * n / 8 % (n - 1), 2 * z * n / 8 % (n - 1) + 1]).collect();
+        let model = pencil_model(n, bw, seed, damping, omega, &zero);
+        let (forward, backward, perturbed, pivoted) = solve_both(&model, omega, seed);
+        prop_assert_eq!(pivoted, perturbed > 0);
+        prop_assert!(backward <= 1e-15, "backward error {backward:.1e}");
+        prop_assert!(forward <= 1e-10, "forward error {forward:.1e}");
+    }
+
+    /// A nearly undamped pencil (β-like damping 1e-9) at ω_k(1 ± 1e-4) of its k-th
+    /// resonance.
+    #[test]
+    fn ldlt_near_resonance_equals_dense(
+        n in 6usize..40,
+        seed in 0u64..10_000,
+        k in 0usize..5,
+        sign in prop::sample::select(vec![-1.0, 1.0]),
+    ) {
+        let undamped = pencil_model(n, 3, seed, 0.0, 0.0, &[]);
+        let omega = resonance(&undamped, k) * (1.0 + sign * 1e-4);
+        let model = pencil_model(n, 3, seed, 1e-9, omega, &[]);
+        let (forward, backward, perturbed, pivoted) = solve_both(&model, omega, seed);
+        prop_assert!(perturbed == 0 && !pivoted, "the LDLᵀ itself solves near a resonance");
+        prop_assert!(backward <= 1e-15, "backward error {backward:.1e}");
+        prop_assert!(forward <= 1e-10, "forward error {forward:.1e}");
+    }
+}
+
+/// The zero-diagonal 2×2 case exactly: A(iω) has A₀₀ = A₁₁ = 0 and DoF 0 is eliminated
+/// first, so the static order meets a zero pivot; it is counted, the pivoting LBLᵀ takes the
+/// frequency, and the solution is the dense one.
+#[test]
+fn zero_pivot_hands_the_frequency_to_the_pivoting_lblt() {
+    let omega = 2.0 * std::f64::consts::PI * 300.0;
+    let model = pencil_model(12, 2, 7, 1e-4, omega, &[0, 1]);
+    let (forward, backward, perturbed, pivoted) = solve_both(&model, omega, 7);
+    assert!(
+        perturbed >= 1 && pivoted,
+        "perturbed {perturbed}, pivoted {pivoted}"
+    );
+    assert!(backward <= 1e-15, "backward error {backward:.1e}");
+    assert!(forward <= 1e-10, "forward error {forward:.1e}");
+}
