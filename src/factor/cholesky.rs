@@ -17,29 +17,22 @@ use crate::pencil::Pencil;
 use crate::{Error, Result};
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltError;
-use faer::sparse::linalg::cholesky::{
-    factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymbolicCholesky,
-    SymmetricOrdering,
-};
+use faer::sparse::linalg::cholesky::{CholeskySymbolicParams, LltRef, SymbolicCholesky};
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::SparseColMatRef;
 use faer::{Conj, MatMut, Par, Side};
 use std::sync::Arc;
 use std::time::Instant;
 
-/// Symbolic Cholesky of the pencil's pattern with AMD ordering: the reference "real
-/// Cholesky on the same pattern" of the benches, and the ordering the 2N form expands.
+/// Symbolic Cholesky of the pencil's pattern on its fill-reducing ordering (AMD, or METIS's
+/// nested dissection when the `metis` feature is on and it leaves fewer entries:
+/// [`super::ordering`]): the reference "real Cholesky on the same pattern" of the benches, the
+/// structure of the complex LDLᵀ and the ordering the 2N form expands.
 ///
 /// # Errors
 /// [`Error::Factor`] when the analysis fails (allocation, index overflow).
 pub fn symbolic_cholesky(pencil: &Pencil) -> Result<SymbolicCholesky<usize>> {
-    factorize_symbolic_cholesky(
-        pattern::lower(pencil),
-        Side::Lower,
-        SymmetricOrdering::Amd,
-        supernodal_params(),
-    )
-    .map_err(|e| Error::Factor(format!("symbolic analysis: {e:?}")))
+    super::ordering::symbolic_cholesky_ordered(pencil).map(|(sym, _)| sym)
 }
 
 /// The symbolic parameters of every factorization on faer's Cholesky machinery: always

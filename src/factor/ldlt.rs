@@ -15,14 +15,15 @@
 //! smallest diagonal blocks is a faer GEMM or triangular solve on c64 (`Par` inside them).
 //!
 //! **Pivoting: static, with a pivoting fallback** (docs/design.md §3.1). The order is fixed by
-//! the symbolic analysis; a numerically zero pivot, |d| < τ = ε·max|aᵢⱼ|, is replaced by
-//! τ·d/|d| (τ for d = 0) and counted ([`Factorization::perturbed`]), and `factor::Numeric`
-//! then factors that frequency again with the pivoting LBLᵀ of the 2N form; so does the
-//! sweep when a solve stays inaccurate after refinement. The threshold is ε, not PARDISO's
-//! 1e-8: the last pivots of a free body at low frequency are legitimately ~ω²m, ~1e-9 of
-//! max|aᵢⱼ| at 1 Hz on the paper bar, and perturbing them made refinement diverge. Tested
-//! against dense complex solves, zero-diagonal and near-resonance cases included (tests
-//! `factor_ldlt`).
+//! the symbolic analysis. A numerically zero pivot, |d| < ε·max|aᵢⱼ|, is replaced and counted
+//! ([`Factorization::perturbed`]); if there was one, the whole factorization is repeated with
+//! PARDISO's threshold τ = √ε·max|aᵢⱼ| (every |d| < τ becomes τ·d/|d|), which bounds the growth
+//! behind the zero pivot, and the sweep's refinement with the exact A removes the perturbation.
+//! Where a solve stays inaccurate after refinement, `factor::Numeric::factor_with_pivoting`
+//! hands the frequency to the pivoting LBLᵀ of the 2N form. τ is ε first, not √ε: the last
+//! pivots of a free body at low frequency are legitimately ~ω²m, ~1e-9 of max|aᵢⱼ| at 1 Hz on
+//! the paper bar, and perturbing those made refinement diverge. Tested against dense complex
+//! solves, zero-diagonal and near-resonance cases included (tests `factor_ldlt`).
 
 use super::{try_vec, Factorization, Footprint, Values};
 use crate::pencil::Pencil;
@@ -235,16 +236,12 @@ pub(super) struct Numeric<'a> {
     perturbed: usize,
 }
 
-impl Factorization for Numeric<'_> {
-    fn factor(&mut self, a: &Values<'_>, freq_hz: f64, par: Par) -> Result<()> {
+impl Numeric<'_> {
+    /// One left-looking factorization of `a` with the static pivot threshold `tau`.
+    fn factor_with(&mut self, a: &Values<'_>, tau: f64, par: Par) -> Pivots {
         let sy = self.symbolic;
         let s = supernodal(&sy.sym);
         let (begin, end, cpv) = (s.supernode_begin(), s.supernode_end(), s.col_ptr_for_val());
-        let amax =
-            a.re.iter()
-                .zip(a.im)
-                .fold(0.0f64, |m, (&re, &im)| m.max(re.hypot(im)));
-        let tau = f64::EPSILON * amax;
         let mut pivots = Pivots {
             tau,
             lo: f64::INFINITY,
@@ -332,6 +329,22 @@ impl Factorization for Numeric<'_> {
             for &r in pat {
                 self.local[r] = usize::MAX;
             }
+        }
+        pivots
+    }
+}
+
+impl Factorization for Numeric<'_> {
+    fn factor(&mut self, a: &Values<'_>, freq_hz: f64, par: Par) -> Result<()> {
+        let amax =
+            a.re.iter()
+                .zip(a.im)
+                .fold(0.0f64, |m, (&re, &im)| m.max(re.hypot(im)));
+        // numerically zero pivots only; if there were any, PARDISO's larger threshold, which
+        // bounds the growth behind a zero pivot (refinement then removes the perturbation)
+        let mut pivots = self.factor_with(a, f64::EPSILON * amax, par);
+        if pivots.perturbed > 0 {
+            pivots = self.factor_with(a, f64::EPSILON.sqrt() * amax, par);
         }
         self.perturbed = pivots.perturbed;
         self.pivot_ratio = if pivots.hi > 0.0 {

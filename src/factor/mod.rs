@@ -17,7 +17,8 @@
 //!   §3.1), so [`Backend::Auto`] uses it only up to [`LU_MAX_N`].
 //! - `umfpack` — **UMFPACK** (cargo feature `umfpack`), real or complex LU.
 //!
-//! Beside them: `cholesky` (the real LLᵀ of K − σM of the eigensolver and the benches'
+//! Beside them: `ordering` (AMD or METIS nested dissection, whichever fills less,
+//! [`symbolic_cholesky_ordered`]), `cholesky` (the real LLᵀ of K − σM of the eigensolver and the benches'
 //! reference, [`reference_cholesky`]), `inertia` (exact eigenvalue counts,
 //! [`count_eigenvalues_below`]) and `pattern` (the patterns the backends read).
 //!
@@ -33,6 +34,7 @@ mod inertia;
 mod lblt;
 mod ldlt;
 mod lu;
+mod ordering;
 mod pattern;
 mod refine;
 #[cfg(feature = "umfpack")]
@@ -41,6 +43,7 @@ pub mod umfpack;
 pub use cholesky::{reference_cholesky, symbolic_cholesky};
 pub use inertia::{count_eigenvalues_below, count_eigenvalues_below_with};
 pub use lblt::PivotStats;
+pub use ordering::{symbolic_cholesky_ordered, OrderingChoice};
 pub use refine::MAX_REFINEMENTS;
 
 pub(crate) use cholesky::Cholesky;
@@ -357,9 +360,8 @@ impl<'a> Numeric<'a> {
     /// Factors A(iω) = K − ω²M + iωD in place. `par` is the parallelism inside the
     /// factorization (use `Par::Seq` when frequencies run in parallel).
     ///
-    /// The complex LDLᵀ pivots statically; when it had to perturb a pivot (a numerically zero
-    /// one), the frequency is factored again by the pivoting LBLᵀ of the 2N form
-    /// ([`Self::pivoted`]).
+    /// The complex LDLᵀ pivots statically ([`Self::perturbed_pivots`]); its solves then need
+    /// [`Self::refine`], and where that is not enough [`Self::factor_with_pivoting`].
     ///
     /// # Errors
     /// [`Error::Singular`] when a pivot breaks down exactly, [`Error::Factor`] on backend
@@ -374,8 +376,7 @@ impl<'a> Numeric<'a> {
         self.factor_values(pencil, omega, par)
     }
 
-    /// Factors the values in `re`/`im` at ω (0 for the supported K), with the pivoting
-    /// fallback after perturbed pivots.
+    /// Factors the values in `re`/`im` at ω (0 for the supported K).
     fn factor_values(&mut self, pencil: &Pencil, omega: f64, par: Par) -> Result<()> {
         let freq_hz = omega / (2.0 * std::f64::consts::PI);
         self.pivoted = false;
@@ -386,9 +387,6 @@ impl<'a> Numeric<'a> {
         };
         self.factors.factor(&values, freq_hz, par)?;
         self.factored_at = Some(omega);
-        if self.factors.perturbed() > 0 {
-            self.factor_with_pivoting(pencil, par)?;
-        }
         Ok(())
     }
 
@@ -490,7 +488,7 @@ impl<'a> Numeric<'a> {
 
     /// Pivots the last factorization replaced by a static perturbation (the LDLᵀ backend;
     /// 0 for the others, which pivot). Its solves then need the refinement of
-    /// [`Self::refine`].
+    /// [`Self::refine`]; the sweep refines whenever its probe solve shows lost digits.
     pub fn perturbed_pivots(&self) -> usize {
         self.factors.perturbed()
     }
