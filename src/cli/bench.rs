@@ -327,8 +327,8 @@ fn reduce_table(a: &BenchArgs) -> Result<()> {
             continue;
         }
         let model = sparsemor::fe::bar_model(&spec)?;
-        // 20 reference frequencies; 4 for the 10⁶ bar (2pz = 72 ≥ n = 14) to keep the run short
-        let z = if model.n() > 500_000 { 4 } else { 20 };
+        // 20 reference frequencies at every size
+        let z = 20;
         let freqs: Vec<f64> = (1..=z)
             .map(|k| 1000.0 / z as f64 * k as f64 - 3.0)
             .collect();

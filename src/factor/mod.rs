@@ -393,8 +393,9 @@ impl<'a> Numeric<'a> {
     /// Factors the current frequency again with the pivoting LBLᵀ of the 2N form, when the
     /// backend is the complex LDLᵀ and it has not done so yet: the sweep's remedy when a
     /// solve stays inaccurate after refinement (growth at a small pivot of the static order).
-    /// Returns false when there is nothing else to try. The 2N factor is allocated on the
-    /// first call and kept (about twice the LDLᵀ's bytes).
+    /// Returns false when there is nothing else to try: another backend, already pivoted, or
+    /// the 2N factor (about twice the LDLᵀ's bytes, allocated on the first call and kept)
+    /// would take more than half of the memory available now.
     ///
     /// # Errors
     /// As [`Self::factor`].
@@ -403,6 +404,17 @@ impl<'a> Numeric<'a> {
             return Ok(false);
         };
         if self.pivoted {
+            return Ok(false);
+        }
+        if !matches!(self.analysis.symbolic, Symbolic::Ldlt(_)) {
+            return Ok(false);
+        }
+        // the 2N factor holds about twice the LDLᵀ's bytes: not tried unless it fits in half
+        // of the memory available now (on the 10⁶-DoF bar two sweep workers allocating it
+        // together were killed for lack of memory)
+        let need = 2 * self.analysis.stats.bytes_per_factor;
+        if self.pivoting.is_none() && crate::memory::available_bytes().is_some_and(|a| need > a / 2)
+        {
             return Ok(false);
         }
         let Some(symbolic) = self.analysis.pivoting(pencil)? else {
