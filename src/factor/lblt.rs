@@ -17,7 +17,9 @@
 //! the eigenvalue count of [`super::inertia`] reads.
 
 use super::cholesky::supernodal_params;
-use super::{pattern, solve_split, try_vec, workspace, Factorization, Footprint, Values};
+use super::{
+    pattern, require_pivots, solve_split, try_vec, workspace, Factorization, Footprint, Values,
+};
 use crate::pencil::Pencil;
 use crate::{Error, Result};
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
@@ -254,13 +256,11 @@ impl Factorization for Numeric<'_> {
             }
         };
         self.pivot_ratio = self.factor.factor(sym, a, par).ratio;
-        if !(self.pivot_ratio > 0.0) {
-            return Err(Error::Singular {
-                freq_hz,
-                detail: "a zero pivot occurred in the LBLᵀ factorization (undamped at an eigenfrequency?)".into(),
-            });
-        }
-        Ok(())
+        require_pivots(
+            self.pivot_ratio,
+            freq_hz,
+            "a zero pivot occurred in the LBLᵀ factorization (undamped at an eigenfrequency?)",
+        )
     }
 
     fn solve(&mut self, mut rhs: MatMut<'_, c64>, par: Par) {

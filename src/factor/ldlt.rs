@@ -25,7 +25,7 @@
 //! the paper bar, and perturbing those made refinement diverge. Tested against dense complex
 //! solves, zero-diagonal and near-resonance cases included (tests `factor_ldlt`).
 
-use super::{try_vec, Factorization, Footprint, Values};
+use super::{require_pivots, try_vec, Factorization, Footprint, Values};
 use crate::pencil::Pencil;
 use crate::{Error, Result};
 use faer::linalg::matmul::matmul;
@@ -352,13 +352,11 @@ impl Factorization for Numeric<'_> {
         } else {
             f64::NAN
         };
-        if !(self.pivot_ratio > 0.0) {
-            return Err(Error::Singular {
-                freq_hz,
-                detail: "the complex LDLᵀ factorization met a non-finite or all-zero pivot (NaN in the model, or A(iω) = 0)".into(),
-            });
-        }
-        Ok(())
+        require_pivots(
+            self.pivot_ratio,
+            freq_hz,
+            "the complex LDLᵀ factorization met a non-finite or all-zero pivot (NaN in the model, or A(iω) = 0)",
+        )
     }
 
     fn solve(&mut self, mut rhs: MatMut<'_, c64>, par: Par) {

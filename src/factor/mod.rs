@@ -562,6 +562,19 @@ fn solve_split(mut rhs: MatMut<'_, c64>, solve: impl FnOnce(MatMut<'_, f64>)) {
     }
 }
 
+/// [`Error::Singular`] at `freq_hz` saying `detail` unless the pivot ratio of a factorization
+/// is positive (a zero or non-finite pivot gives 0 or NaN).
+fn require_pivots(ratio: f64, freq_hz: f64, detail: &str) -> Result<()> {
+    if ratio > 0.0 {
+        Ok(())
+    } else {
+        Err(Error::Singular {
+            freq_hz,
+            detail: detail.into(),
+        })
+    }
+}
+
 /// A zeroed vector of `len` entries, or [`Error::Factor`] if it cannot be allocated.
 fn try_vec<T: Clone + Default>(len: usize) -> Result<Vec<T>> {
     let mut v = Vec::new();

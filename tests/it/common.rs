@@ -100,6 +100,30 @@ pub fn dense_h(model: &Model, f: f64, inputs: &[usize], outputs: &[usize]) -> Ma
     Mat::from_fn(outputs.len(), inputs.len(), |o, j| x[(outputs[o], j)])
 }
 
+/// Asserts that the sweep's total transfer functions of `model` at `freqs` (with `opts`)
+/// equal dense solves ([`dense_h`]) to `tol` relative.
+pub fn assert_sweep_matches_dense(
+    model: &Model,
+    scene: &Scene,
+    freqs: &[f64],
+    opts: &sparsemor::sweep::SweepOptions,
+    tol: f64,
+) {
+    use sparsemor::sweep::{no_progress, transfer_function, Part};
+    let body = sparsemor::body::Body::new(model).unwrap();
+    let frf =
+        transfer_function(&body, scene, freqs, Part::Total, false, opts, &no_progress).unwrap();
+    for (k, &f) in freqs.iter().enumerate() {
+        let e = rel_err(&frf.h[k], &dense_h(model, f, &scene.inputs, &scene.outputs));
+        assert!(
+            e <= tol,
+            "{} ({:?}) at {f} Hz: rel err {e:.2e}",
+            model.name,
+            opts.backend
+        );
+    }
+}
+
 /// ‖a − b‖_F / ‖b‖_F.
 pub fn rel_err(a: &Mat<c64>, b: &Mat<c64>) -> f64 {
     (a - b).norm_l2() / b.norm_l2()

@@ -189,10 +189,9 @@ fn the_pivoting_fallback_solves_like_dense() {
 /// dense solves.
 #[test]
 fn the_ordering_with_fewer_entries_is_kept_and_solves_equal_dense() {
-    use sparsemor::body::Body;
     use sparsemor::factor::symbolic_cholesky_ordered;
     use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
-    use sparsemor::sweep::{no_progress, transfer_function, Part, SweepOptions};
+    use sparsemor::sweep::SweepOptions;
     let cube = BoxSpec {
         elements: [6, 6, 6],
         size_m: [0.1, 0.1, 0.1],
@@ -213,24 +212,41 @@ fn the_ordering_with_fewer_entries_is_kept_and_solves_equal_dense() {
                 .filter(|_| choice.nested_dissection)
                 .unwrap_or(choice.amd_nnz)
         );
-        let scene = paper_scene(&spec);
-        let (inputs, outputs) = (scene.inputs.clone(), scene.outputs.clone());
-        let body = Body::new(&model).unwrap();
-        let freqs = [130.0, 2400.0];
         let opts = SweepOptions::default();
-        let frf = transfer_function(
-            &body,
-            &scene,
-            &freqs,
-            Part::Total,
-            false,
-            &opts,
-            &no_progress,
-        )
-        .unwrap();
-        for (k, &f) in freqs.iter().enumerate() {
-            let e = rel_err(&frf.h[k], &dense_h(&model, f, &inputs, &outputs));
-            assert!(e <= 1e-9, "{} at {f} Hz: {e:.1e}", model.name);
-        }
+        assert_sweep_matches_dense(&model, &paper_scene(&spec), &[130.0, 2400.0], &opts, 1e-9);
     }
+}
+
+/// Two threads inside one factorization (independent subtrees of the elimination tree on
+/// their own threads, then the top with threads in the dense products) compute the same
+/// factor as one thread: every supernode is computed in the same order either way, so the
+/// solutions agree to the last bit, and they equal the dense solution.
+#[test]
+fn two_threads_inside_the_factorization_give_the_one_thread_factor() {
+    use sparsemor::fe::{bar_model, BoxSpec};
+    let spec = BoxSpec {
+        elements: [6, 6, 6],
+        size_m: [0.1, 0.1, 0.1],
+        ..BoxSpec::paper_bar()
+    };
+    let model = bar_model(&spec).unwrap();
+    let n = model.n();
+    let pencil = Pencil::new(&model);
+    let an = Analysis::new(&pencil, Backend::Ldlt, 2).unwrap();
+    let omega = 2.0 * std::f64::consts::PI * 700.0;
+    let b = Mat::<c64>::from_fn(n, 2, |i, j| c64::new(((i * 7 + j) % 13) as f64, j as f64));
+    let solve = |par: Par| {
+        let mut num = an.numeric(&pencil).unwrap();
+        sparsemor::pool::with_pool(2, || num.factor(&pencil, omega, par))
+            .unwrap()
+            .unwrap();
+        let mut x = b.clone();
+        num.solve(x.as_mut(), Par::Seq);
+        x
+    };
+    let (one, two) = (solve(Par::Seq), solve(Par::rayon(2)));
+    assert_eq!((&one - &two).norm_max(), 0.0);
+    let reference = dense_a(&model, omega).partial_piv_lu().solve(&b);
+    let e = (&two - &reference).norm_l2() / reference.norm_l2();
+    assert!(e <= 1e-10, "{e:.1e}");
 }

@@ -1,37 +1,19 @@
 //! The sweep's transfer functions equal dense direct solves (issue: foundation, acceptance 1).
 
 use crate::common::*;
-use sparsemor::body::Body;
 use sparsemor::factor::Backend;
 use sparsemor::model::Damping;
-use sparsemor::sweep::{no_progress, transfer_function, Part, SweepOptions};
+use sparsemor::sweep::SweepOptions;
 
 fn check(damping: Damping, backend: Backend, threads: usize) {
     let model = random_model(400, 7, 11, damping);
-    let scene = random_scene(400);
-    let (inp, out) = (scene.inputs.clone(), scene.outputs.clone());
-    let freqs = random_freqs(6, 1.0, 400.0, 5);
     let opts = SweepOptions {
         backend,
         threads,
         ..Default::default()
     };
-    let body = Body::new(&model).unwrap();
-    let frf = transfer_function(
-        &body,
-        &scene,
-        &freqs,
-        Part::Total,
-        false,
-        &opts,
-        &no_progress,
-    )
-    .unwrap();
-    for (k, &f) in freqs.iter().enumerate() {
-        let reference = dense_h(&model, f, &inp, &out);
-        let e = rel_err(&frf.h[k], &reference);
-        assert!(e <= 1e-9, "{backend:?} f = {f}: rel err {e:.2e}");
-    }
+    let freqs = random_freqs(6, 1.0, 400.0, 5);
+    assert_sweep_matches_dense(&model, &random_scene(400), &freqs, &opts, 1e-9);
 }
 
 #[test]
