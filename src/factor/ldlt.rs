@@ -12,7 +12,15 @@
 //! descendant d whose pattern meets c₀..c₁ subtracts L_d,rows · D_d · L_d,colsᵀ (one dense
 //! product, scattered through a row map), then the diagonal block is factored by a recursive
 //! blocked dense LDLᵀ and L_bot ← L_bot L_top⁻ᵀ D⁻¹ (triangular solve). Every flop outside the
-//! smallest diagonal blocks is a faer GEMM or triangular solve on c64 (`Par` inside them).
+//! smallest diagonal blocks is a faer GEMM or triangular solve on c64.
+//!
+//! **Threads inside one factorization** (the sweep's factor-parallel schedule): the
+//! supernodes are in postorder, so every subtree of the elimination tree is a contiguous
+//! range of supernodes and of L's values. [`Split`] finds two groups of independent subtrees
+//! of comparable work; each group is factored on its own thread, then the supernodes above
+//! them with the threads inside the large dense products (≥ 2²¹ multiply-adds). Each
+//! supernode is computed the same way in either case, so the factor does not depend on the
+//! thread count.
 //!
 //! **Pivoting: static, with a pivoting fallback** (docs/design.md §3.1). The order is fixed by
 //! the symbolic analysis. A numerically zero pivot, |d| < ε·max|aᵢⱼ|, is replaced and counted
@@ -75,6 +83,93 @@ pub(super) struct Symbolic {
     max_pattern: usize,
     max_cols: usize,
     max_rhs: usize,
+    /// Independent subtrees of the elimination tree for two threads, if it has any worth it.
+    split: Option<Split>,
+}
+
+/// Two groups of independent subtrees of the supernodal elimination tree (each subtree a
+/// contiguous range of supernodes, faer's order being a postorder) and the supernodes above
+/// them: with two threads, each group is factored on its own thread, then the top with the
+/// threads inside the dense products.
+struct Split {
+    /// Supernode ranges [first, last + 1) of each group's subtrees.
+    groups: [Vec<(usize, usize)>; 2],
+    /// The supernodes in no subtree of a group, increasing.
+    top: Vec<usize>,
+}
+
+impl Split {
+    /// The split of the supernodal elimination tree of `s` (`owner`: column → supernode), or
+    /// `None` when it is not a postorder (subtrees not contiguous) or no two groups of
+    /// subtrees hold comparable work. Work of a supernode: ncols · nrows², its dense flops up
+    /// to a constant. The frontier starts at the roots; while its heaviest subtree holds more
+    /// than half the frontier's work it is replaced by its children (its root joins the top);
+    /// then the frontier's subtrees go, heaviest first, to the lighter group.
+    fn new(s: &SymbolicSupernodalCholesky<usize>, owner: &[usize]) -> Option<Split> {
+        const NONE: usize = usize::MAX;
+        let ns = s.n_supernodes();
+        let (begin, end) = (s.supernode_begin(), s.supernode_end());
+        let parent: Vec<usize> = (0..ns)
+            .map(|sn| pattern(s, sn).first().map_or(NONE, |&r| owner[r]))
+            .collect();
+        let mut first: Vec<usize> = (0..ns).collect();
+        let (mut size, mut work) = (vec![1usize; ns], vec![0f64; ns]);
+        let mut children: Vec<Vec<usize>> = vec![Vec::new(); ns];
+        for sn in 0..ns {
+            let ncols = (end[sn] - begin[sn]) as f64;
+            let nrows = ncols + pattern(s, sn).len() as f64;
+            work[sn] += ncols * nrows * nrows;
+            let p = parent[sn];
+            if p != NONE {
+                if p <= sn {
+                    return None;
+                }
+                first[p] = first[p].min(first[sn]);
+                size[p] += size[sn];
+                work[p] += work[sn];
+                children[p].push(sn);
+            }
+        }
+        // a postorder: every subtree is the contiguous range first..=root
+        if (0..ns).any(|sn| sn + 1 - first[sn] != size[sn]) {
+            return None;
+        }
+        let mut frontier: Vec<usize> = (0..ns).filter(|&sn| parent[sn] == NONE).collect();
+        let mut top = Vec::new();
+        loop {
+            let total: f64 = frontier.iter().map(|&f| work[f]).sum();
+            let (at, &heaviest) = frontier
+                .iter()
+                .enumerate()
+                .max_by(|a, b| work[*a.1].total_cmp(&work[*b.1]))?;
+            if work[heaviest] <= 0.5 * total || children[heaviest].is_empty() {
+                break;
+            }
+            frontier.swap_remove(at);
+            frontier.extend(&children[heaviest]);
+            top.push(heaviest);
+        }
+        frontier.sort_by(|a, b| work[*b].total_cmp(&work[*a]));
+        let mut groups: [Vec<(usize, usize)>; 2] = [Vec::new(), Vec::new()];
+        let mut load = [0f64; 2];
+        for f in frontier {
+            let g = usize::from(load[1] < load[0]);
+            groups[g].push((first[f], f + 1));
+            load[g] += work[f];
+        }
+        // worth a second thread when the estimated time (top, then the heavier group) is at
+        // most 0.8 of one thread's
+        let total: f64 = load[0] + load[1];
+        let all: f64 = (0..ns)
+            .filter(|&sn| parent[sn] == NONE)
+            .map(|r| work[r])
+            .sum();
+        if all - total + load[0].max(load[1]) > 0.8 * all {
+            return None;
+        }
+        top.sort_unstable();
+        Some(Split { groups, top })
+    }
 }
 
 /// True when `sym` has the supernodal structure this factorization works on: faer builds
@@ -174,11 +269,13 @@ impl Symbolic {
             desc.extend(l);
             desc_ptr.push(desc.len());
         }
+        let split = Split::new(s, &owner);
         let factor_nnz = s.len_val();
+        let scratch = 16 * (max_update + max_cols * max_cols / 2) + 8 * n;
         let bytes = 16 * factor_nnz
-            + 16 * (max_update + max_cols * max_cols / 2)
+            + scratch * if split.is_some() { 2 } else { 1 }
             + 16 * (n + max_pattern) * (max_rhs + 1)
-            + 8 * (n + 2 * assembly.len() + desc.len())
+            + 8 * (2 * assembly.len() + desc.len())
             + 16 * pencil.nnz();
         let symbolic = Symbolic {
             sym: sym_n,
@@ -191,6 +288,7 @@ impl Symbolic {
             max_pattern,
             max_cols,
             max_rhs,
+            split,
         };
         Ok((symbolic, Footprint { factor_nnz, bytes }))
     }
@@ -200,6 +298,15 @@ impl Symbolic {
         self.sym.clone()
     }
 
+    /// The work buffers of one thread of the factorization.
+    fn scratch(&self) -> Result<Scratch> {
+        Ok(Scratch {
+            update: try_vec(self.max_update)?,
+            dense: try_vec(self.max_cols * self.max_cols.div_ceil(2))?,
+            local: vec![usize::MAX; self.sym.nrows()],
+        })
+    }
+
     /// Allocates one numeric factorization.
     pub(super) fn numeric(&self) -> Result<Numeric<'_>> {
         let n = self.sym.nrows();
@@ -207,9 +314,8 @@ impl Symbolic {
         Ok(Numeric {
             symbolic: self,
             l: try_vec(supernodal(&self.sym).len_val())?,
-            update: try_vec(self.max_update)?,
-            dense: try_vec(self.max_cols * self.max_cols.div_ceil(2))?,
-            local: vec![usize::MAX; n],
+            scratch: self.scratch()?,
+            second: None,
             x: Mat::zeros(n, rhs),
             gathered: Mat::zeros(self.max_pattern, rhs),
             pivot_ratio: f64::NAN,
@@ -223,12 +329,9 @@ pub(super) struct Numeric<'a> {
     symbolic: &'a Symbolic,
     /// L (strictly lower part) and D (its diagonal) in faer's supernodal layout.
     l: Vec<c64>,
-    /// A descendant's update block before it is scattered.
-    update: Vec<c64>,
-    /// L21·D1 inside the recursive dense LDLᵀ.
-    dense: Vec<c64>,
-    /// Row → position in the current supernode's pattern (usize::MAX elsewhere).
-    local: Vec<usize>,
+    scratch: Scratch,
+    /// The second thread's buffers when subtrees run in parallel (allocated on first use).
+    second: Option<Scratch>,
     /// The permuted right-hand sides of a solve and one supernode's gathered rows.
     x: Mat<c64>,
     gathered: Mat<c64>,
@@ -236,101 +339,171 @@ pub(super) struct Numeric<'a> {
     perturbed: usize,
 }
 
+/// The work buffers of one thread of the factorization.
+struct Scratch {
+    /// A descendant's update block before it is scattered.
+    update: Vec<c64>,
+    /// L21·D1 inside the recursive dense LDLᵀ.
+    dense: Vec<c64>,
+    /// Row → position in the current supernode's pattern (usize::MAX elsewhere).
+    local: Vec<usize>,
+}
+
 impl Numeric<'_> {
-    /// One left-looking factorization of `a` with the static pivot threshold `tau`.
-    fn factor_with(&mut self, a: &Values<'_>, tau: f64, par: Par) -> Pivots {
+    /// One left-looking factorization of `a` with the static pivot threshold `tau`: with
+    /// more than one thread and a [`Split`], its two groups of subtrees in parallel first.
+    fn factor_with(&mut self, a: &Values<'_>, tau: f64, par: Par) -> Result<Pivots> {
         let sy = self.symbolic;
         let s = supernodal(&sy.sym);
-        let (begin, end, cpv) = (s.supernode_begin(), s.supernode_end(), s.col_ptr_for_val());
-        let mut pivots = Pivots {
-            tau,
-            lo: f64::INFINITY,
-            hi: 0.0,
-            perturbed: 0,
+        let cpv = s.col_ptr_for_val();
+        let mut pivots = Pivots::new(tau);
+        let split = sy.split.as_ref().filter(|_| par.degree() > 1);
+        let Some(split) = split else {
+            for sn in 0..s.n_supernodes() {
+                sy.factor_supernode(sn, &mut self.l, 0, a, &mut self.scratch, &mut pivots, par);
+            }
+            return Ok(pivots);
         };
-        for sn in 0..s.n_supernodes() {
-            let (c0, c1) = (begin[sn], end[sn]);
-            let ncols = c1 - c0;
-            let pat = pattern(s, sn);
-            let nrows = ncols + pat.len();
-            for (i, &r) in pat.iter().enumerate() {
-                self.local[r] = ncols + i;
-            }
-            // A's entries into the zeroed panel
-            self.l[cpv[sn]..cpv[sn + 1]].fill(c64::new(0.0, 0.0));
-            for &(p, q) in &sy.assembly[sy.assembly_ptr[sn]..sy.assembly_ptr[sn + 1]] {
-                self.l[q] += c64::new(a.re[p], a.im[p]);
-            }
-            let (head, tail) = self.l.split_at_mut(cpv[sn]);
-            let mut ls =
-                MatMut::from_column_major_slice_mut(&mut tail[..nrows * ncols], nrows, ncols);
-            for &d in &sy.desc[sy.desc_ptr[sn]..sy.desc_ptr[sn + 1]] {
-                let dpat = pattern(s, d);
-                let dcols = end[d] - begin[d];
-                let ld = MatRef::from_column_major_slice(
-                    &head[cpv[d]..cpv[d + 1]],
-                    dcols + dpat.len(),
-                    dcols,
-                );
-                let first = dpat.partition_point(|&r| r < c0);
-                let k = dpat[first..].partition_point(|&r| r < c1);
-                let rows = &dpat[first..];
-                let below = ld.subrows(dcols + first, rows.len());
-                let mid = below.subrows(0, k);
-                // W = L_d,rows · (L_d,cols · D_d)ᵀ, then scattered into the lower part of s
-                let (dmid, rest) = self.update.split_at_mut(k * dcols);
-                let mut dmid = MatMut::from_column_major_slice_mut(dmid, k, dcols);
-                for j in 0..dcols {
-                    let dj = ld[(j, j)];
-                    for i in 0..k {
-                        dmid[(i, j)] = mid[(i, j)] * dj;
-                    }
-                }
-                let mut w =
-                    MatMut::from_column_major_slice_mut(&mut rest[..rows.len() * k], rows.len(), k);
-                matmul(
-                    w.rb_mut(),
-                    Accum::Replace,
-                    below,
-                    dmid.rb().transpose(),
-                    c64::new(1.0, 0.0),
-                    par_for(rows.len() * k * dcols, par),
-                );
-                for (jj, &cj) in rows[..k].iter().enumerate() {
-                    let col = cj - c0;
-                    let dst = ls
-                        .rb_mut()
-                        .col_mut(col)
-                        .try_as_col_major_mut()
-                        .expect("a panel column is contiguous")
-                        .as_slice_mut();
-                    let src = w
-                        .rb()
-                        .col(jj)
-                        .try_as_col_major()
-                        .expect("contiguous")
-                        .as_slice();
-                    for (ii, &r) in rows.iter().enumerate().skip(jj) {
-                        let row = if ii < k { r - c0 } else { self.local[r] };
-                        dst[row] -= src[ii];
-                    }
+        if self.second.is_none() {
+            self.second = Some(sy.scratch()?);
+        }
+        let second = self.second.as_mut().expect("allocated above");
+        // each subtree's values, cut from L in order of position
+        let mut ranges: Vec<(usize, usize, usize)> = split
+            .groups
+            .iter()
+            .enumerate()
+            .flat_map(|(g, rs)| rs.iter().map(move |&(f, e)| (f, e, g)))
+            .collect();
+        ranges.sort_unstable();
+        let mut parts: [Vec<(usize, usize, &mut [c64])>; 2] = [Vec::new(), Vec::new()];
+        let mut rest: &mut [c64] = &mut self.l;
+        let mut offset = 0;
+        for (first, end, g) in ranges {
+            let (_, tail) = std::mem::take(&mut rest).split_at_mut(cpv[first] - offset);
+            let (mine, tail) = tail.split_at_mut(cpv[end] - cpv[first]);
+            parts[g].push((first, end, mine));
+            rest = tail;
+            offset = cpv[end];
+        }
+        let [p0, p1] = parts;
+        let run = |part: Vec<(usize, usize, &mut [c64])>, sc: &mut Scratch| {
+            let mut pv = Pivots::new(tau);
+            for (first, end, l) in part {
+                for sn in first..end {
+                    sy.factor_supernode(sn, l, cpv[first], a, sc, &mut pv, Par::Seq);
                 }
             }
-            let (mut top, mut bot) = ls.split_at_row_mut(ncols);
-            dense_ldlt(top.rb_mut(), &mut self.dense, &mut pivots, par);
-            let p = par_for(pat.len() * ncols * ncols, par);
-            solve_unit_lower_triangular_in_place(top.rb(), bot.rb_mut().transpose_mut(), p);
-            for j in 0..ncols {
-                let inv = top[(j, j)].inv();
-                for v in bot.rb_mut().col_mut(j).iter_mut() {
-                    *v *= inv;
+            pv
+        };
+        let scratch = &mut self.scratch;
+        let (a0, a1) = rayon::join(|| run(p0, scratch), || run(p1, second));
+        pivots.merge(a0);
+        pivots.merge(a1);
+        for &sn in &split.top {
+            sy.factor_supernode(sn, &mut self.l, 0, a, &mut self.scratch, &mut pivots, par);
+        }
+        Ok(pivots)
+    }
+}
+
+impl Symbolic {
+    /// Factors supernode `sn` (left-looking): assembles its panel from `a`, subtracts the
+    /// updates of its descendants, factors the diagonal block and solves the rows below.
+    /// `l` holds L's values from position `base` on, `sn` and all its descendants included.
+    #[allow(clippy::too_many_arguments)]
+    fn factor_supernode(
+        &self,
+        sn: usize,
+        l: &mut [c64],
+        base: usize,
+        a: &Values<'_>,
+        sc: &mut Scratch,
+        pivots: &mut Pivots,
+        par: Par,
+    ) {
+        let s = supernodal(&self.sym);
+        let (begin, end, cpv) = (s.supernode_begin(), s.supernode_end(), s.col_ptr_for_val());
+        let (c0, c1) = (begin[sn], end[sn]);
+        let ncols = c1 - c0;
+        let pat = pattern(s, sn);
+        let nrows = ncols + pat.len();
+        for (i, &r) in pat.iter().enumerate() {
+            sc.local[r] = ncols + i;
+        }
+        let (head, tail) = l.split_at_mut(cpv[sn] - base);
+        let panel = &mut tail[..nrows * ncols];
+        // A's entries into the zeroed panel
+        panel.fill(c64::new(0.0, 0.0));
+        for &(p, q) in &self.assembly[self.assembly_ptr[sn]..self.assembly_ptr[sn + 1]] {
+            panel[q - cpv[sn]] += c64::new(a.re[p], a.im[p]);
+        }
+        let mut ls = MatMut::from_column_major_slice_mut(panel, nrows, ncols);
+        for &d in &self.desc[self.desc_ptr[sn]..self.desc_ptr[sn + 1]] {
+            let dpat = pattern(s, d);
+            let dcols = end[d] - begin[d];
+            let ld = MatRef::from_column_major_slice(
+                &head[cpv[d] - base..cpv[d + 1] - base],
+                dcols + dpat.len(),
+                dcols,
+            );
+            let first = dpat.partition_point(|&r| r < c0);
+            let k = dpat[first..].partition_point(|&r| r < c1);
+            let rows = &dpat[first..];
+            let below = ld.subrows(dcols + first, rows.len());
+            let mid = below.subrows(0, k);
+            // W = L_d,rows · (L_d,cols · D_d)ᵀ, then scattered into the lower part of s
+            let (dmid, rest) = sc.update.split_at_mut(k * dcols);
+            let mut dmid = MatMut::from_column_major_slice_mut(dmid, k, dcols);
+            for j in 0..dcols {
+                let dj = ld[(j, j)];
+                for i in 0..k {
+                    dmid[(i, j)] = mid[(i, j)] * dj;
                 }
             }
-            for &r in pat {
-                self.local[r] = usize::MAX;
+            let mut w =
+                MatMut::from_column_major_slice_mut(&mut rest[..rows.len() * k], rows.len(), k);
+            matmul(
+                w.rb_mut(),
+                Accum::Replace,
+                below,
+                dmid.rb().transpose(),
+                c64::new(1.0, 0.0),
+                par_for(rows.len() * k * dcols, par),
+            );
+            for (jj, &cj) in rows[..k].iter().enumerate() {
+                let col = cj - c0;
+                let dst = ls
+                    .rb_mut()
+                    .col_mut(col)
+                    .try_as_col_major_mut()
+                    .expect("a panel column is contiguous")
+                    .as_slice_mut();
+                let src = w
+                    .rb()
+                    .col(jj)
+                    .try_as_col_major()
+                    .expect("contiguous")
+                    .as_slice();
+                for (ii, &r) in rows.iter().enumerate().skip(jj) {
+                    let row = if ii < k { r - c0 } else { sc.local[r] };
+                    dst[row] -= src[ii];
+                }
             }
         }
-        pivots
+        let (mut top, mut bot) = ls.split_at_row_mut(ncols);
+        dense_ldlt(top.rb_mut(), &mut sc.dense, pivots, par);
+        let p = par_for(pat.len() * ncols * ncols, par);
+        solve_unit_lower_triangular_in_place(top.rb(), bot.rb_mut().transpose_mut(), p);
+        for j in 0..ncols {
+            let inv = top[(j, j)].inv();
+            for v in bot.rb_mut().col_mut(j).iter_mut() {
+                *v *= inv;
+            }
+        }
+        for &r in pat {
+            sc.local[r] = usize::MAX;
+        }
     }
 }
 
@@ -342,9 +515,9 @@ impl Factorization for Numeric<'_> {
                 .fold(0.0f64, |m, (&re, &im)| m.max(re.hypot(im)));
         // numerically zero pivots only; if there were any, PARDISO's larger threshold, which
         // bounds the growth behind a zero pivot (refinement then removes the perturbation)
-        let mut pivots = self.factor_with(a, f64::EPSILON * amax, par);
+        let mut pivots = self.factor_with(a, f64::EPSILON * amax, par)?;
         if pivots.perturbed > 0 {
-            pivots = self.factor_with(a, f64::EPSILON.sqrt() * amax, par);
+            pivots = self.factor_with(a, f64::EPSILON.sqrt() * amax, par)?;
         }
         self.perturbed = pivots.perturbed;
         self.pivot_ratio = if pivots.hi > 0.0 {
@@ -454,6 +627,23 @@ struct Pivots {
 }
 
 impl Pivots {
+    /// No pivot seen yet, threshold `tau`.
+    fn new(tau: f64) -> Self {
+        Pivots {
+            tau,
+            lo: f64::INFINITY,
+            hi: 0.0,
+            perturbed: 0,
+        }
+    }
+
+    /// Adds what another thread's pivots saw.
+    fn merge(&mut self, other: Pivots) {
+        self.lo = self.lo.min(other.lo);
+        self.hi = self.hi.max(other.hi);
+        self.perturbed += other.perturbed;
+    }
+
     /// The pivot to use for `d`: d itself, or τ·d/|d| (τ for d = 0) when |d| < τ.
     fn take(&mut self, d: c64) -> c64 {
         let m = d.norm();

@@ -65,6 +65,11 @@ pub fn symbolic_cholesky_ordered(
     let nd = match nested_dissection(pencil) {
         Some((fwd, inv)) => {
             let perm = faer::perm::PermRef::new_checked(&fwd, &inv, pencil.n());
+            let nd = analyse(SymmetricOrdering::Custom(perm))?;
+            // faer keeps a custom order as given; the LDLᵀ's parallel subtrees need the
+            // supernodes in postorder, which leaves the structure as it is
+            let (fwd, inv) = postorder(&nd, &fwd);
+            let perm = faer::perm::PermRef::new_checked(&fwd, &inv, pencil.n());
             Some(analyse(SymmetricOrdering::Custom(perm))?)
         }
         None => None,
@@ -82,6 +87,58 @@ pub fn symbolic_cholesky_ordered(
         Some(nd) if choice.nested_dissection => Ok((nd, choice)),
         _ => Ok((amd, choice)),
     }
+}
+
+/// The order `fwd` (row i of P A Pᵀ is row fwd[i] of A, the order `sym` was analysed on)
+/// with the supernodes of `sym` renumbered in a postorder of their elimination tree (parent
+/// of a supernode: the owner of the first row below it), each keeping its columns in order;
+/// returned with its inverse. A postorder is a topological order, so the fill is unchanged.
+#[cfg(feature = "metis")]
+fn postorder(sym: &SymbolicCholesky<usize>, fwd: &[usize]) -> (Vec<usize>, Vec<usize>) {
+    use faer::sparse::linalg::cholesky::SymbolicCholeskyRaw;
+    let n = fwd.len();
+    let SymbolicCholeskyRaw::Supernodal(s) = sym.raw() else {
+        let inv = inverse(fwd);
+        return (fwd.to_vec(), inv);
+    };
+    let ns = s.n_supernodes();
+    let (begin, end) = (s.supernode_begin(), s.supernode_end());
+    let mut owner = vec![0usize; n];
+    for sn in 0..ns {
+        owner[begin[sn]..end[sn]].fill(sn);
+    }
+    let mut children: Vec<Vec<usize>> = vec![Vec::new(); ns];
+    let mut roots = Vec::new();
+    for sn in 0..ns {
+        match s.supernode(sn).pattern().first() {
+            Some(&r) => children[owner[r]].push(sn),
+            None => roots.push(sn),
+        }
+    }
+    let mut order = Vec::with_capacity(n);
+    // iterative depth-first search: a supernode is emitted after all its children
+    let mut stack: Vec<(usize, usize)> = roots.iter().rev().map(|&r| (r, 0)).collect();
+    while let Some((sn, next)) = stack.pop() {
+        if let Some(&child) = children[sn].get(next) {
+            stack.push((sn, next + 1));
+            stack.push((child, 0));
+        } else {
+            order.extend(begin[sn]..end[sn]);
+        }
+    }
+    let fwd: Vec<usize> = order.iter().map(|&c| fwd[c]).collect();
+    let inv = inverse(&fwd);
+    (fwd, inv)
+}
+
+/// The inverse of the permutation `fwd`.
+#[cfg(feature = "metis")]
+fn inverse(fwd: &[usize]) -> Vec<usize> {
+    let mut inv = vec![0; fwd.len()];
+    for (k, &f) in fwd.iter().enumerate() {
+        inv[f] = k;
+    }
+    inv
 }
 
 /// METIS_NodeND on the graph of the pencil's pattern (both triangles, no diagonal): the
