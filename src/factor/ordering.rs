@@ -51,31 +51,28 @@ impl std::fmt::Display for OrderingChoice {
 pub fn symbolic_cholesky_ordered(
     pencil: &Pencil,
 ) -> Result<(SymbolicCholesky<usize>, OrderingChoice)> {
-    let analyse = |ordering| {
-        factorize_symbolic_cholesky(
-            pattern::lower(pencil),
-            Side::Lower,
-            ordering,
-            supernodal_params(),
-        )
-        .map_err(|e| Error::Factor(format!("symbolic analysis: {e:?}")))
-    };
-    let amd = analyse(SymmetricOrdering::Amd)?;
+    // the two orderings are independent: side by side when there are threads
     #[cfg(feature = "metis")]
-    let nd = match nested_dissection(pencil) {
-        Some((fwd, inv)) => {
-            let perm = faer::perm::PermRef::new_checked(&fwd, &inv, pencil.n());
-            let nd = analyse(SymmetricOrdering::Custom(perm))?;
-            // faer keeps a custom order as given; the LDLᵀ's parallel subtrees need the
-            // supernodes in postorder, which leaves the structure as it is
-            let (fwd, inv) = postorder(&nd, &fwd);
-            let perm = faer::perm::PermRef::new_checked(&fwd, &inv, pencil.n());
-            Some(analyse(SymmetricOrdering::Custom(perm))?)
-        }
-        None => None,
-    };
+    let (amd, nd) = rayon::join(
+        || analyse(pencil, SymmetricOrdering::Amd),
+        || match nested_dissection(pencil) {
+            Some((fwd, inv)) => {
+                let perm = faer::perm::PermRef::new_checked(&fwd, &inv, pencil.n());
+                let nd = analyse(pencil, SymmetricOrdering::Custom(perm))?;
+                // faer keeps a custom order as given; the LDLᵀ's parallel subtrees need the
+                // supernodes in postorder
+                let (fwd, inv) = postorder(&nd, &fwd);
+                let perm = faer::perm::PermRef::new_checked(&fwd, &inv, pencil.n());
+                analyse(pencil, SymmetricOrdering::Custom(perm)).map(Some)
+            }
+            None => Ok(None),
+        },
+    );
+    #[cfg(feature = "metis")]
+    let (amd, nd) = (amd?, nd?);
     #[cfg(not(feature = "metis"))]
-    let nd: Option<SymbolicCholesky<usize>> = None;
+    let (amd, nd): (_, Option<SymbolicCholesky<usize>>) =
+        (analyse(pencil, SymmetricOrdering::Amd)?, None);
     let amd_nnz = amd.len_val();
     let nd_nnz = nd.as_ref().map(|s| s.len_val());
     let choice = OrderingChoice {
@@ -89,10 +86,26 @@ pub fn symbolic_cholesky_ordered(
     }
 }
 
+/// faer's supernodal symbolic Cholesky of the pencil's lower pattern on `ordering`.
+fn analyse(
+    pencil: &Pencil,
+    ordering: SymmetricOrdering<'_, usize>,
+) -> Result<SymbolicCholesky<usize>> {
+    factorize_symbolic_cholesky(
+        pattern::lower(pencil),
+        Side::Lower,
+        ordering,
+        supernodal_params(),
+    )
+    .map_err(|e| Error::Factor(format!("symbolic analysis: {e:?}")))
+}
+
 /// The order `fwd` (row i of P A Pᵀ is row fwd[i] of A, the order `sym` was analysed on)
 /// with the supernodes of `sym` renumbered in a postorder of their elimination tree (parent
 /// of a supernode: the owner of the first row below it), each keeping its columns in order;
-/// returned with its inverse. A postorder is a topological order, so the fill is unchanged.
+/// returned with its inverse. A postorder is a topological order, so the exact fill is
+/// unchanged; faer's relaxed amalgamation of small supernodes may differ slightly (the 32³
+/// cube: 119.5 M entries before, 120.4 M after).
 #[cfg(feature = "metis")]
 fn postorder(sym: &SymbolicCholesky<usize>, fwd: &[usize]) -> (Vec<usize>, Vec<usize>) {
     use faer::sparse::linalg::cholesky::SymbolicCholeskyRaw;
