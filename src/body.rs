@@ -4,7 +4,8 @@
 //! - the pencil A(s) = s²M + sD + K on its union pattern (§3.1, [`Pencil`]);
 //! - the rigid part of a free body: V0, M0 and the inertia-relief projector P (§3.2,
 //!   [`RigidBody`]), detected once;
-//! - the AMD-ordered symbolic Cholesky of the pencil's N×N pattern, computed on first use.
+//! - the ordered (AMD or nested dissection) symbolic Cholesky of the pencil's N×N pattern,
+//!   computed on first use.
 //!   The real LBLᵀ sweep (D = 0), the interleaved 2N LBLᵀ sweep (its order is this one,
 //!   expanded pairwise), the shift-invert Cholesky of K − σM and the inertia count all factor
 //!   matrices with this pattern, so one analysis serves them all.
@@ -63,7 +64,7 @@ impl<'m> Body<'m> {
         self.rigid.as_ref()
     }
 
-    /// The AMD-ordered symbolic Cholesky of the pencil's N×N lower pattern, computed on the
+    /// The ordered symbolic Cholesky of the pencil's N×N lower pattern, computed on the
     /// first call and kept.
     ///
     /// # Errors

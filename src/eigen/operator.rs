@@ -2,7 +2,7 @@
 //!
 //! S is self-adjoint in the M-inner product ⟨x, y⟩_M = xᵀMy; its eigenvalues θ = 1/(λ − σ)
 //! are largest in magnitude for the λ nearest σ, on either side. Two factorizations of the
-//! same AMD-ordered symbolic analysis:
+//! same ordered (AMD or nested dissection) symbolic analysis:
 //! - σ below the spectrum (σ < 0: K − σM is positive definite even for a free body): sparse
 //!   Cholesky LLᵀ, the cheapest factor — the bottom slice and [`super::Request::Lowest`];
 //! - σ inside the spectrum (an interior slice): LBLᵀ with Bunch–Kaufman pivots, whose

@@ -8,8 +8,8 @@
 //! - the benches' reference "real Cholesky on the same pattern" ([`reference_cholesky`]),
 //!   the arithmetic floor the complex factorizations of A(iω) are compared with.
 //!
-//! [`symbolic_cholesky`] is the AMD-ordered symbolic analysis of the pencil's N×N lower
-//! pattern. It is shared: the LBLᵀ backend factors the real pencil on it and expands its
+//! [`symbolic_cholesky`] is the ordered (AMD or nested dissection, `ordering`) symbolic
+//! analysis of the pencil's N×N lower pattern. It is shared: the LBLᵀ backend factors the real pencil on it and expands its
 //! order pairwise for the 2N form, and the inertia count factors K − σM on it.
 
 use super::{pattern, try_vec, workspace};
@@ -122,7 +122,7 @@ impl Cholesky {
 }
 
 /// The reference of the benches: a real sparse Cholesky LLᵀ of K + σM (σ = (2π·1 Hz)², so
-/// that a free body's K becomes definite) on the pencil's AMD-ordered pattern. Returns
+/// that a free body's K becomes definite) on the pencil's ordered pattern. Returns
 /// (nnz(L), seconds of the numeric factorization) — the arithmetic floor a complex
 /// factorization of the same pattern is compared with (4× the flops in complex arithmetic).
 ///

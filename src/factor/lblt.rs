@@ -4,12 +4,12 @@
 //! (chosen inside each supernode) and P the fill-reducing order followed by the pivoting
 //! order. Two forms, chosen by the pencil:
 //! - **real N×N** (undamped, D = 0): A = K − ω²M is real symmetric indefinite and is factored
-//!   as is, on the AMD order of [`symbolic_cholesky`];
+//!   as is, on the ordering of [`symbolic_cholesky`];
 //! - **interleaved 2N×2N** (damped): A = Ar + iAi is complex symmetric and faer has no
 //!   complex-symmetric LDLᵀ, so the equivalent real symmetric system
 //!   [[Ar, Ai], [Ai, −Ar]] [xr; −xi] = [br; bi] is factored with the two unknowns of each
 //!   DoF interleaved (every 2×2 block [[a_r, a_i], [a_i, −a_r]] is a scaled reflection, well
-//!   conditioned whenever the complex entry is non-zero). The AMD order of the N×N pattern
+//!   conditioned whenever the complex entry is non-zero). The order of the N×N pattern
 //!   is expanded pairwise, so pairs stay in one supernode (where 2×2 pivots can form) and
 //!   the fill is exactly 4× that of the real factor on the same order.
 //!
@@ -42,7 +42,7 @@ pub(super) struct Symbolic {
 }
 
 impl Symbolic {
-    /// The symbolic factorization of the pencil from `sym_n`, the AMD-ordered symbolic
+    /// The symbolic factorization of the pencil from `sym_n`, the ordered symbolic
     /// Cholesky of its N×N pattern: that one when it is real, the 2N form on the pairwise
     /// expanded order when it is damped.
     pub(super) fn new(

@@ -2,8 +2,8 @@
 //!
 //! P A Pᵀ = L D Lᵀ with the transpose, never the adjoint: A is complex *symmetric*
 //! (Aᵀ = A, Aᴴ ≠ A), L unit lower triangular in c64 and D diagonal in c64. The structure is
-//! the AMD-ordered supernodal symbolic Cholesky of the pencil's N×N pattern
-//! ([`super::symbolic_cholesky`]), shared with the real path and the eigensolver, so the
+//! the ordered (AMD or nested dissection) supernodal symbolic Cholesky of the pencil's N×N
+//! pattern ([`super::symbolic_cholesky`]), shared with the real path and the eigensolver, so the
 //! factor has the fill of a real Cholesky in complex numbers: half the bytes of the
 //! interleaved 2N×2N LBLᵀ form and a quarter of its entries.
 //!
@@ -195,7 +195,7 @@ fn pattern(s: &SymbolicSupernodalCholesky<usize>, sn: usize) -> &[usize] {
 }
 
 impl Symbolic {
-    /// The analysis of the damped pencil on `sym_n`, the AMD-ordered symbolic Cholesky of its
+    /// The analysis of the damped pencil on `sym_n`, the ordered symbolic Cholesky of its
     /// N×N pattern.
     pub(super) fn new(
         pencil: &Pencil,
@@ -293,7 +293,7 @@ impl Symbolic {
         Ok((symbolic, Footprint { factor_nnz, bytes }))
     }
 
-    /// The AMD-ordered symbolic Cholesky it works on (the pivoting fallback's ordering).
+    /// The ordered symbolic Cholesky it works on (the pivoting fallback's ordering).
     pub(super) fn cholesky(&self) -> Arc<SymbolicCholesky<usize>> {
         self.sym.clone()
     }

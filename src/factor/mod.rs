@@ -198,7 +198,7 @@ impl Analysis {
         })
     }
 
-    /// As [`Self::new`], with the AMD-ordered symbolic Cholesky of the pencil's N×N pattern
+    /// As [`Self::new`], with the ordered symbolic Cholesky of the pencil's N×N pattern
     /// supplied by `symbolic_n` (called only by the backends built on it, LBLᵀ): a prepared
     /// body shares its one analysis with the eigensolver this way.
     ///
