@@ -26,8 +26,8 @@ use std::time::Instant;
 
 /// Symbolic Cholesky of the pencil's pattern on its fill-reducing ordering (AMD, or METIS's
 /// nested dissection when the `metis` feature is on and it leaves fewer entries:
-/// [`super::symbolic_cholesky_ordered`]): the reference "real Cholesky on the same pattern" of the benches, the
-/// structure of the complex LDLᵀ and the ordering the 2N form expands.
+/// [`super::symbolic_cholesky_ordered`]): the reference "real Cholesky on the same pattern" of
+/// the benches, the structure of the complex LDLᵀ and the ordering the 2N form expands.
 ///
 /// # Errors
 /// [`Error::Factor`] when the analysis fails (allocation, index overflow).
