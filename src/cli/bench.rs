@@ -203,11 +203,7 @@ fn pardiso_reference(dir: &std::path::Path, model: &Model, scene: &Scene) -> Res
             .output()
             .map_err(|e| Error::io(&script, e))?;
         let stdout = String::from_utf8_lossy(&run.stdout);
-        *s = stdout
-            .split("\"factor_s\": ")
-            .nth(1)
-            .and_then(|s| s.split([',', '}']).next())
-            .and_then(|s| s.trim().parse::<f64>().ok())
+        *s = super::bench_modes::json_number(&stdout, "factor_s")
             .filter(|_| run.status.success())
             .ok_or_else(|| {
                 Error::InvalidSetting(format!(

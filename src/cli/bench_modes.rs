@@ -151,6 +151,15 @@ fn max_rel_diff(m: &Modes, reference: &[f64]) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// The number under `"key": ` in the one-line JSON a reference script printed.
+pub(super) fn json_number(stdout: &str, key: &str) -> Option<f64> {
+    stdout
+        .split(&format!("\"{key}\": "))
+        .nth(1)
+        .and_then(|s| s.split([',', '}']).next())
+        .and_then(|s| s.trim().parse::<f64>().ok())
+}
+
 /// Runs `benches/eigsh_reference.py` on the model directory for the lowest `c` modes.
 fn eigsh(dir: &Path, c: usize) -> Result<Reference> {
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/eigsh_reference.py");
@@ -174,12 +183,8 @@ fn eigsh(dir: &Path, c: usize) -> Result<Reference> {
         return Err(fail("failed"));
     }
     let stdout = String::from_utf8_lossy(&run.stdout);
-    let seconds = stdout
-        .split("\"seconds\": ")
-        .nth(1)
-        .and_then(|s| s.split([',', '}']).next())
-        .and_then(|s| s.trim().parse::<f64>().ok())
-        .ok_or_else(|| fail("no \"seconds\" in its output"))?;
+    let seconds =
+        json_number(&stdout, "seconds").ok_or_else(|| fail("no \"seconds\" in its output"))?;
     let text = std::fs::read_to_string(&out).map_err(|e| Error::io(&out, e))?;
     let lambdas = text
         .lines()

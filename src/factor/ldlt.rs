@@ -99,19 +99,15 @@ struct Split {
 }
 
 impl Split {
-    /// The split of the supernodal elimination tree of `s` (`owner`: column → supernode), or
+    /// The split of the supernodal elimination tree of `s` (`parent` from [`supernode_tree`]), or
     /// `None` when it is not a postorder (subtrees not contiguous) or no two groups of
     /// subtrees hold comparable work. Work of a supernode: ncols · nrows², its dense flops up
     /// to a constant. The frontier starts at the roots; while its heaviest subtree holds more
     /// than half the frontier's work it is replaced by its children (its root joins the top);
     /// then the frontier's subtrees go, heaviest first, to the lighter group.
-    fn new(s: &SymbolicSupernodalCholesky<usize>, owner: &[usize]) -> Option<Split> {
-        const NONE: usize = usize::MAX;
+    fn new(s: &SymbolicSupernodalCholesky<usize>, parent: &[Option<usize>]) -> Option<Split> {
         let ns = s.n_supernodes();
         let (begin, end) = (s.supernode_begin(), s.supernode_end());
-        let parent: Vec<usize> = (0..ns)
-            .map(|sn| pattern(s, sn).first().map_or(NONE, |&r| owner[r]))
-            .collect();
         let mut first: Vec<usize> = (0..ns).collect();
         let (mut size, mut work) = (vec![1usize; ns], vec![0f64; ns]);
         let mut children: Vec<Vec<usize>> = vec![Vec::new(); ns];
@@ -119,8 +115,7 @@ impl Split {
             let ncols = (end[sn] - begin[sn]) as f64;
             let nrows = ncols + pattern(s, sn).len() as f64;
             work[sn] += ncols * nrows * nrows;
-            let p = parent[sn];
-            if p != NONE {
+            if let Some(p) = parent[sn] {
                 if p <= sn {
                     return None;
                 }
@@ -134,7 +129,7 @@ impl Split {
         if (0..ns).any(|sn| sn + 1 - first[sn] != size[sn]) {
             return None;
         }
-        let mut frontier: Vec<usize> = (0..ns).filter(|&sn| parent[sn] == NONE).collect();
+        let mut frontier: Vec<usize> = (0..ns).filter(|&sn| parent[sn].is_none()).collect();
         let mut top = Vec::new();
         loop {
             let total: f64 = frontier.iter().map(|&f| work[f]).sum();
@@ -161,7 +156,7 @@ impl Split {
         // most 0.8 of one thread's
         let total: f64 = load[0] + load[1];
         let all: f64 = (0..ns)
-            .filter(|&sn| parent[sn] == NONE)
+            .filter(|&sn| parent[sn].is_none())
             .map(|r| work[r])
             .sum();
         if all - total + load[0].max(load[1]) > 0.8 * all {
@@ -189,6 +184,22 @@ fn supernodal(sym: &SymbolicCholesky<usize>) -> &SymbolicSupernodalCholesky<usiz
     }
 }
 
+/// The supernodal elimination tree of `s`: the supernode owning each column, and each
+/// supernode's parent (the owner of the first row below it; `None` for a root).
+pub(super) fn supernode_tree(
+    s: &SymbolicSupernodalCholesky<usize>,
+) -> (Vec<usize>, Vec<Option<usize>>) {
+    let (begin, end) = (s.supernode_begin(), s.supernode_end());
+    let mut owner = vec![0usize; s.nrows()];
+    for sn in 0..s.n_supernodes() {
+        owner[begin[sn]..end[sn]].fill(sn);
+    }
+    let parent = (0..s.n_supernodes())
+        .map(|sn| pattern(s, sn).first().map(|&r| owner[r]))
+        .collect();
+    (owner, parent)
+}
+
 /// Rows of supernode `s`'s pattern (below its diagonal block).
 fn pattern(s: &SymbolicSupernodalCholesky<usize>, sn: usize) -> &[usize] {
     s.supernode(sn).pattern()
@@ -206,10 +217,7 @@ impl Symbolic {
         let s = supernodal(&sym_n);
         let ns = s.n_supernodes();
         let (begin, end, cpv) = (s.supernode_begin(), s.supernode_end(), s.col_ptr_for_val());
-        let mut owner = vec![0usize; n];
-        for sn in 0..ns {
-            owner[begin[sn]..end[sn]].fill(sn);
-        }
+        let (owner, parent) = supernode_tree(s);
         let (fwd, inv) = match sym_n.perm() {
             Some(p) => (p.arrays().0.to_vec(), p.arrays().1.to_vec()),
             None => ((0..n).collect(), (0..n).collect()),
@@ -269,7 +277,7 @@ impl Symbolic {
             desc.extend(l);
             desc_ptr.push(desc.len());
         }
-        let split = Split::new(s, &owner);
+        let split = Split::new(s, &parent);
         let factor_nnz = s.len_val();
         let scratch = 16 * (max_update + max_cols * max_cols / 2) + 8 * n;
         let bytes = 16 * factor_nnz

@@ -443,14 +443,6 @@ impl<'a> Numeric<'a> {
         self.pivoted
     }
 
-    /// The factorization of the current frequency.
-    fn active(&mut self) -> &mut (dyn Factorization + 'a) {
-        match (&mut self.pivoting, self.pivoted) {
-            (Some(p), true) => p.as_mut(),
-            _ => self.factors.as_mut(),
-        }
-    }
-
     /// Factors K with the rows and columns of the `supports` DoFs replaced by those of a
     /// scaled identity (their off-diagonal entries 0, the diagonal `scale`): the static
     /// stiffness of a free body held by a statically determinate support (docs/design.md
@@ -508,7 +500,7 @@ impl<'a> Numeric<'a> {
     /// Solves A(iω) X = B in place for a complex block (N × k, k ≤ the analysis' max_rhs + 1).
     pub fn solve(&mut self, rhs: MatMut<'_, c64>, par: Par) {
         debug_assert!(self.factored_at.is_some());
-        self.active().solve(rhs, par);
+        active(&mut self.factors, &mut self.pivoting, self.pivoted).solve(rhs, par);
     }
 
     /// Refines a solution `x` of A X = `b` from [`Self::solve`] with the factored matrix
@@ -522,10 +514,7 @@ impl<'a> Numeric<'a> {
         par: Par,
     ) -> usize {
         debug_assert!(self.factored_at.is_some());
-        let factors = match (&mut self.pivoting, self.pivoted) {
-            (Some(p), true) => p.as_mut(),
-            _ => self.factors.as_mut(),
-        };
+        let factors = active(&mut self.factors, &mut self.pivoting, self.pivoted);
         let (re, im) = (&self.re, &self.im);
         refine::refine(
             pencil,
@@ -536,6 +525,20 @@ impl<'a> Numeric<'a> {
             |r| factors.solve(r, par),
             par,
         )
+    }
+}
+
+/// The factorization of the current frequency: the pivoting fallback when it took the
+/// frequency, else the backend's own (borrowing only these fields, so the values of A stay
+/// readable beside it).
+fn active<'s, 'a>(
+    factors: &'s mut Box<dyn Factorization + 'a>,
+    pivoting: &'s mut Option<Box<dyn Factorization + 'a>>,
+    pivoted: bool,
+) -> &'s mut (dyn Factorization + 'a) {
+    match pivoting {
+        Some(p) if pivoted => p.as_mut(),
+        _ => factors.as_mut(),
     }
 }
 

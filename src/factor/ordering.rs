@@ -116,15 +116,12 @@ fn postorder(sym: &SymbolicCholesky<usize>, fwd: &[usize]) -> (Vec<usize>, Vec<u
     };
     let ns = s.n_supernodes();
     let (begin, end) = (s.supernode_begin(), s.supernode_end());
-    let mut owner = vec![0usize; n];
-    for sn in 0..ns {
-        owner[begin[sn]..end[sn]].fill(sn);
-    }
+    let (_, parent) = super::ldlt::supernode_tree(s);
     let mut children: Vec<Vec<usize>> = vec![Vec::new(); ns];
     let mut roots = Vec::new();
-    for sn in 0..ns {
-        match s.supernode(sn).pattern().first() {
-            Some(&r) => children[owner[r]].push(sn),
+    for (sn, p) in parent.into_iter().enumerate() {
+        match p {
+            Some(p) => children[p].push(sn),
             None => roots.push(sn),
         }
     }
