@@ -72,6 +72,18 @@ pub enum Error {
     /// quantity converged: what converged, the largest residual, where, and what to change.
     #[error("not converged: {0}")]
     NotConverged(String),
+    /// Another MPI rank failed (docs/design.md §9): its rank and its error's message.
+    #[error("rank {rank}: {message}")]
+    Remote {
+        /// The rank that failed.
+        rank: usize,
+        /// Its error, as text.
+        message: String,
+    },
+    /// The ranks of a distributed run could not work together (a malformed message, a
+    /// command run by only some ranks).
+    #[error("distributed run: {0}")]
+    Distributed(String),
     /// The work was cancelled through the progress callback.
     #[error("cancelled by the caller")]
     Cancelled,

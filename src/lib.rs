@@ -56,6 +56,7 @@
 
 pub mod body;
 pub mod dense;
+pub mod distributed;
 pub mod eigen;
 pub mod error;
 pub mod factor;

@@ -261,6 +261,36 @@ impl StreamedQr {
         }
     }
 
+    /// A state from its parts, as [`Self::parts`] returns them (another process's state,
+    /// docs/design.md §9): `R` (n × n), `Y` (n × m column-major), `e` (m), rows absorbed.
+    pub(crate) fn from_parts(r: Mat<f64>, y: Vec<f64>, e: Vec<f64>, rows: usize) -> Result<Self> {
+        let (n, m) = (r.nrows(), e.len());
+        if r.ncols() != n || y.len() != n * m {
+            return Err(Error::InvalidSetting(format!(
+                "least-squares state parts of inconsistent shapes: R {}×{}, Y {} values, e {}",
+                r.nrows(),
+                r.ncols(),
+                y.len(),
+                m
+            )));
+        }
+        Ok(StreamedQr {
+            n,
+            m,
+            r,
+            y,
+            e,
+            rows,
+            chunk_cols: DEFAULT_CHUNK_COLS,
+            pool: WorkspacePool::default(),
+        })
+    }
+
+    /// `R`, `Y` (column-major), `e` and the rows absorbed: everything a merge needs.
+    pub(crate) fn parts(&self) -> (MatRef<'_, f64>, &[f64], &[f64], usize) {
+        (self.r.as_ref(), &self.y, &self.e, self.rows)
+    }
+
     /// Number of unknowns per column (columns of `T_oᵀ`, interface DoFs).
     pub fn n(&self) -> usize {
         self.n

@@ -53,6 +53,10 @@ pub struct SweepOptions {
     pub memory_budget: Option<usize>,
     /// Largest accepted relative probe error of a solve (see module doc).
     pub probe_tol: f64,
+    /// The ranks of a distributed run ([`crate::distributed`], docs/design.md §9): with more
+    /// than one, the frequencies of line-fitting and of the transfer functions are spread over
+    /// them. `None` = this process alone.
+    pub cluster: Option<std::sync::Arc<dyn crate::distributed::Cluster>>,
 }
 
 impl SweepOptions {
@@ -87,6 +91,7 @@ impl Default for SweepOptions {
             backend: Backend::Auto,
             memory_budget: None,
             probe_tol: DEFAULT_PROBE_TOL,
+            cluster: None,
         }
     }
 }
@@ -151,7 +156,7 @@ pub struct SolveAccuracy {
 }
 
 impl SolveAccuracy {
-    fn add(&mut self, s: &FreqStats) {
+    pub(crate) fn add(&mut self, s: &FreqStats) {
         self.frequencies += 1;
         self.probe_error_max = self.probe_error_max.max(s.probe_error);
         self.refined += usize::from(s.refinement_steps > 0);
@@ -640,32 +645,41 @@ pub fn transfer_function(
     } else {
         Response::Total
     };
-    let solver = Solver::new(body, inputs, response, opts)?;
-    type Acc = Vec<(usize, Mat<c64>, Option<Mat<c64>>)>;
-    let (states, freq_stats) = solver.run(
+    let mut engine = crate::distributed::Engine::new(body, opts);
+    let (xs, freq_stats) = engine.respond(
+        response,
+        inputs,
+        outputs,
         freqs_hz,
-        Acc::new,
-        |acc: &mut Acc, snap| {
-            let mut h = Mat::from_fn(outputs.len(), snap.x.ncols(), |o, j| {
-                snap.x[(outputs[o], j)]
-            });
-            if let (true, Some(rb)) = (split, body.rigid()) {
-                h += rb.h0(2.0 * std::f64::consts::PI * snap.freq_hz, inputs, outputs);
-            }
-            acc.push((snap.index, h, keep_snapshots.then(|| snap.x.to_owned())));
-            Ok(())
-        },
+        keep_snapshots,
         progress,
     )?;
-    let mut all: Acc = states.into_iter().flatten().collect();
-    all.sort_by_key(|t| t.0);
-    let (h, snaps): (Vec<_>, Vec<_>) = all.into_iter().map(|(_, h, x)| (h, x)).unzip();
+    let h0 = |f: f64| match (split, body.rigid()) {
+        (true, Some(rb)) => Some(rb.h0(2.0 * std::f64::consts::PI * f, inputs, outputs)),
+        _ => None,
+    };
+    let h = freqs_hz
+        .iter()
+        .zip(&xs)
+        .map(|(&f, x)| {
+            let mut h = if keep_snapshots {
+                Mat::from_fn(outputs.len(), x.ncols(), |o, j| x[(outputs[o], j)])
+            } else {
+                x.clone()
+            };
+            if let Some(h0) = h0(f) {
+                h += h0;
+            }
+            h
+        })
+        .collect();
+    let (symbolic, schedule) = engine.local_stats(response, inputs, freqs_hz.len()).unzip();
     Ok(Frf {
         freqs_hz: freqs_hz.to_vec(),
         h,
-        snapshots: keep_snapshots.then(|| snaps.into_iter().flatten().collect()),
-        symbolic: Some(solver.symbolic_stats().clone()),
-        schedule: Some(solver.schedule(freqs_hz.len())),
+        snapshots: keep_snapshots.then_some(xs),
+        symbolic,
+        schedule,
         freq_stats,
         seconds: start.elapsed().as_secs_f64(),
     })

@@ -86,6 +86,8 @@ impl From<sparsemor::Error> for Failure {
             }
             E::Singular { .. } => SparsemorStatus::Singular,
             E::Factor(_) | E::NotConverged(_) => SparsemorStatus::Numerical,
+            // the C ABI runs in one process; these come only from MPI runs of the library
+            E::Remote { .. } | E::Distributed(_) => SparsemorStatus::Numerical,
             E::Cancelled => SparsemorStatus::Cancelled,
             E::Io { .. } | E::Parse { .. } => SparsemorStatus::Io,
         };

@@ -2,8 +2,9 @@
 //! one-to-one MAC pairing and stability.
 
 use super::args::{linspace, parse_band};
-use super::progress::{with_progress, with_slice_progress};
+use super::progress::{rank0_share, with_progress, with_slice_progress};
 use sparsemor::body::Body;
+use sparsemor::distributed::Cluster;
 use sparsemor::eigen::{eigenpairs_with_progress, EigenOptions, Request};
 use sparsemor::factor::count_eigenvalues_below_with;
 use sparsemor::io::{atomic, model_dir, rom_dir};
@@ -16,6 +17,7 @@ use sparsemor::sweep::SweepOptions;
 use sparsemor::units::hz_to_lambda;
 use sparsemor::{Error, Result};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 #[derive(clap::Args)]
 pub struct EvaluateArgs {
@@ -56,7 +58,21 @@ pub(super) fn evaluation_band(scene: &Scene, band: Option<&str>) -> Result<[f64;
     }))
 }
 
-pub fn evaluate(a: &EvaluateArgs) -> Result<()> {
+impl EvaluateArgs {
+    /// The model directory and the sweep options of the full-model solves (the same on every
+    /// rank of a distributed run).
+    pub fn sweep_setup(&self) -> (&Path, SweepOptions) {
+        let opts = SweepOptions {
+            threads: self.threads,
+            probe_tol: self.probe_tol,
+            ..Default::default()
+        };
+        (&self.model, opts)
+    }
+}
+
+/// `cluster`: the ranks the full-model solves are spread over (rank 0 runs this).
+pub fn evaluate(a: &EvaluateArgs, cluster: Option<Arc<dyn Cluster>>) -> Result<()> {
     let (model, scene, _) = model_dir::read(&a.model)?;
     let rom = rom_dir::read(&a.rom)?;
     rom.check_model(&model)
@@ -72,12 +88,12 @@ pub fn evaluate(a: &EvaluateArgs) -> Result<()> {
         return Err(Error::InvalidSetting("--points must be >= 2".into()));
     }
     let freqs = linspace(band, a.points);
+    let share = rank0_share(freqs.len(), cluster.as_ref());
     let opts = SweepOptions {
-        threads: a.threads,
-        probe_tol: a.probe_tol,
-        ..Default::default()
+        cluster,
+        ..a.sweep_setup().1
     };
-    let curve = with_progress(freqs.len(), "evaluate", |cb| {
+    let curve = with_progress(share, "evaluate", |cb| {
         Reference::compute(&body, &rom_scene, &freqs, &opts, cb)?.error(&rom)
     })?;
     print_errors(&rom, &curve)?;

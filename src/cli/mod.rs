@@ -18,7 +18,9 @@ mod sweep;
 mod tradeoff;
 
 use clap::{Parser, Subcommand};
+use sparsemor::distributed::Cluster;
 use std::path::PathBuf;
+use std::sync::Arc;
 
 /// Model order reduction of large sparse structural FE models (line-fitting, SEREP).
 #[derive(Parser)]
@@ -63,6 +65,8 @@ pub enum Done {
     Met,
     /// The output was written but a requested accuracy was not reached: exit status 3.
     RequestNotMet,
+    /// A distributed run failed and rank 0 has reported why: exit status 1, no message here.
+    Failed,
 }
 
 impl Done {
@@ -71,6 +75,7 @@ impl Done {
         match self {
             Done::Met => 0,
             Done::RequestNotMet => 3,
+            Done::Failed => 1,
         }
     }
 }
@@ -128,11 +133,63 @@ enum Command {
     Bench(bench::BenchArgs),
 }
 
-/// Parses the command line and runs the command.
-pub fn run() -> sparsemor::Result<Done> {
+/// Parses the command line and runs the command; with a cluster of more than one rank
+/// (`mpirun`), rank 0 runs it and the other ranks solve their share of its frequencies.
+pub fn run(cluster: Option<Arc<dyn Cluster>>) -> sparsemor::Result<Done> {
     let cli = Cli::parse();
     progress::handle_interrupts();
-    let met = |r: sparsemor::Result<()>| r.map(|()| Done::Met);
+    match cluster.filter(|c| c.size() > 1) {
+        None => command(cli, None),
+        Some(c) => on_ranks(cli, c),
+    }
+}
+
+fn met(r: sparsemor::Result<()>) -> sparsemor::Result<Done> {
+    r.map(|()| Done::Met)
+}
+
+/// A command under `mpirun` (docs/design.md §9): rank 0 runs it with the cluster in its sweep
+/// options and stops the other ranks at the end (with its exit status); the others read the
+/// model and serve rank 0's frequency commands. A rank that cannot read the model still
+/// serves, answering with its error, so rank 0 reports it.
+fn on_ranks(cli: Cli, c: Arc<dyn Cluster>) -> sparsemor::Result<Done> {
+    let setup = match &cli.command {
+        Command::Sweep(a) => a.sweep_setup(),
+        Command::Reduce(a) => a.sweep_setup(),
+        Command::Evaluate(a) => Ok(a.sweep_setup()),
+        _ => Err(sparsemor::Error::InvalidSetting(
+            "under mpirun only `reduce --method linefit`, `sweep` and `evaluate` run \
+             distributed; run this command without mpirun"
+                .into(),
+        )),
+    };
+    // the same decision on every rank (same command line): no rank waits for another
+    let (model_path, opts) = setup?;
+    let (model_path, opts) = (model_path.to_path_buf(), opts);
+    if c.rank() == 0 {
+        let done = command(cli, Some(c.clone()));
+        let code = done.as_ref().map_or(1, |d| d.exit_code());
+        // the message before any rank exits: mpirun ends the job at the first non-zero exit
+        if let Err(e) = &done {
+            eprintln!("error: {e}");
+        }
+        sparsemor::distributed::stop(&*c, code);
+        return done.or(Ok(Done::Failed));
+    }
+    let model = sparsemor::io::model_dir::read(&model_path).map(|(m, _, _)| m);
+    let body = model
+        .as_ref()
+        .map_err(|e| e.to_string())
+        .and_then(|m| sparsemor::body::Body::new(m).map_err(|e| e.to_string()));
+    match sparsemor::distributed::serve(&*c, body.as_ref().map_err(|e| e.as_str()), &opts)? {
+        0 => Ok(Done::Met),
+        3 => Ok(Done::RequestNotMet),
+        _ => Ok(Done::Failed),
+    }
+}
+
+/// Runs one command; `cluster` for the commands that run distributed.
+fn command(cli: Cli, cluster: Option<Arc<dyn Cluster>>) -> sparsemor::Result<Done> {
     match cli.command {
         Command::Generate {
             kind,
@@ -148,9 +205,9 @@ pub fn run() -> sparsemor::Result<Done> {
             &out,
         )),
         Command::Info { model } => met(info::info(&model)),
-        Command::Sweep(args) => met(sweep::sweep(&args, cli.verbose)),
-        Command::Reduce(args) => reduce::reduce(&args),
-        Command::Evaluate(args) => met(evaluate::evaluate(&args)),
+        Command::Sweep(args) => met(sweep::sweep(&args, cli.verbose, cluster)),
+        Command::Reduce(args) => reduce::reduce(&args, cluster),
+        Command::Evaluate(args) => met(evaluate::evaluate(&args, cluster)),
         Command::Export(args) => met(export::export(&args)),
         Command::Modes(args) => met(modes::modes(&args)),
         Command::Demo { threads } => met(demo::demo(threads)),

@@ -6,12 +6,13 @@
 //! outside such a computation ends the process at once, as usual.
 
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
+use sparsemor::distributed::Cluster;
 use sparsemor::eigen::EigenProgress;
 use sparsemor::sweep::{Progress, ProgressFn};
 use sparsemor::Result;
 use std::io::IsTerminal;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 
 /// Set by Ctrl-C while a computation with a progress callback runs.
 static INTERRUPTED: AtomicBool = AtomicBool::new(false);
@@ -45,6 +46,12 @@ pub fn with_progress<T>(
     ACTIVE.fetch_sub(1, Ordering::SeqCst);
     pb.finish_and_clear();
     out
+}
+
+/// The steps of rank 0's bar for `n` frequencies: its own share, ⌈n/ranks⌉, when they are
+/// spread over the ranks of a cluster (the other ranks show no bar).
+pub fn rank0_share(n: usize, cluster: Option<&Arc<dyn Cluster>>) -> usize {
+    n.div_ceil(cluster.map_or(1, |c| c.size().max(1)))
 }
 
 /// A bar of `total` steps labelled `msg` on stderr, hidden when stderr is not a terminal.

@@ -3,8 +3,9 @@
 //! as a ROM directory; exit status 3 when a requested tolerance was not met.
 
 use super::args::parse_list;
-use super::progress::with_progress;
+use super::progress::{rank0_share, with_progress};
 use sparsemor::body::Body;
+use sparsemor::distributed::Cluster;
 use sparsemor::eigen::EigenOptions;
 use sparsemor::io::{model_dir, rom_dir};
 use sparsemor::reduce::craig_bampton::{self, CraigBamptonOptions};
@@ -14,8 +15,10 @@ use sparsemor::reduce::linefit::{
 use sparsemor::reduce::serep::{self, ModeChoice, SerepOptions};
 use sparsemor::reduce::Rom;
 use sparsemor::sweep::no_progress;
+use sparsemor::sweep::SweepOptions;
 use sparsemor::{Error, Result};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Instant;
 
 #[derive(clap::Args)]
@@ -75,7 +78,28 @@ pub struct ReduceArgs {
     out: PathBuf,
 }
 
-pub fn reduce(a: &ReduceArgs) -> Result<super::Done> {
+impl ReduceArgs {
+    /// The model directory and the sweep options of line-fitting (the same on every rank of a
+    /// distributed run), or why this reduction does not run distributed.
+    pub fn sweep_setup(&self) -> Result<(&Path, SweepOptions)> {
+        if self.method != "linefit" {
+            return Err(Error::InvalidSetting(format!(
+                "--method {}: only line-fitting runs distributed (its frequencies spread over \
+                 the ranks); run {} without mpirun",
+                self.method, self.method
+            )));
+        }
+        let opts = SweepOptions {
+            threads: self.threads,
+            probe_tol: self.probe_tol,
+            ..Default::default()
+        };
+        Ok((&self.model, opts))
+    }
+}
+
+/// `cluster`: the ranks line-fitting's frequencies are spread over (rank 0 runs this).
+pub fn reduce(a: &ReduceArgs, cluster: Option<Arc<dyn Cluster>>) -> Result<super::Done> {
     let model_dir::Loaded {
         model,
         scene,
@@ -119,15 +143,22 @@ pub fn reduce(a: &ReduceArgs) -> Result<super::Done> {
             };
             let mut opts = LineFitOptions::new(interface, references);
             opts.keep_basis = a.keep_basis;
-            opts.sweep.threads = a.threads;
-            opts.sweep.probe_tol = a.probe_tol;
+            let share = |n| rank0_share(n, cluster.as_ref());
+            opts.sweep = SweepOptions {
+                cluster: cluster.clone(),
+                ..a.sweep_setup()?.1
+            };
             let rom = match &opts.references {
-                References::Explicit(f) => with_progress(f.len(), "reference frequencies", |cb| {
-                    linefit::reduce(&body, &scene, &opts, None, cb)
-                })?,
-                References::Tolerance(s) => with_progress(s.max_points, "factorizations", |cb| {
-                    linefit::reduce(&body, &scene, &opts, None, cb)
-                })?,
+                References::Explicit(f) => {
+                    with_progress(share(f.len()), "reference frequencies", |cb| {
+                        linefit::reduce(&body, &scene, &opts, None, cb)
+                    })?
+                }
+                References::Tolerance(s) => {
+                    with_progress(share(s.max_points), "factorizations", |cb| {
+                        linefit::reduce(&body, &scene, &opts, None, cb)
+                    })?
+                }
                 References::Count(_) => linefit::reduce(&body, &scene, &opts, None, &no_progress)?,
             };
             if let Some(s) = rom.sampling() {

@@ -1,12 +1,14 @@
 //! `sparsemor sweep`: H, H1 or H0 on a band or a frequency list, written as CSV.
 
 use super::args::{linspace, parse_band, parse_list};
-use super::progress::with_progress;
+use super::progress::{rank0_share, with_progress};
+use sparsemor::distributed::Cluster;
 use sparsemor::io::{atomic, model_dir};
 use sparsemor::sweep::{transfer_function, Part, SweepOptions};
 use sparsemor::{Error, Result};
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 #[derive(clap::Args)]
 pub struct SweepArgs {
@@ -42,7 +44,31 @@ pub struct SweepArgs {
     out: PathBuf,
 }
 
-pub fn sweep(a: &SweepArgs, verbose: bool) -> Result<()> {
+/// The library's messages name the value; say which flag it came from.
+fn flag(flag: &str, e: Error) -> Error {
+    match e {
+        Error::InvalidSetting(m) => Error::InvalidSetting(format!("--{flag}: {m}")),
+        e => e,
+    }
+}
+
+impl SweepArgs {
+    /// The model directory and the sweep options (the same on every rank of a distributed
+    /// run).
+    pub fn sweep_setup(&self) -> Result<(&Path, SweepOptions)> {
+        let opts = SweepOptions {
+            threads: self.threads,
+            backend: self.backend.parse().map_err(|e| flag("backend", e))?,
+            memory_budget: self.memory_gb.map(|g| (g * 1e9) as usize),
+            probe_tol: self.probe_tol,
+            cluster: None,
+        };
+        Ok((&self.model, opts))
+    }
+}
+
+/// `cluster`: the ranks the frequencies are spread over (rank 0 runs this).
+pub fn sweep(a: &SweepArgs, verbose: bool, cluster: Option<Arc<dyn Cluster>>) -> Result<()> {
     let (model, scene, _) = model_dir::read(&a.model)?;
     let freqs = match (&a.freqs, &a.band) {
         (Some(f), _) => parse_list::<f64>(f, "--freqs")?,
@@ -58,20 +84,14 @@ pub fn sweep(a: &SweepArgs, verbose: bool) -> Result<()> {
             "sweep: no frequencies (--points must be >= 1)".into(),
         ));
     }
-    // The library's messages name the value; say which flag it came from.
-    let flag = |flag: &str, e: Error| match e {
-        Error::InvalidSetting(m) => Error::InvalidSetting(format!("--{flag}: {m}")),
-        e => e,
-    };
     let part: Part = a.part.parse().map_err(|e| flag("part", e))?;
+    let share = rank0_share(freqs.len(), cluster.as_ref());
     let opts = SweepOptions {
-        threads: a.threads,
-        backend: a.backend.parse().map_err(|e| flag("backend", e))?,
-        memory_budget: a.memory_gb.map(|g| (g * 1e9) as usize),
-        probe_tol: a.probe_tol,
+        cluster,
+        ..a.sweep_setup()?.1
     };
     let body = sparsemor::body::Body::new(&model)?;
-    let frf = with_progress(freqs.len(), "sweep", |cb| {
+    let frf = with_progress(share, "sweep", |cb| {
         transfer_function(&body, &scene, &freqs, part, false, &opts, cb)
     })?;
     write_frf_csv(&a.out, &frf.freqs_hz, &frf.h, &scene.outputs, &scene.inputs)?;
@@ -86,18 +106,24 @@ pub fn sweep(a: &SweepArgs, verbose: bool) -> Result<()> {
             let fs = &frf.freq_stats;
             let worst = fs.iter().map(|s| s.probe_error).fold(0.0, f64::max);
             let mean_factor = fs.iter().map(|s| s.factor_s).sum::<f64>() / fs.len().max(1) as f64;
+            let (min_factor, max_factor) =
+                fs.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), s| {
+                    (lo.min(s.factor_s), hi.max(s.factor_s))
+                });
             let refined = fs.iter().filter(|s| s.refinement_steps > 0).count();
             let steps: usize = fs.iter().map(|s| s.refinement_steps).sum();
             let pivoted = fs.iter().filter(|s| s.pivoted).count();
             eprintln!(
-                "backend {} ({}), symbolic {:.3} s, factor nnz {}, {:?}, mean factor {:.4} s, worst probe error {:.1e}, \
+                "backend {} ({}), symbolic {:.3} s, factor nnz {}, {:?}, factor min/mean/max {:.4}/{:.4}/{:.4} s, worst probe error {:.1e}, \
                  refined {refined} of {} frequencies ({steps} steps), {pivoted} handed to the pivoting LBLᵀ",
                 s.backend,
                 if s.real { "real" } else { "complex" },
                 s.seconds,
                 s.factor_nnz,
                 sch,
+                min_factor,
                 mean_factor,
+                max_factor,
                 worst,
                 fs.len()
             );

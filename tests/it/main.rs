@@ -5,6 +5,7 @@ mod cli;
 mod common;
 mod craig_bampton;
 mod dense;
+mod distributed;
 mod eigen;
 mod export;
 mod extremes;
@@ -17,6 +18,8 @@ mod linefit;
 mod lsq;
 mod matrix_market;
 mod model_dir;
+#[cfg(feature = "mpi")]
+mod mpi;
 mod report;
 mod rigid_elastic;
 mod sampling;

@@ -36,18 +36,18 @@
 //! memory while max_points · N · p · 16 bytes fits `snapshot_memory` (default a quarter of the
 //! available memory), else every snapshot is spilled to a temporary file and streamed back.
 
-use super::fit::{check_rows, Partition, Worker};
+use super::fit::{check_rows, Partition};
 use super::indicator::Indicator;
 use super::options::{Growth, LineFitOptions, SamplingOptions};
 use super::report::{Outcome, SamplingReport, Step, Verified};
-use super::snapshots::SnapshotStore;
 use crate::body::Body;
+use crate::distributed::{Engine, Keep};
 use crate::lsq::StreamedQr;
 use crate::reduce::rom::{Provenance, Rom, Timing};
 use crate::scene::{positive_band, Scene};
-use crate::sweep::{ProgressFn, Response, Solver};
+use crate::sweep::{ProgressFn, Response};
 use crate::{Error, Result};
-use faer::{c64, Mat, MatRef};
+use faer::{c64, Mat};
 use std::time::Instant;
 
 /// What [`Loop::refine`] decided.
@@ -67,8 +67,12 @@ struct Loop<'a> {
     opts: &'a LineFitOptions,
     sampling: &'a SamplingOptions,
     progress: ProgressFn<'a>,
-    solver: Solver<'a>,
+    /// Solves the frequencies (here or over the ranks) and keeps the snapshots.
+    engine: Engine<'a>,
+    /// Whether the snapshots are kept (only when the order may grow).
+    keep: Keep,
     part: Partition,
+    /// Frequencies solved per step: the threads of every rank.
     threads: usize,
     max_order: usize,
     candidates: Vec<f64>,
@@ -76,7 +80,6 @@ struct Loop<'a> {
     sampled: Vec<f64>,
     /// H1 at the outputs of every sampled frequency.
     sampled_h1: Vec<(f64, Mat<c64>)>,
-    store: Option<SnapshotStore>,
     qr: StreamedQr,
     rom: Rom,
     steps: Vec<Step>,
@@ -116,9 +119,6 @@ pub(super) fn reduce(
     state.report(outcome)
 }
 
-/// A merged QR state and the snapshots (frequency, X) it absorbed.
-type Solved = (StreamedQr, Vec<(f64, Mat<c64>)>);
-
 impl<'a> Loop<'a> {
     /// Checks the settings, solves the seed frequencies and fits the first ROM.
     fn seed(
@@ -139,8 +139,12 @@ impl<'a> Loop<'a> {
         let band = positive_band(scene.band_hz);
         let part = Partition::new(body, scene, &opts.interface)?;
         let p = scene.inputs.len();
-        let solver = Solver::new(body, &scene.inputs, Response::Elastic, &opts.sweep)?;
-        let threads = opts.sweep.resolved_threads();
+        let mut engine = Engine::new(body, &opts.sweep);
+        if engine.ranks() > 1 && sampling.growth == Growth::QDeim {
+            // refused before any work: the snapshots of a distributed run stay on their ranks
+            engine.qdeim_next(&part.interface)?;
+        }
+        let threads = engine.concurrency();
         let max_order = sampling
             .max_order
             .unwrap_or_else(|| {
@@ -163,28 +167,35 @@ impl<'a> Loop<'a> {
             )));
         }
         check_rows(p, sampled.len(), part.order())?;
-        let mut store = if max_order > part.order() {
+        // each rank keeps the snapshots it solved: about max_points / ranks of them, in a
+        // budget shared by the ranks of a machine
+        let keep = if max_order > part.order() {
             let budget = sampling
                 .snapshot_memory
-                .unwrap_or_else(|| crate::memory::default_budget(4));
-            Some(SnapshotStore::new(
-                sampling.max_points.saturating_mul(body.n() * p * 16) > budget,
-            )?)
+                .unwrap_or_else(|| crate::memory::default_budget(4) / engine.node_ranks());
+            let kept = sampling.max_points.div_ceil(engine.ranks());
+            if kept.saturating_mul(body.n() * p * 16) > budget {
+                Keep::Spill
+            } else {
+                Keep::Memory
+            }
         } else {
-            None
+            Keep::No
         };
         let nc = sampling.candidates.max(3);
         let candidates: Vec<f64> = (0..nc)
             .map(|k| band[0] + (band[1] - band[0]) * k as f64 / (nc - 1) as f64)
             .collect();
-        let (qr, new) = solve_and_absorb(&solver, &part, &sampled, progress)?;
-        let sampled_h1 = new
-            .iter()
-            .map(|(f, x)| (*f, h1_at(&scene.outputs, x.as_ref())))
-            .collect();
-        if let Some(s) = store.as_mut() {
-            s.extend(new.into_iter().map(|(_, x)| x))?;
-        }
+        let absorbed = engine.absorb(
+            &part,
+            &scene.inputs,
+            &scene.outputs,
+            &sampled,
+            keep,
+            progress,
+        )?;
+        let qr = absorbed.qr;
+        let sampled_h1 = sampled.iter().copied().zip(absorbed.h).collect();
         let steps = vec![Step {
             order: part.order(),
             points_hz: sampled.clone(),
@@ -195,21 +206,21 @@ impl<'a> Loop<'a> {
             seconds: start.elapsed().as_secs_f64(),
             action: "seed".into(),
         }];
-        let rom = part.finish(body, scene, &qr, &opts.lsq, &sampled, solver.accuracy())?;
+        let rom = part.finish(body, scene, &qr, &opts.lsq, &sampled, engine.accuracy())?;
         Ok(Loop {
             body,
             scene,
             opts,
             sampling,
             progress,
-            solver,
+            engine,
+            keep,
             part,
             threads,
             max_order,
             candidates,
             sampled,
             sampled_h1,
-            store,
             qr,
             rom,
             steps,
@@ -229,7 +240,7 @@ impl<'a> Loop<'a> {
             &self.qr,
             &self.opts.lsq,
             &self.sampled,
-            self.solver.accuracy(),
+            self.engine.accuracy(),
         )?;
         Ok(())
     }
@@ -261,12 +272,19 @@ impl<'a> Loop<'a> {
         if used + picks.len() > self.sampling.max_points {
             return Ok(Next::Stop(Outcome::Budget));
         }
-        let (more, new) = solve_and_absorb(&self.solver, &self.part, &picks, self.progress)?;
-        let outputs = &self.scene.outputs;
+        let absorbed = self.engine.absorb(
+            &self.part,
+            &self.scene.inputs,
+            &self.scene.outputs,
+            &picks,
+            self.keep,
+            self.progress,
+        )?;
         let rom = &self.rom;
-        let true_error = new
+        let true_error = picks
             .iter()
-            .map(|(f, x)| rel_err(rom, *f, &h1_at(outputs, x.as_ref())))
+            .zip(&absorbed.h)
+            .map(|(f, h)| rel_err(rom, *f, h))
             .fold(0.0, f64::max);
         let sampled_error = self
             .sampled_h1
@@ -303,13 +321,10 @@ impl<'a> Loop<'a> {
             return Ok(Next::Stop(Outcome::Converged));
         }
         let qr = std::mem::replace(&mut self.qr, StreamedQr::new(0, 0));
-        self.qr = qr.merge(more)?;
+        self.qr = qr.merge(absorbed.qr)?;
         self.sampled_h1
-            .extend(new.iter().map(|(f, x)| (*f, h1_at(outputs, x.as_ref()))));
+            .extend(picks.iter().copied().zip(absorbed.h));
         self.sampled.extend(picks.iter().copied());
-        if let Some(s) = self.store.as_mut() {
-            s.extend(new.into_iter().map(|(_, x)| x))?;
-        }
         let errors: Vec<f64> = self
             .steps
             .iter()
@@ -357,17 +372,17 @@ impl<'a> Loop<'a> {
     /// Grows the interface by one DoF ([`Growth`]) and refits the QR state from the kept
     /// snapshots.
     fn grow(&mut self) -> Result<()> {
-        let store = self.store.as_mut().ok_or_else(|| {
-            Error::InvalidSetting("the interface may not grow: no snapshots were kept".into())
-        })?;
+        if self.keep == Keep::No {
+            return Err(Error::InvalidSetting(
+                "the interface may not grow: no snapshots were kept".into(),
+            ));
+        }
         let d = match self.sampling.growth {
             Growth::Residual => self.rom.fit().map(|f| f.residual_argmax_dof).unwrap_or(0),
-            Growth::QDeim => store.qdeim_next(&self.part.interface)?,
+            Growth::QDeim => self.engine.qdeim_next(&self.part.interface)?,
         };
         self.part = self.part.grown(self.body, self.scene, d)?;
-        let mut w = self.part.worker(self.scene.inputs.len());
-        store.for_each(|x| self.part.absorb(&mut w, x))?;
-        self.qr = w.qr;
+        self.qr = self.engine.regrow(&self.part, self.scene.inputs.len())?;
         let factorizations = self
             .last_used
             .max(self.steps.last().map(|s| s.factorizations).unwrap_or(0));
@@ -396,7 +411,7 @@ impl<'a> Loop<'a> {
     /// [`Outcome::Confirmed`]. Measured on the paper bar at tol 1e-4 with the budget ending
     /// right after the first step within tol: best ROM 6.98e-6, verification 6.98e-6, the
     /// independent 2000-point maximum 6.98e-6 (before, the report read "NOT reached").
-    fn report(self, outcome: Outcome) -> Result<Rom> {
+    fn report(mut self, outcome: Outcome) -> Result<Rom> {
         let factorizations = self.steps.last().map(|s| s.factorizations).unwrap_or(0);
         let (error, mut rom) = match (outcome == Outcome::Converged, self.best) {
             (true, _) => {
@@ -422,21 +437,20 @@ impl<'a> Loop<'a> {
                     _ => band[0] + (band[1] - band[0]) * k as f64 / (points - 1) as f64,
                 })
                 .collect();
-            let outputs = &self.scene.outputs;
-            let (errors, _) = self.solver.run(
+            let (h1, _) = self.engine.respond(
+                Response::Elastic,
+                &self.scene.inputs,
+                &self.scene.outputs,
                 &freqs,
-                || 0.0f64,
-                |worst: &mut f64, snap| {
-                    let h1 = h1_at(outputs, snap.x);
-                    *worst = worst.max(rel_err(&rom, snap.freq_hz, &h1));
-                    Ok(())
-                },
+                false,
                 self.progress,
             )?;
-            Some(Verified {
-                points,
-                error: errors.into_iter().fold(0.0, f64::max),
-            })
+            let error = freqs
+                .iter()
+                .zip(&h1)
+                .map(|(&f, h)| rel_err(&rom, f, h))
+                .fold(0.0, f64::max);
+            Some(Verified { points, error })
         } else {
             None
         };
@@ -455,10 +469,10 @@ impl<'a> Loop<'a> {
             error,
             verified,
             factorizations,
-            spilled: self.store.as_ref().is_some_and(|s| s.spilled()),
+            spilled: self.engine.spilled(),
         };
         if let Provenance::LineFit { sampling, fit, .. } = &mut rom.provenance {
-            fit.solves = self.solver.accuracy(); // every solve, the verification's too
+            fit.solves = self.engine.accuracy(); // every solve, the verification's too
             *sampling = Some(report);
         }
         if !self.opts.keep_basis {
@@ -472,44 +486,9 @@ impl<'a> Loop<'a> {
     }
 }
 
-/// H1 at the outputs from a full-state snapshot.
-fn h1_at(outputs: &[usize], x: MatRef<'_, c64>) -> Mat<c64> {
-    Mat::from_fn(outputs.len(), x.ncols(), |o, j| x[(outputs[o], j)])
-}
-
 /// ‖H1 − Hr‖_F / ‖H1‖_F at f.
 fn rel_err(rom: &Rom, f: f64, h1: &Mat<c64>) -> f64 {
     (h1 - rom.transfer(f)).norm_l2() / h1.norm_l2()
-}
-
-/// Solves at `freqs`, absorbs into fresh worker states (merged), and returns the snapshots.
-fn solve_and_absorb(
-    solver: &Solver<'_>,
-    part: &Partition,
-    freqs: &[f64],
-    progress: ProgressFn<'_>,
-) -> Result<Solved> {
-    let p = solver.inputs().len();
-    type State = (Worker, Vec<(usize, f64, Mat<c64>)>);
-    let (states, _) = solver.run(
-        freqs,
-        || (part.worker(p), Vec::new()),
-        |s: &mut State, snap| {
-            part.absorb(&mut s.0, snap.x)?;
-            s.1.push((snap.index, snap.freq_hz, snap.x.to_owned()));
-            Ok(())
-        },
-        progress,
-    )?;
-    let mut snaps = Vec::new();
-    let mut workers = Vec::new();
-    for (w, s) in states {
-        workers.push(w);
-        snaps.extend(s);
-    }
-    snaps.sort_by_key(|t| t.0);
-    let qr = part.merge(workers, None)?;
-    Ok((qr, snaps.into_iter().map(|(_, f, x)| (f, x)).collect()))
 }
 
 /// Whether a frequency is a sampled one or a grid neighbour of one (within 1.01 grid steps).

@@ -18,7 +18,7 @@ use faer::{c64, Mat, MatRef};
 use std::time::Instant;
 
 /// The interface/rest split of the DoFs and the per-frequency blocks of eq. 22.
-pub(super) struct Partition {
+pub(crate) struct Partition {
     /// Interface DoFs I (ROM coordinates, in this order).
     pub interface: Vec<usize>,
     /// The other DoFs R, ascending.
@@ -26,7 +26,7 @@ pub(super) struct Partition {
 }
 
 /// One worker's streamed QR and its reusable block buffers.
-pub(super) struct Worker {
+pub(crate) struct Worker {
     pub qr: StreamedQr,
     g: Mat<f64>,
     f: Mat<f64>,
@@ -45,12 +45,17 @@ impl Partition {
                 "output DoF {o} is not in the interface: line-fitting keeps the outputs as ROM coordinates (V = [I; W]); add it to the interface"
             )));
         }
+        Ok(Partition::from_interface(n_full, interface))
+    }
+
+    /// The split for a checked interface of an N-DoF body.
+    pub fn from_interface(n_full: usize, interface: Vec<usize>) -> Self {
         let mut is_interface = vec![false; n_full];
         for &d in &interface {
             is_interface[d] = true;
         }
         let rest = (0..n_full).filter(|&d| !is_interface[d]).collect();
-        Ok(Partition { interface, rest })
+        Partition { interface, rest }
     }
 
     /// The same split with one more interface DoF `d` appended.

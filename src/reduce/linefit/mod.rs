@@ -18,12 +18,12 @@
 //! for interface growth in `snapshots.rs`).
 
 mod adaptive;
-mod fit;
+pub(crate) mod fit;
 pub mod indicator;
 mod options;
 mod placement;
 pub(crate) mod report;
-mod snapshots;
+pub(crate) mod snapshots;
 
 pub use indicator::Indicator;
 pub use options::{Growth, Interface, LineFitOptions, References, SamplingOptions};
@@ -31,12 +31,13 @@ pub use placement::{place_reference_frequencies, spread_dofs, RESONANCE_OFFSET};
 pub use report::{Outcome, SamplingReport, Step, Verified};
 
 use crate::body::Body;
+use crate::distributed::{Engine, Keep};
 use crate::eigen::{eigenpairs, EigenOptions, Modes, Request};
 use crate::reduce::rom::{Rom, Timing};
 use crate::scene::{check_dofs, Scene};
-use crate::sweep::{ProgressFn, Response, Solver};
+use crate::sweep::{ProgressFn, Response};
 use crate::{Error, Result};
-use fit::{check_rows, Partition, Worker};
+use fit::{check_rows, Partition};
 use std::time::Instant;
 
 /// Reduces the body by line-fitting for the scene's unit loads and outputs.
@@ -103,19 +104,25 @@ fn fixed(
     check_rows(p, freqs.len(), part.order())?;
 
     let t_sweep = Instant::now();
-    let solver = Solver::new(body, &scene.inputs, Response::Elastic, &opts.sweep)?;
-    let (workers, _) = solver.run(
+    let mut engine = Engine::new(body, &opts.sweep);
+    let absorbed = engine.absorb(
+        &part,
+        &scene.inputs,
+        &scene.outputs,
         freqs,
-        || part.worker(p),
-        |w: &mut Worker, snap| part.absorb(w, snap.x),
+        Keep::No,
         progress,
     )?;
     let sweep_s = t_sweep.elapsed().as_secs_f64();
-    let absorb_s: f64 = workers.iter().map(|w| w.absorb_s).sum();
+    let gather_s = engine.gather_seconds();
+    let absorb_s = absorbed.absorb_s;
+    let symbolic_s = engine
+        .local_stats(Response::Elastic, &scene.inputs, freqs.len())
+        .map_or(0.0, |(s, _)| s.seconds);
 
     let t_fit = Instant::now();
-    let qr = part.merge(workers, None)?;
-    let mut rom = part.finish(body, scene, &qr, &opts.lsq, freqs, solver.accuracy())?;
+    let qr = absorbed.qr;
+    let mut rom = part.finish(body, scene, &qr, &opts.lsq, freqs, engine.accuracy())?;
     drop(qr);
     let fit_s = t_fit.elapsed().as_secs_f64();
     if !opts.keep_basis {
@@ -124,7 +131,7 @@ fn fixed(
     rom.timings = vec![
         Timing {
             phase: "symbolic".into(),
-            seconds: solver.symbolic_stats().seconds,
+            seconds: symbolic_s,
         },
         Timing {
             phase: "sweep (factor + solve + absorb)".into(),
@@ -139,5 +146,14 @@ fn fixed(
             seconds: fit_s,
         },
     ];
+    if engine.ranks() > 1 {
+        rom.timings.insert(
+            2,
+            Timing {
+                phase: "gather (rank 0: wait for the ranks, receive, TSQR merge)".into(),
+                seconds: gather_s,
+            },
+        );
+    }
     Ok(rom)
 }

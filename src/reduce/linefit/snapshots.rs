@@ -24,7 +24,7 @@ use std::path::PathBuf;
 const BLOCK_ROWS: usize = 4096;
 
 /// Snapshots (N × p, complex) in memory or in a temporary file (removed on drop).
-pub(super) enum SnapshotStore {
+pub(crate) enum SnapshotStore {
     Memory(Vec<Mat<c64>>),
     File {
         path: PathBuf,

@@ -1,0 +1,386 @@
+//! The frequency engine behind line-fitting, the transfer functions and the sampling loop's
+//! verification: one set of calls, carried out in this process or over the ranks of a
+//! [`Cluster`](super::Cluster) (docs/design.md §9).
+
+use super::protocol::{gather, Command, Keep, Reply};
+use super::Cluster;
+use crate::body::Body;
+use crate::factor::SymbolicStats;
+use crate::lsq::StreamedQr;
+use crate::reduce::linefit::fit::{Partition, Worker};
+use crate::reduce::linefit::snapshots::SnapshotStore;
+use crate::sweep::{
+    FreqStats, ProgressFn, Response, Schedule, SolveAccuracy, Solver, SweepOptions,
+};
+use crate::{Error, Result};
+use faer::{c64, Mat, MatRef};
+use std::sync::Arc;
+
+/// Solves frequencies for one body: in this process, or — when the options carry a
+/// [`Cluster`] of more than one rank — on every rank, each taking its share.
+pub(crate) struct Engine<'a> {
+    body: &'a Body<'a>,
+    opts: SweepOptions,
+    /// This rank's solvers, one per (response, inputs), built on first use.
+    solvers: Vec<(Response, Vec<usize>, Solver<'a>)>,
+    /// This rank's kept snapshots (line-fitting with interface growth).
+    store: Option<SnapshotStore>,
+    /// Every frequency solved through this engine, on every rank.
+    accuracy: SolveAccuracy,
+    /// Seconds rank 0 spent receiving and merging the other ranks' answers.
+    gather_s: f64,
+}
+
+/// What [`Engine::absorb`] returns.
+pub(crate) struct Absorbed {
+    /// The streamed QR of every absorbed frequency.
+    pub qr: StreamedQr,
+    /// X at the outputs, in the order of the frequencies.
+    pub h: Vec<Mat<c64>>,
+    /// Seconds spent absorbing (summed over workers and ranks).
+    pub absorb_s: f64,
+}
+
+/// X at `rows` of a snapshot.
+fn rows_of(rows: &[usize], x: MatRef<'_, c64>) -> Mat<c64> {
+    Mat::from_fn(rows.len(), x.ncols(), |o, j| x[(rows[o], j)])
+}
+
+impl<'a> Engine<'a> {
+    /// An engine for `body` with the sweep options of the run (and their cluster, if any). On
+    /// a cluster the ranks of a machine share its cores and memory: the default thread count
+    /// and memory budget are divided by their number.
+    pub fn new(body: &'a Body<'a>, opts: &SweepOptions) -> Self {
+        let mut opts = opts.clone();
+        if let Some(c) = opts.cluster.clone().filter(|c| c.size() > 1) {
+            let node = c.node_size().max(1);
+            if opts.memory_budget.is_none() {
+                opts.memory_budget = Some(crate::memory::default_budget(2) / node);
+            }
+            if opts.threads == 0 {
+                opts.threads = (crate::sweep::resolve_threads(0) / node).max(1);
+            }
+        }
+        Engine {
+            body,
+            opts,
+            solvers: Vec::new(),
+            store: None,
+            accuracy: SolveAccuracy::default(),
+            gather_s: 0.0,
+        }
+    }
+
+    /// The cluster, when there is more than one rank.
+    fn cluster(&self) -> Option<Arc<dyn Cluster>> {
+        self.opts.cluster.clone().filter(|c| c.size() > 1)
+    }
+
+    /// Number of ranks the frequencies are spread over.
+    pub fn ranks(&self) -> usize {
+        self.cluster().map_or(1, |c| c.size())
+    }
+
+    /// Seconds rank 0 spent waiting for, receiving and merging the other ranks' answers (0 in
+    /// one process).
+    pub fn gather_seconds(&self) -> f64 {
+        self.gather_s
+    }
+
+    /// Frequencies solved at once: this rank's threads times the ranks.
+    pub fn concurrency(&self) -> usize {
+        self.opts.resolved_threads() * self.ranks()
+    }
+
+    /// Number of ranks on this machine (sharing its memory).
+    pub fn node_ranks(&self) -> usize {
+        self.cluster().map_or(1, |c| c.node_size().max(1))
+    }
+
+    /// The accuracy of every factorization so far, on every rank.
+    pub fn accuracy(&self) -> SolveAccuracy {
+        self.accuracy
+    }
+
+    /// This rank's solver for (response, inputs).
+    fn solver(&mut self, response: Response, inputs: &[usize]) -> Result<&Solver<'a>> {
+        let i = match self
+            .solvers
+            .iter()
+            .position(|(r, i, _)| *r == response && i == inputs)
+        {
+            Some(i) => i,
+            None => {
+                let s = Solver::new(self.body, inputs, response, &self.opts)?;
+                self.solvers.push((response, inputs.to_vec(), s));
+                self.solvers.len() - 1
+            }
+        };
+        Ok(&self.solvers[i].2)
+    }
+
+    /// This rank's symbolic analysis and the schedule of `n_freqs` frequencies, once the
+    /// solver of (response, inputs) was used.
+    pub fn local_stats(
+        &self,
+        response: Response,
+        inputs: &[usize],
+        n_freqs: usize,
+    ) -> Option<(SymbolicStats, Schedule)> {
+        let per_rank = n_freqs.div_ceil(self.ranks());
+        self.solvers
+            .iter()
+            .find(|(r, i, _)| *r == response && i == inputs)
+            .map(|(_, _, s)| (s.symbolic_stats().clone(), s.schedule(per_rank)))
+    }
+
+    /// Whether this rank's kept snapshots are in a temporary file.
+    pub fn spilled(&self) -> bool {
+        self.store.as_ref().is_some_and(|s| s.spilled())
+    }
+
+    /// Runs `cmd` on every rank and returns the combined answer (sorted by frequency index).
+    fn execute(&mut self, cmd: Command, progress: ProgressFn<'_>) -> Result<Reply> {
+        let reply = match self.cluster() {
+            None => self.run_share(&cmd, 0, 1, progress)?,
+            Some(c) => {
+                c.broadcast(cmd.encode());
+                let mine = self.run_share(&cmd, 0, c.size(), progress);
+                let t = std::time::Instant::now();
+                let all = gather(&*c, mine)?.ok_or_else(|| {
+                    Error::Distributed("rank 0 got no answer from the tree".into())
+                })?;
+                self.gather_s += t.elapsed().as_secs_f64();
+                all
+            }
+        };
+        for (_, s) in &reply.stats {
+            self.accuracy.add(s);
+        }
+        Ok(reply.sorted())
+    }
+
+    /// Solves the elastic response at `freqs` and absorbs it into the streamed QR of `part`
+    /// (eq. 22); keeps the snapshots on their rank when `keep` says so.
+    pub fn absorb(
+        &mut self,
+        part: &Partition,
+        inputs: &[usize],
+        outputs: &[usize],
+        freqs: &[f64],
+        keep: Keep,
+        progress: ProgressFn<'_>,
+    ) -> Result<Absorbed> {
+        let cmd = Command::Absorb {
+            inputs: inputs.to_vec(),
+            outputs: outputs.to_vec(),
+            interface: part.interface.clone(),
+            freqs: freqs.to_vec(),
+            keep,
+        };
+        let r = self.execute(cmd, progress)?;
+        Ok(Absorbed {
+            qr: r
+                .qr
+                .unwrap_or_else(|| StreamedQr::new(part.interface.len(), part.rest.len())),
+            h: r.x.into_iter().map(|t| t.1).collect(),
+            absorb_s: r.absorb_s,
+        })
+    }
+
+    /// The streamed QR of every kept snapshot for the grown interface of `part`.
+    pub fn regrow(&mut self, part: &Partition, inputs: usize) -> Result<StreamedQr> {
+        let cmd = Command::Regrow {
+            inputs,
+            interface: part.interface.clone(),
+        };
+        let r = self.execute(cmd, &crate::sweep::no_progress)?;
+        Ok(r.qr.unwrap_or_else(|| StreamedQr::new(part.interface.len(), part.rest.len())))
+    }
+
+    /// The next interface DoF by Q-DEIM over the kept snapshots (one process only: the
+    /// snapshots of a distributed run stay on their ranks).
+    pub fn qdeim_next(&mut self, interface: &[usize]) -> Result<usize> {
+        if self.ranks() > 1 {
+            return Err(Error::InvalidSetting(
+                "growth qdeim needs every snapshot in one process; a distributed run keeps them \
+                 on their ranks: use growth residual"
+                    .into(),
+            ));
+        }
+        self.store
+            .as_mut()
+            .ok_or_else(|| {
+                Error::InvalidSetting("the interface may not grow: no snapshots were kept".into())
+            })?
+            .qdeim_next(interface)
+    }
+
+    /// X at `outputs` (all of X when `full`) for `response` at `freqs`, in their order, with
+    /// the per-frequency measurements.
+    pub fn respond(
+        &mut self,
+        response: Response,
+        inputs: &[usize],
+        outputs: &[usize],
+        freqs: &[f64],
+        full: bool,
+        progress: ProgressFn<'_>,
+    ) -> Result<(Vec<Mat<c64>>, Vec<FreqStats>)> {
+        let cmd = Command::Respond {
+            response,
+            inputs: inputs.to_vec(),
+            outputs: outputs.to_vec(),
+            freqs: freqs.to_vec(),
+            full,
+        };
+        let r = self.execute(cmd, progress)?;
+        Ok((
+            r.x.into_iter().map(|t| t.1).collect(),
+            r.stats.into_iter().map(|t| t.1).collect(),
+        ))
+    }
+
+    /// Carries out `cmd` on this rank's share (frequencies k ≡ rank mod size).
+    pub(super) fn run_share(
+        &mut self,
+        cmd: &Command,
+        rank: usize,
+        size: usize,
+        progress: ProgressFn<'_>,
+    ) -> Result<Reply> {
+        let share = |freqs: &[f64]| -> (Vec<usize>, Vec<f64>) {
+            (0..freqs.len())
+                .filter(|k| k % size == rank)
+                .map(|k| (k, freqs[k]))
+                .unzip()
+        };
+        match cmd {
+            Command::Absorb {
+                inputs,
+                outputs,
+                interface,
+                freqs,
+                keep,
+            } => {
+                let (index, mine) = share(freqs);
+                if mine.is_empty() {
+                    return Ok(Reply::default());
+                }
+                let part = Partition::from_interface(self.body.n(), interface.clone());
+                if *keep != Keep::No && self.store.is_none() {
+                    self.store = Some(SnapshotStore::new(*keep == Keep::Spill)?);
+                }
+                let p = inputs.len();
+                let keep_x = *keep != Keep::No;
+                type State = (Worker, Vec<(usize, Mat<c64>)>);
+                let solver = self.solver(Response::Elastic, inputs)?;
+                let (states, stats) = solver.run(
+                    &mine,
+                    || (part.worker(p), Vec::new()),
+                    |s: &mut State, snap| {
+                        part.absorb(&mut s.0, snap.x)?;
+                        let x = if keep_x {
+                            snap.x.to_owned()
+                        } else {
+                            rows_of(outputs, snap.x)
+                        };
+                        s.1.push((snap.index, x));
+                        Ok(())
+                    },
+                    progress,
+                )?;
+                let mut xs = Vec::new();
+                let mut workers = Vec::new();
+                for (w, x) in states {
+                    workers.push(w);
+                    xs.extend(x);
+                }
+                xs.sort_by_key(|t| t.0);
+                let absorb_s = workers.iter().map(|w| w.absorb_s).sum();
+                let qr = if workers.is_empty() {
+                    None
+                } else {
+                    Some(part.merge(workers, None)?)
+                };
+                let h = xs
+                    .iter()
+                    .map(|(k, x)| {
+                        let h = if keep_x {
+                            rows_of(outputs, x.as_ref())
+                        } else {
+                            x.clone()
+                        };
+                        (index[*k], h)
+                    })
+                    .collect();
+                if let (true, Some(store)) = (keep_x, self.store.as_mut()) {
+                    store.extend(xs.into_iter().map(|t| t.1))?;
+                }
+                Ok(Reply {
+                    qr,
+                    x: h,
+                    stats: stats
+                        .into_iter()
+                        .enumerate()
+                        .map(|(k, s)| (index[k], s))
+                        .collect(),
+                    absorb_s,
+                })
+            }
+            Command::Regrow { inputs, interface } => {
+                let part = Partition::from_interface(self.body.n(), interface.clone());
+                let mut w = part.worker(*inputs);
+                if let Some(store) = self.store.as_mut() {
+                    store.for_each(|x| part.absorb(&mut w, x))?;
+                }
+                Ok(Reply {
+                    absorb_s: w.absorb_s,
+                    qr: Some(w.qr),
+                    ..Reply::default()
+                })
+            }
+            Command::Respond {
+                response,
+                inputs,
+                outputs,
+                freqs,
+                full,
+            } => {
+                let (index, mine) = share(freqs);
+                if mine.is_empty() {
+                    return Ok(Reply::default());
+                }
+                let solver = self.solver(*response, inputs)?;
+                type Acc = Vec<(usize, Mat<c64>)>;
+                let (states, stats) = solver.run(
+                    &mine,
+                    Acc::new,
+                    |acc: &mut Acc, snap| {
+                        let x = if *full {
+                            snap.x.to_owned()
+                        } else {
+                            rows_of(outputs, snap.x)
+                        };
+                        acc.push((index[snap.index], x));
+                        Ok(())
+                    },
+                    progress,
+                )?;
+                Ok(Reply {
+                    qr: None,
+                    x: states.into_iter().flatten().collect(),
+                    stats: stats
+                        .into_iter()
+                        .enumerate()
+                        .map(|(k, s)| (index[k], s))
+                        .collect(),
+                    absorb_s: 0.0,
+                })
+            }
+            Command::Stop { .. } => Err(Error::Distributed(
+                "stop is not a unit of work (it ends serve)".into(),
+            )),
+        }
+    }
+}
