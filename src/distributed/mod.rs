@@ -4,9 +4,9 @@
 //! Frequencies are independent and the streamed-QR states of line-fitting merge as a TSQR
 //! tree (§3.3), so a run spreads its frequencies over the ranks. Rank 0 runs the library call
 //! (the fit, the sampling loop's decisions, the projection, the output); the other ranks
-//! [`serve`]: each [`Engine`] call of rank 0 is one command ([`protocol::Command`]) that every
-//! rank carries out on its share — rank r takes the frequencies k ≡ r (mod ranks) — and the
-//! answers combine up a binary tree to rank 0 ([`protocol::gather`]):
+//! [`serve`]: each frequency call of rank 0's engine (`Engine`) is one command (`protocol.rs`)
+//! that every rank carries out on its share — rank r takes the frequencies k ≡ r (mod ranks) —
+//! and the answers combine up a binary tree to rank 0 (`gather`):
 //!
 //! ```text
 //! line-fitting   each rank: its frequencies → its streamed QR (R n×n, Y n×(N−n), e N−n)
@@ -23,9 +23,9 @@
 //! rank ([`Error::Remote`]) and tells every rank to stop with the same exit code ([`stop`]). No
 //! rank waits for an answer that will not come. A rank that dies (killed, out of memory) ends
 //! the job through the MPI launcher, which stops every rank of a job when one exits without
-//! finalizing MPI; a panic calls `MPI_Abort` ([`mpi::abort`]).
+//! finalizing MPI; a panic calls `MPI_Abort` (`mpi::abort`, feature `mpi`).
 //!
-//! The transport is the small [`Cluster`] trait: MPI with cargo feature `mpi` ([`mpi`]), or
+//! The transport is the small [`Cluster`] trait: MPI with cargo feature `mpi` (`mpi.rs`), or
 //! anything else that can broadcast and send bytes (the tests use threads).
 
 mod engine;

@@ -135,6 +135,15 @@ fn on_ranks<T: Send>(
     })
 }
 
+/// [`on_ranks`] with default sweep options, every rank reading the model.
+fn on_all<T: Send>(
+    model: &Model,
+    size: usize,
+    work: impl FnOnce(&Body<'_>, SweepOptions) -> sparsemor::Result<T> + Send,
+) -> (sparsemor::Result<T>, Vec<i32>) {
+    on_ranks(model, size, &SweepOptions::default(), |_| true, work)
+}
+
 fn paper_bar() -> (Model, Scene) {
     let spec = BoxSpec::paper_bar();
     (bar_model(&spec).unwrap(), paper_scene(&spec))
@@ -244,19 +253,13 @@ fn sampling_loop_over_ranks_meets_its_tolerance() {
 #[test]
 fn qdeim_growth_over_ranks_is_refused_up_front() {
     let (model, scene) = paper_bar();
-    let (r, _) = on_ranks(
-        &model,
-        2,
-        &SweepOptions::default(),
-        |_| true,
-        |body, sweep| {
-            let mut s = SamplingOptions::new(1e-3);
-            s.growth = Growth::QDeim;
-            let mut o = LineFitOptions::new(Interface::OutputsPlus(5), References::Tolerance(s));
-            o.sweep = sweep;
-            linefit::reduce(body, &scene, &o, None, &no_progress)
-        },
-    );
+    let (r, _) = on_all(&model, 2, |body, sweep| {
+        let mut s = SamplingOptions::new(1e-3);
+        s.growth = Growth::QDeim;
+        let mut o = LineFitOptions::new(Interface::OutputsPlus(5), References::Tolerance(s));
+        o.sweep = sweep;
+        linefit::reduce(body, &scene, &o, None, &no_progress)
+    });
     match r {
         Err(Error::InvalidSetting(m)) => assert!(m.contains("growth residual"), "{m}"),
         other => panic!("expected a refusal, got {:?}", other.map(|r| r.order())),
@@ -297,23 +300,17 @@ fn singular_at_1_hz() -> (Model, Scene) {
 fn a_failing_rank_fails_the_run_with_its_error() {
     let (model, scene) = singular_at_1_hz();
     // frequency k goes to rank k mod ranks: 1 Hz (index 1) to rank 1
-    let (r, codes) = on_ranks(
-        &model,
-        2,
-        &SweepOptions::default(),
-        |_| true,
-        |body, sweep| {
-            transfer_function(
-                body,
-                &scene,
-                &[0.5, 1.0],
-                Part::Total,
-                false,
-                &sweep,
-                &no_progress,
-            )
-        },
-    );
+    let (r, codes) = on_all(&model, 2, |body, sweep| {
+        transfer_function(
+            body,
+            &scene,
+            &[0.5, 1.0],
+            Part::Total,
+            false,
+            &sweep,
+            &no_progress,
+        )
+    });
     match r {
         Err(Error::Remote { rank, message }) => {
             println!("rank {rank}: {message}");
@@ -334,23 +331,17 @@ fn a_failing_rank_fails_the_run_with_its_error() {
         "the serving rank exits with rank 0's status"
     );
     // rank 0's own failure is its own error; rank 1 and 2 took the other frequencies
-    let (r, codes) = on_ranks(
-        &model,
-        3,
-        &SweepOptions::default(),
-        |_| true,
-        |body, sweep| {
-            transfer_function(
-                body,
-                &scene,
-                &[1.0, 0.5, 0.7],
-                Part::Total,
-                false,
-                &sweep,
-                &no_progress,
-            )
-        },
-    );
+    let (r, codes) = on_all(&model, 3, |body, sweep| {
+        transfer_function(
+            body,
+            &scene,
+            &[1.0, 0.5, 0.7],
+            Part::Total,
+            false,
+            &sweep,
+            &no_progress,
+        )
+    });
     assert!(matches!(r, Err(Error::Singular { freq_hz, .. }) if freq_hz == 1.0));
     assert_eq!(codes, vec![1, 1]);
 }

@@ -18,11 +18,10 @@ fn scratch(name: &str) -> PathBuf {
     dir
 }
 
-/// `mpirun -np ranks sparsemor args…` in `cwd`; panics if it is still running after 5 min (a
-/// hang is the failure this guards against, not a slow run).
-fn mpirun(cwd: &Path, ranks: usize, args: &[&str]) -> Output {
-    let mut child = Command::new("mpirun")
-        .args(["--oversubscribe", "-np", &ranks.to_string()])
+/// `mpirun -np ranks sparsemor args…` in `cwd`, output captured.
+fn mpirun_command(cwd: &Path, ranks: usize, args: &[&str]) -> Command {
+    let mut c = Command::new("mpirun");
+    c.args(["--oversubscribe", "-np", &ranks.to_string()])
         .arg(env!("CARGO_BIN_EXE_sparsemor"))
         .args(args)
         .current_dir(cwd)
@@ -31,7 +30,14 @@ fn mpirun(cwd: &Path, ranks: usize, args: &[&str]) -> Output {
         .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
         .env("OMPI_MCA_btl_vader_single_copy_mechanism", "none")
         .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
+        .stderr(Stdio::piped());
+    c
+}
+
+/// Runs [`mpirun_command`]; panics if it is still running after 5 min (a hang is the failure
+/// this guards against, not a slow run).
+fn mpirun(cwd: &Path, ranks: usize, args: &[&str]) -> Output {
+    let mut child = mpirun_command(cwd, ranks, args)
         .spawn()
         .expect("mpirun (OpenMPI: apt-get install openmpi-bin libopenmpi-dev)");
     let start = Instant::now();
@@ -230,28 +236,14 @@ fn mpirun_killed_rank_ends_every_rank() {
         &dir,
         &["generate", "bar", "--elements", "3x4x200", "--out", "bar"],
     );
-    let mut child = Command::new("mpirun")
-        .args(["--oversubscribe", "-np", "2"])
-        .arg(env!("CARGO_BIN_EXE_sparsemor"))
-        .args([
-            "sweep",
-            "bar",
-            "--band",
-            "1:1000",
-            "--points",
-            "5000",
-            "--threads",
-            "1",
-        ])
-        .args(["--out", "h.csv"])
-        .current_dir(&dir)
-        .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
-        .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
-        .env("OMPI_MCA_btl_vader_single_copy_mechanism", "none")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let args = ["sweep", "bar", "--band", "1:1000", "--points", "5000"];
+    let mut child = mpirun_command(
+        &dir,
+        2,
+        &[&args[..], &["--threads", "1", "--out", "h.csv"]].concat(),
+    )
+    .spawn()
+    .unwrap();
     let start = Instant::now();
     let pid = loop {
         if let Some(p) = rank_pid(child.id(), 1) {
