@@ -163,9 +163,13 @@ fn on_ranks(cli: Cli, c: Arc<dyn Cluster>) -> sparsemor::Result<Done> {
                 .into(),
         )),
     };
-    // the same decision on every rank (same command line): no rank waits for another
-    let (model_path, opts) = setup?;
-    let (model_path, opts) = (model_path.to_path_buf(), opts);
+    // the same decision on every rank (same command line): no rank waits for another, and
+    // rank 0 alone says why
+    let (model_path, opts) = match setup {
+        Ok((path, opts)) => (path.to_path_buf(), opts),
+        Err(e) if c.rank() == 0 => return Err(e),
+        Err(_) => return Ok(Done::Failed),
+    };
     if c.rank() == 0 {
         let done = command(cli, Some(c.clone()));
         let code = done.as_ref().map_or(1, |d| d.exit_code());
