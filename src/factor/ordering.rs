@@ -193,6 +193,13 @@ fn nested_dissection(pencil: &Pencil) -> Option<(Vec<usize>, Vec<usize>)> {
     let mut nvtxs = n as idx_t;
     let mut options = [0 as idx_t; metis_sys::METIS_NOPTIONS as usize];
     let (mut perm, mut iperm) = (vec![0 as idx_t; n], vec![0 as idx_t; n]);
+    // METIS seeds GKlib's random generator, whose state is a process global
+    // (GKlib/random.c: `static uint64_t mt[NN]`), at every call: concurrent calls interleave
+    // their draws and return orderings that differ from run to run (seen as a sweep that was
+    // not bit-identical between two in-process ranks). One call at a time keeps each ordering a
+    // function of its graph alone.
+    static METIS: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _one_at_a_time = METIS.lock().unwrap_or_else(|p| p.into_inner());
     // SAFETY: `options` has METIS_NOPTIONS entries, as METIS_SetDefaultOptions requires.
     // METIS_NodeND reads the CSR graph `xadj` (n + 1 entries, non-decreasing, ending at
     // adjncy.len()) and `adjncy` (neighbour indices < n, no self loops, symmetric by
