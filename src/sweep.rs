@@ -368,11 +368,13 @@ impl<'a> Solver<'a> {
             };
             let mut state = init();
             let mut rhs = Mat::<c64>::zeros(self.body.n(), self.inputs.len() + 1);
+            // the right-hand sides again for refinement, allocated on first use
+            let mut b = Mat::<c64>::zeros(0, 0);
             while !stop.load(Ordering::Relaxed) {
                 let k = next.fetch_add(1, Ordering::Relaxed);
                 let Some(&f) = freqs_hz.get(k) else { break };
                 let r = self
-                    .solve_one(&mut numeric, f, &mut rhs, par)
+                    .solve_one(&mut numeric, f, &mut rhs, &mut b, par)
                     .and_then(|st| {
                         let p = self.inputs.len();
                         step(
@@ -433,6 +435,7 @@ impl<'a> Solver<'a> {
         numeric: &mut Numeric,
         f: f64,
         rhs: &mut Mat<c64>,
+        b: &mut Mat<c64>,
         par: Par,
     ) -> Result<FreqStats> {
         let omega = 2.0 * std::f64::consts::PI * f;
@@ -448,7 +451,7 @@ impl<'a> Solver<'a> {
         let mut factor_s = t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
         let (mut probe_error, mut refinement_steps) =
-            self.solve_checked(numeric, omega, held.is_some(), rhs, par);
+            self.solve_checked(numeric, omega, held.is_some(), rhs, b, par);
         // the complex LDLᵀ pivots statically: when its solves stay inaccurate, the pivoting
         // LBLᵀ gets the frequency
         if !(probe_error <= self.probe_tol) && held.is_none() {
@@ -456,7 +459,7 @@ impl<'a> Solver<'a> {
             if numeric.factor_with_pivoting(self.body.pencil(), par)? {
                 factor_s += t.elapsed().as_secs_f64();
                 (probe_error, refinement_steps) =
-                    self.solve_checked(numeric, omega, false, rhs, par);
+                    self.solve_checked(numeric, omega, false, rhs, b, par);
             }
         }
         let solve_s = t1.elapsed().as_secs_f64();
@@ -491,13 +494,15 @@ impl<'a> Solver<'a> {
 
     /// Solves load + probe into `rhs` with the current factorization and refines all columns
     /// when the probe shows lost digits (not with the supported K at 0 Hz, whose right-hand
-    /// sides are modified). Returns the probe error and the refinement steps.
+    /// sides are modified). Returns the probe error and the refinement steps. `b` is a buffer
+    /// for the right-hand sides of the refinement, kept by the worker.
     fn solve_checked(
         &self,
         numeric: &mut Numeric,
         omega: f64,
         held: bool,
         rhs: &mut Mat<c64>,
+        b: &mut Mat<c64>,
         par: Par,
     ) -> (f64, usize) {
         let p = self.inputs.len();
@@ -510,7 +515,7 @@ impl<'a> Solver<'a> {
         numeric.solve(rhs.as_mut(), par);
         let probe_error = self.probe_error(rhs.as_ref().col(p));
         if probe_error > REFINE_ABOVE && !held {
-            let mut b = Mat::<c64>::zeros(rhs.nrows(), p + 1);
+            b.resize_with(rhs.nrows(), p + 1, |_, _| c64::new(0.0, 0.0));
             self.right_hand_sides(omega, b.as_mut());
             let steps = numeric.refine(self.body.pencil(), b.as_ref(), rhs.as_mut(), par);
             return (self.probe_error(rhs.as_ref().col(p)), steps);

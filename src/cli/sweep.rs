@@ -110,11 +110,12 @@ pub fn sweep(a: &SweepArgs, verbose: bool, cluster: Option<Arc<dyn Cluster>>) ->
                 fs.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), s| {
                     (lo.min(s.factor_s), hi.max(s.factor_s))
                 });
+            let mean_solve = fs.iter().map(|s| s.solve_s).sum::<f64>() / fs.len().max(1) as f64;
             let refined = fs.iter().filter(|s| s.refinement_steps > 0).count();
             let steps: usize = fs.iter().map(|s| s.refinement_steps).sum();
             let pivoted = fs.iter().filter(|s| s.pivoted).count();
             eprintln!(
-                "backend {} ({}), symbolic {:.3} s, factor nnz {}, {:?}, factor min/mean/max {:.4}/{:.4}/{:.4} s, worst probe error {:.1e}, \
+                "backend {} ({}), symbolic {:.3} s, factor nnz {}, {:?}, factor min/mean/max {:.4}/{:.4}/{:.4} s, mean solve {:.4} s, worst probe error {:.1e}, \
                  refined {refined} of {} frequencies ({steps} steps), {pivoted} handed to the pivoting LBLᵀ",
                 s.backend,
                 if s.real { "real" } else { "complex" },
@@ -124,6 +125,7 @@ pub fn sweep(a: &SweepArgs, verbose: bool, cluster: Option<Arc<dyn Cluster>>) ->
                 min_factor,
                 mean_factor,
                 max_factor,
+                mean_solve,
                 worst,
                 fs.len()
             );

@@ -11,7 +11,7 @@
 
 use super::cholesky::symbolic_cholesky;
 use super::lblt::Factor;
-use super::refine::{refine, Stop};
+use super::refine::{refine, Buffers, Stop};
 use super::{pattern, try_vec};
 use crate::pencil::Pencil;
 use crate::{Error, Result};
@@ -65,6 +65,8 @@ pub(crate) struct ShiftedLblt<'a> {
     norm_inf: f64,
     /// Refinement steps taken over all solves.
     refinements: usize,
+    /// Buffers of the refinements, reused by every solve (boxed: the struct stays small).
+    refine_buffers: Box<Buffers<f64>>,
 }
 
 /// Normwise backward error of a solve above which it is refined. Measured on the 14³ cube
@@ -108,6 +110,7 @@ impl<'a> ShiftedLblt<'a> {
             vals,
             norm_inf,
             refinements: 0,
+            refine_buffers: Box::default(),
         })
     }
 
@@ -133,8 +136,10 @@ impl<'a> ShiftedLblt<'a> {
         let (sym, factor, vals) = (&self.sym, &mut self.factor, &self.vals);
         factor.solve_in_place(sym, x.as_mut(), Par::Seq);
         self.refinements += refine(
-            self.pencil,
-            &|p| vals[p],
+            pattern::Lower {
+                pencil: self.pencil,
+                entry: &|p: usize| vals[p],
+            },
             Stop::Normwise {
                 norm_inf: self.norm_inf,
                 above: REFINE_ABOVE,
@@ -142,6 +147,7 @@ impl<'a> ShiftedLblt<'a> {
             b.as_ref(),
             x,
             |r| factor.solve_in_place(sym, r, Par::Seq),
+            &mut self.refine_buffers,
             Par::Seq,
         );
     }

@@ -300,6 +300,7 @@ impl Analysis {
                 try_vec(nnz_lower)?
             },
             factored_at: None,
+            refine_buffers: refine::Buffers::default(),
         })
     }
 
@@ -354,6 +355,8 @@ pub struct Numeric<'a> {
     re: Vec<f64>,
     im: Vec<f64>,
     factored_at: Option<f64>,
+    /// Buffers of [`Self::refine`], reused for every frequency this factorization serves.
+    refine_buffers: refine::Buffers<c64>,
 }
 
 impl<'a> Numeric<'a> {
@@ -517,12 +520,15 @@ impl<'a> Numeric<'a> {
         let factors = active(&mut self.factors, &mut self.pivoting, self.pivoted);
         let (re, im) = (&self.re, &self.im);
         refine::refine(
-            pencil,
-            &|p| lower_entry(re, im, p),
+            pattern::Lower {
+                pencil,
+                entry: &|p| lower_entry(re, im, p),
+            },
             refine::Stop::Componentwise,
             b,
             x,
             |r| factors.solve(r, par),
+            &mut self.refine_buffers,
             par,
         )
     }
