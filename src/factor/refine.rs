@@ -136,19 +136,16 @@ mod tests {
             .fold(0.0, |m: f64, i| m.max(r[(i, 0)].abs() / s[(i, 0)]))
     }
 
-    /// The blocked residual r = b − A x and s = |A||x| + |b| against a dense product, for
-    /// 1–37 columns (one block, several, a partial last one) sequentially and on two
-    /// threads, with one scratch reused across calls: the same numbers either way.
-    #[test]
-    fn blocked_residual_equals_a_dense_product() {
+    /// K − σM of a small bar: its pencil, the lower values and the dense symmetric matrix.
+    fn shifted_bar(elements: [usize; 3], sigma: f64) -> (Pencil, Vec<f64>, Mat<f64>) {
         let spec = BoxSpec {
-            elements: [1, 2, 5],
+            elements,
             ..BoxSpec::paper_bar()
         };
         let pencil = Pencil::new(&bar_model(&spec).unwrap());
         let n = pencil.n();
         let mut vals = vec![0.0; pencil.nnz()];
-        pencil.fill_shifted(-3e5, &mut vals);
+        pencil.fill_shifted(sigma, &mut vals);
         let (cp, ri) = (pencil.col_ptr(), pencil.row_idx());
         let mut a = Mat::<f64>::zeros(n, n);
         for j in 0..n {
@@ -157,6 +154,16 @@ mod tests {
                 a[(j, ri[p])] = vals[p];
             }
         }
+        (pencil, vals, a)
+    }
+
+    /// The blocked residual r = b − A x and s = |A||x| + |b| against a dense product, for
+    /// 1–37 columns (one block, several, a partial last one) sequentially and on two
+    /// threads, with one scratch reused across calls: the same numbers either way.
+    #[test]
+    fn blocked_residual_equals_a_dense_product() {
+        let (pencil, vals, a) = shifted_bar([1, 2, 5], -3e5);
+        let n = pencil.n();
         let abs_a = Mat::<f64>::from_fn(n, n, |i, j| a[(i, j)].abs());
         let entry = |p: usize| vals[p];
         let lower = pattern::Lower {
@@ -201,23 +208,9 @@ mod tests {
     /// the distance to a dense solve of A by four orders or more.
     #[test]
     fn refinement_with_an_inexact_solver_reaches_the_exact_matrix() {
-        let spec = BoxSpec {
-            elements: [1, 1, 6],
-            ..BoxSpec::paper_bar()
-        };
-        let pencil = Pencil::new(&bar_model(&spec).unwrap());
+        // K + 10⁶ M: positive definite, cond ≈ 1e4
+        let (pencil, vals, a) = shifted_bar([1, 1, 6], -1e6);
         let n = pencil.n();
-        let sigma = -1e6; // K + 10⁶ M: positive definite, cond ≈ 1e4
-        let mut vals = vec![0.0; pencil.nnz()];
-        pencil.fill_shifted(sigma, &mut vals);
-        let (cp, ri) = (pencil.col_ptr(), pencil.row_idx());
-        let mut a = Mat::<f64>::zeros(n, n);
-        for j in 0..n {
-            for p in cp[j]..cp[j + 1] {
-                a[(ri[p], j)] = vals[p];
-                a[(j, ri[p])] = vals[p];
-            }
-        }
         let mut perturbed = a.clone();
         for i in 0..n {
             perturbed[(i, i)] *= 1.0 + 1e-8 * if i % 2 == 0 { 1.0 } else { -1.0 };
