@@ -178,6 +178,11 @@ pub struct Progress {
 /// Progress callback: return `false` to cancel the run ([`Error::Cancelled`]).
 pub type ProgressFn<'a> = &'a (dyn Fn(Progress) -> bool + Sync);
 
+/// The rows `rows` of a response X (N × p): H at the outputs from a full-state snapshot.
+pub(crate) fn rows_of(rows: &[usize], x: MatRef<'_, c64>) -> Mat<c64> {
+    Mat::from_fn(rows.len(), x.ncols(), |o, j| x[(rows[o], j)])
+}
+
 /// A no-op progress callback.
 pub fn no_progress(_: Progress) -> bool {
     true
@@ -663,26 +668,22 @@ pub fn transfer_function(
         (true, Some(rb)) => Some(rb.h0(2.0 * std::f64::consts::PI * f, inputs, outputs)),
         _ => None,
     };
-    let h = freqs_hz
-        .iter()
-        .zip(&xs)
-        .map(|(&f, x)| {
-            let mut h = if keep_snapshots {
-                Mat::from_fn(outputs.len(), x.ncols(), |o, j| x[(outputs[o], j)])
-            } else {
-                x.clone()
-            };
-            if let Some(h0) = h0(f) {
-                h += h0;
-            }
-            h
-        })
-        .collect();
+    let (mut h, snapshots) = if keep_snapshots {
+        let h = xs.iter().map(|x| rows_of(outputs, x.as_ref())).collect();
+        (h, Some(xs))
+    } else {
+        (xs, None)
+    };
+    for (h, &f) in h.iter_mut().zip(freqs_hz) {
+        if let Some(h0) = h0(f) {
+            *h += h0;
+        }
+    }
     let (symbolic, schedule) = engine.local_stats(response, inputs, freqs_hz.len()).unzip();
     Ok(Frf {
         freqs_hz: freqs_hz.to_vec(),
         h,
-        snapshots: keep_snapshots.then_some(xs),
+        snapshots,
         symbolic,
         schedule,
         freq_stats,

@@ -10,10 +10,10 @@ use crate::lsq::StreamedQr;
 use crate::reduce::linefit::fit::{Partition, Worker};
 use crate::reduce::linefit::snapshots::SnapshotStore;
 use crate::sweep::{
-    FreqStats, ProgressFn, Response, Schedule, SolveAccuracy, Solver, SweepOptions,
+    rows_of, FreqStats, ProgressFn, Response, Schedule, SolveAccuracy, Solver, SweepOptions,
 };
 use crate::{Error, Result};
-use faer::{c64, Mat, MatRef};
+use faer::{c64, Mat};
 use std::sync::Arc;
 
 /// Solves frequencies for one body: in this process, or — when the options carry a
@@ -39,11 +39,6 @@ pub(crate) struct Absorbed {
     pub h: Vec<Mat<c64>>,
     /// Seconds spent absorbing (summed over workers and ranks).
     pub absorb_s: f64,
-}
-
-/// X at `rows` of a snapshot.
-fn rows_of(rows: &[usize], x: MatRef<'_, c64>) -> Mat<c64> {
-    Mat::from_fn(rows.len(), x.ncols(), |o, j| x[(rows[o], j)])
 }
 
 impl<'a> Engine<'a> {
@@ -180,9 +175,7 @@ impl<'a> Engine<'a> {
         };
         let r = self.execute(cmd, progress)?;
         Ok(Absorbed {
-            qr: r
-                .qr
-                .unwrap_or_else(|| StreamedQr::new(part.interface.len(), part.rest.len())),
+            qr: r.qr.unwrap_or_else(|| part.empty_qr()),
             h: r.x.into_iter().map(|t| t.1).collect(),
             absorb_s: r.absorb_s,
         })
@@ -195,12 +188,23 @@ impl<'a> Engine<'a> {
             interface: part.interface.clone(),
         };
         let r = self.execute(cmd, &crate::sweep::no_progress)?;
-        Ok(r.qr.unwrap_or_else(|| StreamedQr::new(part.interface.len(), part.rest.len())))
+        Ok(r.qr.unwrap_or_else(|| part.empty_qr()))
     }
 
     /// The next interface DoF by Q-DEIM over the kept snapshots (one process only: the
     /// snapshots of a distributed run stay on their ranks).
     pub fn qdeim_next(&mut self, interface: &[usize]) -> Result<usize> {
+        self.check_qdeim()?;
+        self.store
+            .as_mut()
+            .ok_or_else(|| {
+                Error::InvalidSetting("the interface may not grow: no snapshots were kept".into())
+            })?
+            .qdeim_next(interface)
+    }
+
+    /// Whether Q-DEIM growth can run: the snapshots must all be in this process.
+    pub fn check_qdeim(&self) -> Result<()> {
         if self.ranks() > 1 {
             return Err(Error::InvalidSetting(
                 "growth qdeim needs every snapshot in one process; a distributed run keeps them \
@@ -208,12 +212,7 @@ impl<'a> Engine<'a> {
                     .into(),
             ));
         }
-        self.store
-            .as_mut()
-            .ok_or_else(|| {
-                Error::InvalidSetting("the interface may not grow: no snapshots were kept".into())
-            })?
-            .qdeim_next(interface)
+        Ok(())
     }
 
     /// X at `outputs` (all of X when `full`) for `response` at `freqs`, in their order, with
@@ -241,7 +240,8 @@ impl<'a> Engine<'a> {
         ))
     }
 
-    /// Carries out `cmd` on this rank's share (frequencies k ≡ rank mod size).
+    /// Carries out `cmd` on this rank's share (frequencies k ≡ rank mod size). Per-frequency
+    /// results are keyed by the frequency's index in the command.
     pub(super) fn run_share(
         &mut self,
         cmd: &Command,
@@ -249,11 +249,15 @@ impl<'a> Engine<'a> {
         size: usize,
         progress: ProgressFn<'_>,
     ) -> Result<Reply> {
+        // this rank's frequencies and their indices in the command
         let share = |freqs: &[f64]| -> (Vec<usize>, Vec<f64>) {
             (0..freqs.len())
                 .filter(|k| k % size == rank)
                 .map(|k| (k, freqs[k]))
                 .unzip()
+        };
+        let keyed = |index: &[usize], stats: Vec<FreqStats>| -> Vec<(usize, FreqStats)> {
+            index.iter().copied().zip(stats).collect()
         };
         match cmd {
             Command::Absorb {
@@ -268,11 +272,12 @@ impl<'a> Engine<'a> {
                     return Ok(Reply::default());
                 }
                 let part = Partition::from_interface(self.body.n(), interface.clone());
-                if *keep != Keep::No && self.store.is_none() {
+                let keep_x = *keep != Keep::No;
+                if keep_x && self.store.is_none() {
                     self.store = Some(SnapshotStore::new(*keep == Keep::Spill)?);
                 }
                 let p = inputs.len();
-                let keep_x = *keep != Keep::No;
+                // X at the outputs, or all of X when the snapshots are kept
                 type State = (Worker, Vec<(usize, Mat<c64>)>);
                 let solver = self.solver(Response::Elastic, inputs)?;
                 let (states, stats) = solver.run(
@@ -285,46 +290,31 @@ impl<'a> Engine<'a> {
                         } else {
                             rows_of(outputs, snap.x)
                         };
-                        s.1.push((snap.index, x));
+                        s.1.push((index[snap.index], x));
                         Ok(())
                     },
                     progress,
                 )?;
-                let mut xs = Vec::new();
-                let mut workers = Vec::new();
-                for (w, x) in states {
-                    workers.push(w);
-                    xs.extend(x);
-                }
+                let (workers, xs): (Vec<Worker>, Vec<_>) = states.into_iter().unzip();
+                let mut xs: Vec<(usize, Mat<c64>)> = xs.into_iter().flatten().collect();
                 xs.sort_by_key(|t| t.0);
                 let absorb_s = workers.iter().map(|w| w.absorb_s).sum();
-                let qr = if workers.is_empty() {
-                    None
-                } else {
-                    Some(part.merge(workers, None)?)
+                let qr = Some(part.merge(workers, None)?);
+                let x = match self.store.as_mut().filter(|_| keep_x) {
+                    Some(store) => {
+                        let h = xs
+                            .iter()
+                            .map(|(k, x)| (*k, rows_of(outputs, x.as_ref())))
+                            .collect();
+                        store.extend(xs.into_iter().map(|t| t.1))?;
+                        h
+                    }
+                    None => xs,
                 };
-                let h = xs
-                    .iter()
-                    .map(|(k, x)| {
-                        let h = if keep_x {
-                            rows_of(outputs, x.as_ref())
-                        } else {
-                            x.clone()
-                        };
-                        (index[*k], h)
-                    })
-                    .collect();
-                if let (true, Some(store)) = (keep_x, self.store.as_mut()) {
-                    store.extend(xs.into_iter().map(|t| t.1))?;
-                }
                 Ok(Reply {
                     qr,
-                    x: h,
-                    stats: stats
-                        .into_iter()
-                        .enumerate()
-                        .map(|(k, s)| (index[k], s))
-                        .collect(),
+                    x,
+                    stats: keyed(&index, stats),
                     absorb_s,
                 })
             }
@@ -370,11 +360,7 @@ impl<'a> Engine<'a> {
                 Ok(Reply {
                     qr: None,
                     x: states.into_iter().flatten().collect(),
-                    stats: stats
-                        .into_iter()
-                        .enumerate()
-                        .map(|(k, s)| (index[k], s))
-                        .collect(),
+                    stats: keyed(&index, stats),
                     absorb_s: 0.0,
                 })
             }

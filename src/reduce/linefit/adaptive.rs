@@ -140,9 +140,9 @@ impl<'a> Loop<'a> {
         let part = Partition::new(body, scene, &opts.interface)?;
         let p = scene.inputs.len();
         let mut engine = Engine::new(body, &opts.sweep);
-        if engine.ranks() > 1 && sampling.growth == Growth::QDeim {
+        if sampling.growth == Growth::QDeim {
             // refused before any work: the snapshots of a distributed run stay on their ranks
-            engine.qdeim_next(&part.interface)?;
+            engine.check_qdeim()?;
         }
         let threads = engine.concurrency();
         let max_order = sampling

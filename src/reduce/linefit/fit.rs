@@ -70,10 +70,15 @@ impl Partition {
         self.interface.len()
     }
 
+    /// A streamed QR of this split that has absorbed nothing.
+    pub fn empty_qr(&self) -> StreamedQr {
+        StreamedQr::new(self.interface.len(), self.rest.len())
+    }
+
     /// An empty worker state for p inputs.
     pub fn worker(&self, p: usize) -> Worker {
         Worker {
-            qr: StreamedQr::new(self.interface.len(), self.rest.len()),
+            qr: self.empty_qr(),
             g: Mat::zeros(2 * p, self.interface.len()),
             f: Mat::zeros(2 * p, self.rest.len()),
             absorb_s: 0.0,
