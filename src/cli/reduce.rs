@@ -100,6 +100,8 @@ impl ReduceArgs {
 
 /// `cluster`: the ranks line-fitting's frequencies are spread over (rank 0 runs this).
 pub fn reduce(a: &ReduceArgs, cluster: Option<Arc<dyn Cluster>>) -> Result<super::Done> {
+    // before minutes of work, not after
+    sparsemor::io::atomic::check_dir_free(&a.out)?;
     let model_dir::Loaded {
         model,
         scene,

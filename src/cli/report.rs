@@ -58,6 +58,8 @@ struct Evaluated {
 /// Reads and checks every input, computes the full model's reference once, evaluates each
 /// ROM and writes `index.html` into `--out` atomically (nothing is written on error).
 pub fn report(a: &ReportArgs) -> Result<()> {
+    // before the sweeps, not after
+    atomic::check_dir_free(&a.out)?;
     let (model, scene, _) = model_dir::read(&a.model)?;
     let roms: Vec<(String, Rom)> = a
         .roms

@@ -60,14 +60,7 @@ pub fn write_bytes(path: &Path, contents: impl AsRef<[u8]>) -> Result<()> {
 /// # Errors
 /// [`Error::InvalidSetting`] if `dir` exists and is not empty; `fill`'s errors; I/O errors.
 pub fn write_dir(dir: &Path, fill: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
-    if let Ok(mut it) = std::fs::read_dir(dir) {
-        if it.next().is_some() {
-            return Err(Error::InvalidSetting(format!(
-                "{} exists and is not empty: remove it or choose another output directory",
-                dir.display()
-            )));
-        }
-    }
+    check_dir_free(dir)?;
     let name = dir
         .file_name()
         .map(|s| s.to_string_lossy().into_owned())
@@ -85,6 +78,23 @@ pub fn write_dir(dir: &Path, fill: impl FnOnce(&Path) -> Result<()>) -> Result<(
         let _ = std::fs::remove_dir_all(&tmp);
     }
     result
+}
+
+/// The check [`write_dir`] makes first, for callers to make before long work: `dir` must not
+/// exist or be empty.
+///
+/// # Errors
+/// [`Error::InvalidSetting`] if `dir` exists and is not empty.
+pub fn check_dir_free(dir: &Path) -> Result<()> {
+    if let Ok(mut it) = std::fs::read_dir(dir) {
+        if it.next().is_some() {
+            return Err(Error::InvalidSetting(format!(
+                "{} exists and is not empty: remove it or choose another output directory",
+                dir.display()
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// `<path>.tmp`, next to `path`.

@@ -284,6 +284,30 @@ fn generate_refuses_a_non_empty_output_directory() {
     assert_eq!(entries(&work), ["out"]);
 }
 
+/// `reduce` and `report` check their output directory before any work: the model here does
+/// not even exist, and the error is about the directory (a 10⁶-DoF reduction used to fail
+/// only after its minutes of work).
+#[test]
+fn reduce_and_report_refuse_a_non_empty_output_directory_first() {
+    let work = scratch("reduce_nonempty");
+    std::fs::create_dir(work.join("out")).expect("mkdir");
+    std::fs::write(work.join("out/keep.txt"), "x").expect("write");
+    for args in [
+        &[
+            "reduce",
+            "no_such_model",
+            "--method",
+            "linefit",
+            "--out",
+            "out",
+        ][..],
+        &["report", "no_such_model", "no_such_rom", "--out", "out"][..],
+    ] {
+        fails(&work, args, &["error:", "out", "not empty"]);
+    }
+    assert_eq!(entries(&work.join("out")), ["keep.txt"]);
+}
+
 #[test]
 fn sweep_bad_settings_fail_cleanly_without_output() {
     let cases: [(&str, &[&str], &[&str]); 7] = [
