@@ -217,49 +217,15 @@ fn the_ordering_with_fewer_entries_is_kept_and_solves_equal_dense() {
     }
 }
 
-/// Two threads inside one factorization (independent subtrees of the elimination tree on
-/// their own threads, then the top with threads in the dense products) compute the same
-/// factor as one thread: every supernode is computed in the same order either way, so the
-/// solutions agree to the last bit, and they equal the dense solution.
-#[test]
-fn two_threads_inside_the_factorization_give_the_one_thread_factor() {
+/// A cube of `elements` elements (0.1 m) at 700 Hz, two right-hand sides b, solved with one
+/// numeric LDLᵀ factored on one thread and then on two: (model, pencil, ω, b, x one thread,
+/// x two threads).
+fn cube_one_and_two_threads(
+    elements: [usize; 3],
+) -> (Model, Pencil, f64, Mat<c64>, Mat<c64>, Mat<c64>) {
     use sparsemor::fe::{bar_model, BoxSpec};
     let spec = BoxSpec {
-        elements: [6, 6, 6],
-        size_m: [0.1, 0.1, 0.1],
-        ..BoxSpec::paper_bar()
-    };
-    let model = bar_model(&spec).unwrap();
-    let n = model.n();
-    let pencil = Pencil::new(&model);
-    let an = Analysis::new(&pencil, Backend::Ldlt, 2).unwrap();
-    let omega = 2.0 * std::f64::consts::PI * 700.0;
-    let b = Mat::<c64>::from_fn(n, 2, |i, j| c64::new(((i * 7 + j) % 13) as f64, j as f64));
-    let solve = |par: Par| {
-        let mut num = an.numeric(&pencil).unwrap();
-        sparsemor::pool::with_pool(2, || num.factor(&pencil, omega, par))
-            .unwrap()
-            .unwrap();
-        let mut x = b.clone();
-        num.solve(x.as_mut(), Par::Seq);
-        x
-    };
-    let (one, two) = (solve(Par::Seq), solve(Par::rayon(2)));
-    assert_eq!((&one - &two).norm_max(), 0.0);
-    let reference = dense_a(&model, omega).partial_piv_lu().solve(&b);
-    let e = (&two - &reference).norm_l2() / reference.norm_l2();
-    assert!(e <= 1e-10, "{e:.1e}");
-}
-
-/// The same on a 12³-element cube (N = 6591): its top separators are large enough that the
-/// updates are scattered by two threads (column halves) and the dense products and
-/// triangular solves run threaded. Too large for a dense reference; the residual
-/// ‖b − A x‖ / (‖A‖ ‖x‖) checks the solution instead.
-#[test]
-fn two_threads_on_large_separators_give_the_one_thread_factor() {
-    use sparsemor::fe::{bar_model, BoxSpec};
-    let spec = BoxSpec {
-        elements: [12, 12, 12],
+        elements,
         size_m: [0.1, 0.1, 0.1],
         ..BoxSpec::paper_bar()
     };
@@ -279,6 +245,30 @@ fn two_threads_on_large_separators_give_the_one_thread_factor() {
         x
     };
     let (one, two) = (solve(Par::Seq), solve(Par::rayon(2)));
+    (model, pencil, omega, b, one, two)
+}
+
+/// Two threads inside one factorization (independent subtrees of the elimination tree on
+/// their own threads, then the top with threads in the dense products) compute the same
+/// factor as one thread: every supernode is computed in the same order either way, so the
+/// solutions agree to the last bit, and they equal the dense solution.
+#[test]
+fn two_threads_inside_the_factorization_give_the_one_thread_factor() {
+    let (model, _, omega, b, one, two) = cube_one_and_two_threads([6, 6, 6]);
+    assert_eq!((&one - &two).norm_max(), 0.0);
+    let reference = dense_a(&model, omega).partial_piv_lu().solve(&b);
+    let e = (&two - &reference).norm_l2() / reference.norm_l2();
+    assert!(e <= 1e-10, "{e:.1e}");
+}
+
+/// The same on a 12³-element cube (N = 6591): its top separators are large enough that the
+/// updates are scattered by two threads (column halves) and the dense products and
+/// triangular solves run threaded. Too large for a dense reference; the backward error checks
+/// the solution instead.
+#[test]
+fn two_threads_on_large_separators_give_the_one_thread_factor() {
+    let (model, pencil, omega, b, one, two) = cube_one_and_two_threads([12, 12, 12]);
+    let n = model.n();
     assert_eq!((&one - &two).norm_max(), 0.0);
     let mut ax = Mat::<c64>::zeros(n, 2);
     pencil.apply(omega, two.as_ref(), ax.as_mut());
