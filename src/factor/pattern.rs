@@ -115,7 +115,7 @@ pub(super) fn symmetric_residual<T: Scalar, F: Fn(usize) -> T + Sync>(
     scratch: &mut ResidualScratch<T>,
     par: Par,
 ) {
-    let (n, k) = (x.nrows(), x.ncols());
+    let k = x.ncols();
     if k == 0 {
         return;
     }
@@ -139,17 +139,27 @@ pub(super) fn symmetric_residual<T: Scalar, F: Fn(usize) -> T + Sync>(
     }
     for (bi, ws) in used.iter().enumerate() {
         let (c0, w) = (bi * width, width.min(k - bi * width));
-        for c in 0..w {
-            for i in 0..n {
-                r[(i, c0 + c)] = ws.rt[i * w + c];
-            }
-        }
+        deinterleave(&ws.rt, r.as_mut().subcols_mut(c0, w));
         if let Some(s) = s.as_mut() {
-            for c in 0..w {
-                for i in 0..n {
-                    s[(i, c0 + c)] = ws.st[i * w + c];
-                }
-            }
+            deinterleave(&ws.st, s.as_mut().subcols_mut(c0, w));
+        }
+    }
+}
+
+/// The entries of `m` mapped by `f` into `v`, row by row: entry (i, c) at i·w + c.
+fn interleave<T: Copy, U>(m: MatRef<'_, T>, v: &mut Vec<U>, f: impl Fn(T) -> U) {
+    v.clear();
+    for i in 0..m.nrows() {
+        v.extend((0..m.ncols()).map(|c| f(m[(i, c)])));
+    }
+}
+
+/// The inverse of [`interleave`] (without a map): entry i·w + c of `v` into `m[(i, c)]`.
+fn deinterleave<U: Copy>(v: &[U], mut m: MatMut<'_, U>) {
+    let w = m.ncols();
+    for c in 0..w {
+        for i in 0..m.nrows() {
+            m[(i, c)] = v[i * w + c];
         }
     }
 }
@@ -215,24 +225,12 @@ fn residual_block<T: Scalar, F: Fn(usize) -> T>(
     with_s: bool,
     ws: &mut BlockScratch<T>,
 ) {
-    let (n, w) = (x.nrows(), x.ncols());
-    let interleave = |m: MatRef<'_, T>, v: &mut Vec<T>| {
-        v.clear();
-        for i in 0..n {
-            v.extend((0..w).map(|c| m[(i, c)]));
-        }
-    };
-    interleave(x, &mut ws.xt);
-    interleave(b, &mut ws.rt);
+    let w = x.ncols();
+    interleave(x, &mut ws.xt, |v| v);
+    interleave(b, &mut ws.rt, |v| v);
     if with_s {
-        let magnitudes = |m: MatRef<'_, T>, v: &mut Vec<f64>| {
-            v.clear();
-            for i in 0..n {
-                v.extend((0..w).map(|c| m[(i, c)].abs1()));
-            }
-        };
-        magnitudes(b, &mut ws.st);
-        magnitudes(x, &mut ws.xa);
+        interleave(b, &mut ws.st, T::abs1);
+        interleave(x, &mut ws.xa, T::abs1);
         residual_pass::<T, F, true>(a, w, ws);
     } else {
         residual_pass::<T, F, false>(a, w, ws);
