@@ -163,15 +163,14 @@ fn on_ranks(cli: Cli, c: Arc<dyn Cluster>) -> sparsemor::Result<Done> {
                 .into(),
         )),
     };
-    // the same decision on every rank (same command line): no rank waits for another, and
-    // rank 0 alone says why
-    let (model_path, opts) = match setup {
-        Ok((path, opts)) => (path.to_path_buf(), opts),
-        Err(e) if c.rank() == 0 => return Err(e),
-        Err(_) => return Ok(Done::Failed),
-    };
+    // the same decision on every rank (same command line); rank 0 alone says why a command is
+    // refused, and every rank ends only when rank 0 stops it
+    let setup = setup.map(|(path, opts)| (path.to_path_buf(), opts));
     if c.rank() == 0 {
-        let done = command(cli, Some(c.clone()));
+        let done = match setup {
+            Ok(_) => command(cli, Some(c.clone())),
+            Err(e) => Err(e),
+        };
         let code = done.as_ref().map_or(1, |d| d.exit_code());
         // the message before any rank exits: mpirun ends the job at the first non-zero exit
         if let Err(e) = &done {
@@ -180,10 +179,22 @@ fn on_ranks(cli: Cli, c: Arc<dyn Cluster>) -> sparsemor::Result<Done> {
         sparsemor::distributed::stop(&*c, code);
         return done.or(Ok(Done::Failed));
     }
-    let model = sparsemor::io::model_dir::read(&model_path).map(|(m, _, _)| m);
-    let body = model
+    let (body, opts) = match &setup {
+        Ok((path, opts)) => (
+            sparsemor::io::model_dir::read(path)
+                .map(|(m, _, _)| m)
+                .map_err(|e| e.to_string()),
+            opts.clone(),
+        ),
+        // rank 0 refuses the command and only stops this rank
+        Err(e) => (
+            Err(e.to_string()),
+            sparsemor::sweep::SweepOptions::default(),
+        ),
+    };
+    let body = body
         .as_ref()
-        .map_err(|e| e.to_string())
+        .map_err(|e| e.clone())
         .and_then(|m| sparsemor::body::Body::new(m).map_err(|e| e.to_string()));
     match sparsemor::distributed::serve(&*c, body.as_ref().map_err(|e| e.as_str()), &opts)? {
         0 => Ok(Done::Met),
