@@ -24,7 +24,10 @@
 //! scatter of large updates (two halves of the target columns; 32³ cube, two threads: 7.95 →
 //! 7.63 s, the one-thread factor 14.9 → 14.5 s with the scatter's loop split in two). Each
 //! supernode is computed the same way in either case, so the factor does not depend on the
-//! thread count.
+//! thread count. The solves run the two groups independently too (see
+//! [`Numeric::solve_block`]); on a bar with the level-set bisection
+//! ([`super::ordering`]) the groups are its two halves: 10⁵ bar, factor 1.82× and solves
+//! 1.71× faster on two threads.
 //!
 //! **Pivoting: static, with a pivoting fallback** (docs/design.md §3.1). The order is fixed by
 //! the symbolic analysis. A numerically zero pivot, |d| < ε·max|aᵢⱼ|, is replaced and counted
@@ -100,6 +103,11 @@ struct Split {
     groups: [Vec<(usize, usize)>; 2],
     /// The supernodes in no subtree of a group, increasing.
     top: Vec<usize>,
+    /// Row → its position among the top supernodes' rows (`usize::MAX` for a group's row):
+    /// where a group's solve leaves its contributions to the top.
+    top_pos: Vec<usize>,
+    /// Rows of the top supernodes.
+    top_rows: usize,
 }
 
 impl Split {
@@ -107,8 +115,11 @@ impl Split {
     /// `None` when it is not a postorder (subtrees not contiguous) or no two groups of
     /// subtrees hold comparable work. Work of a supernode: ncols · nrows², its dense flops up
     /// to a constant. The frontier starts at the roots; while its heaviest subtree holds more
-    /// than half the frontier's work it is replaced by its children (its root joins the top);
-    /// then the frontier's subtrees go, heaviest first, to the lighter group.
+    /// than half the frontier's work it is replaced by its children (its root joins the top).
+    /// At each frontier the subtrees go, heaviest first, to the lighter group, and the frontier
+    /// with the least estimated time (the top's work plus the heavier group's) is kept: on a
+    /// bisected bar the two halves are chains, and descending them to the end would put all
+    /// in the top.
     fn new(s: &SymbolicSupernodalCholesky<usize>, parent: &[Option<usize>]) -> Option<Split> {
         let ns = s.n_supernodes();
         let (begin, end) = (s.supernode_begin(), s.supernode_end());
@@ -133,8 +144,28 @@ impl Split {
         if (0..ns).any(|sn| sn + 1 - first[sn] != size[sn]) {
             return None;
         }
+        let all: f64 = (0..ns)
+            .filter(|&sn| parent[sn].is_none())
+            .map(|r| work[r])
+            .sum();
+        // the frontier's subtrees, heaviest first, each to the lighter group: the groups and
+        // the estimated time (the top's work, then the heavier group)
+        let partition = |frontier: &[usize]| {
+            let mut order = frontier.to_vec();
+            order.sort_by(|a, b| work[*b].total_cmp(&work[*a]));
+            let mut groups: [Vec<(usize, usize)>; 2] = [Vec::new(), Vec::new()];
+            let mut load = [0f64; 2];
+            for f in order {
+                let g = usize::from(load[1] < load[0]);
+                groups[g].push((first[f], f + 1));
+                load[g] += work[f];
+            }
+            (all - load[0] - load[1] + load[0].max(load[1]), groups)
+        };
         let mut frontier: Vec<usize> = (0..ns).filter(|&sn| parent[sn].is_none()).collect();
         let mut top = Vec::new();
+        let (mut best, mut groups) = partition(&frontier);
+        let mut best_top = top.clone();
         loop {
             let total: f64 = frontier.iter().map(|&f| work[f]).sum();
             let (at, &heaviest) = frontier
@@ -147,27 +178,31 @@ impl Split {
             frontier.swap_remove(at);
             frontier.extend(&children[heaviest]);
             top.push(heaviest);
+            let (t, g) = partition(&frontier);
+            if t < best {
+                (best, groups, best_top) = (t, g, top.clone());
+            }
         }
-        frontier.sort_by(|a, b| work[*b].total_cmp(&work[*a]));
-        let mut groups: [Vec<(usize, usize)>; 2] = [Vec::new(), Vec::new()];
-        let mut load = [0f64; 2];
-        for f in frontier {
-            let g = usize::from(load[1] < load[0]);
-            groups[g].push((first[f], f + 1));
-            load[g] += work[f];
-        }
-        // worth a second thread when the estimated time (top, then the heavier group) is at
-        // most 0.8 of one thread's
-        let total: f64 = load[0] + load[1];
-        let all: f64 = (0..ns)
-            .filter(|&sn| parent[sn].is_none())
-            .map(|r| work[r])
-            .sum();
-        if all - total + load[0].max(load[1]) > 0.8 * all {
+        // worth a second thread when the estimated time is at most 0.8 of one thread's
+        if best > 0.8 * all {
             return None;
         }
+        let mut top = best_top;
         top.sort_unstable();
-        Some(Split { groups, top })
+        let mut top_pos = vec![usize::MAX; s.nrows()];
+        let mut top_rows = 0;
+        for &t in &top {
+            for c in begin[t]..end[t] {
+                top_pos[c] = top_rows;
+                top_rows += 1;
+            }
+        }
+        Some(Split {
+            groups,
+            top,
+            top_pos,
+            top_rows,
+        })
     }
 }
 
@@ -329,7 +364,10 @@ impl Symbolic {
             scratch: self.scratch()?,
             second: None,
             x: Mat::zeros(n, rhs),
-            gathered: Mat::zeros(self.max_pattern, rhs),
+            solve: std::array::from_fn(|_| SolveScratch {
+                gathered: Mat::zeros(self.max_pattern, rhs),
+                top: Mat::zeros(self.split.as_ref().map_or(0, |sp| sp.top_rows), rhs),
+            }),
             pivot_ratio: f64::NAN,
             perturbed: 0,
         })
@@ -344,11 +382,21 @@ pub(super) struct Numeric<'a> {
     scratch: Scratch,
     /// The second thread's buffers when subtrees run in parallel (allocated on first use).
     second: Option<Scratch>,
-    /// The permuted right-hand sides of a solve and one supernode's gathered rows.
+    /// The permuted right-hand sides of a solve.
     x: Mat<c64>,
-    gathered: Mat<c64>,
+    /// The solve's buffers for each of the two groups of a [`Split`] (the first alone
+    /// without one).
+    solve: [SolveScratch; 2],
     pivot_ratio: f64,
     perturbed: usize,
+}
+
+/// The buffers of one thread of a solve.
+struct SolveScratch {
+    /// One supernode's pattern rows, gathered.
+    gathered: Mat<c64>,
+    /// A group's contributions to the top's rows (forward), or the top's solution (backward).
+    top: Mat<c64>,
 }
 
 /// The work buffers of one thread of the factorization.
@@ -522,10 +570,21 @@ impl Symbolic {
 
 impl Factorization for Numeric<'_> {
     fn factor(&mut self, a: &Values<'_>, freq_hz: f64, par: Par) -> Result<()> {
-        let amax =
-            a.re.iter()
-                .zip(a.im)
-                .fold(0.0f64, |m, (&re, &im)| m.max(re.hypot(im)));
+        // max |aᵢⱼ|, exact in any grouping: on two threads, halves
+        let max_sq = |re: &[f64], im: &[f64]| {
+            re.iter()
+                .zip(im)
+                .fold(0.0f64, |m, (&x, &y)| m.max(x * x + y * y))
+        };
+        let amax = if par.degree() > 1 {
+            let (r0, r1) = a.re.split_at(a.re.len() / 2);
+            let (i0, i1) = a.im.split_at(a.re.len() / 2);
+            let (m0, m1) = rayon::join(|| max_sq(r0, i0), || max_sq(r1, i1));
+            m0.max(m1)
+        } else {
+            max_sq(a.re, a.im)
+        }
+        .sqrt();
         // numerically zero pivots only; if there were any, PARDISO's larger threshold, which
         // bounds the growth behind a zero pivot (refinement then removes the perturbation)
         let mut pivots = self.factor_with(a, f64::EPSILON * amax, par)?;
@@ -563,70 +622,248 @@ impl Factorization for Numeric<'_> {
 }
 
 impl Numeric<'_> {
-    /// Solves A X = B in place for at most `x.ncols()` columns: P, L, D, Lᵀ, Pᵀ.
-    fn solve_block(&mut self, mut rhs: MatMut<'_, c64>, par: Par) {
+    /// Solves A X = B in place for at most `x.ncols()` columns: P, L, D, Lᵀ, Pᵀ. With a
+    /// [`Split`] the two groups of subtrees are solved independently (on two threads when
+    /// `par` has them): forward, each group keeps its contributions to the top's rows in its
+    /// own buffer, added to the top before the top is solved; backward, the top first, then
+    /// the groups read its solution from a copy. The groups run the same way on one thread,
+    /// so the solution does not depend on the thread count.
+    fn solve_block(&mut self, rhs: MatMut<'_, c64>, par: Par) {
         let sy = self.symbolic;
         let s = supernodal(&sy.sym);
-        let (begin, end, cpv) = (s.supernode_begin(), s.supernode_end(), s.col_ptr_for_val());
+        let (begin, end) = (s.supernode_begin(), s.supernode_end());
         let (n, k) = (rhs.nrows(), rhs.ncols());
         let fwd = &sy.fwd;
         let mut x = self.x.as_mut().submatrix_mut(0, 0, n, k);
-        for c in 0..k {
-            for i in 0..n {
-                x[(i, c)] = rhs[(fwd[i], c)];
+        let b = rhs.rb();
+        by_columns(x.rb_mut(), par, |c, mut xc| {
+            for (i, &f) in fwd.iter().enumerate() {
+                xc[i] = b[(f, c)];
+            }
+        });
+        let [s0, s1] = &mut self.solve;
+        let solver = Sweep { sy, l: &self.l };
+        let all = 0..s.n_supernodes();
+        match sy.split.as_ref() {
+            None => solver.forward(all.clone(), x.rb_mut(), 0, s0, &[], par),
+            Some(split) => {
+                s0.top.fill(c64::new(0.0, 0.0));
+                s1.top.fill(c64::new(0.0, 0.0));
+                solver.groups(split, x.rb_mut(), [s0, s1], par, |sw, sns, xg, r0, sc| {
+                    sw.forward(sns, xg, r0, sc, &split.top_pos, Par::Seq)
+                });
+                for c in 0..k {
+                    for &t in &split.top {
+                        for r in begin[t]..end[t] {
+                            let p = split.top_pos[r];
+                            x[(r, c)] -= s0.top[(p, c)] + s1.top[(p, c)];
+                        }
+                    }
+                }
+                solver.forward(split.top.iter().copied(), x.rb_mut(), 0, s0, &[], par);
             }
         }
-        let one = c64::new(1.0, 0.0);
-        let l = &self.l;
-        let panel = |sn: usize| {
-            let (ncols, np) = (end[sn] - begin[sn], pattern(s, sn).len());
-            MatRef::from_column_major_slice(&l[cpv[sn]..cpv[sn + 1]], ncols + np, ncols)
-                .split_at_row(ncols)
+        solver.diagonal(x.rb_mut(), par);
+        match sy.split.as_ref() {
+            None => solver.backward(all.rev(), x.rb_mut(), 0, s0, &[], par),
+            Some(split) => {
+                solver.backward(split.top.iter().rev().copied(), x.rb_mut(), 0, s0, &[], par);
+                for sc in [&mut *s0, &mut *s1] {
+                    for c in 0..k {
+                        for &t in &split.top {
+                            for r in begin[t]..end[t] {
+                                sc.top[(split.top_pos[r], c)] = x[(r, c)];
+                            }
+                        }
+                    }
+                }
+                solver.groups(split, x.rb_mut(), [s0, s1], par, |sw, sns, xg, r0, sc| {
+                    sw.backward(sns.rev(), xg, r0, sc, &split.top_pos, Par::Seq)
+                });
+            }
+        }
+        let x = x.rb();
+        by_columns(rhs, par, |c, mut bc| {
+            for (i, &f) in fwd.iter().enumerate() {
+                bc[f] = x[(i, c)];
+            }
+        });
+    }
+}
+
+/// `f(c, column c of x)` for every column, on two threads (each half of the columns) when
+/// `par` has them.
+fn by_columns(x: MatMut<'_, c64>, par: Par, f: impl Fn(usize, faer::ColMut<'_, c64>) + Sync) {
+    let k = x.ncols();
+    if par.degree() > 1 && k > 1 {
+        let (a, b) = x.split_at_col_mut(k / 2);
+        rayon::join(
+            || a.col_iter_mut().enumerate().for_each(|(c, col)| f(c, col)),
+            || {
+                b.col_iter_mut()
+                    .enumerate()
+                    .for_each(|(c, col)| f(k / 2 + c, col))
+            },
+        );
+    } else {
+        x.col_iter_mut().enumerate().for_each(|(c, col)| f(c, col));
+    }
+}
+
+/// The triangular solves of one numeric factorization, supernode by supernode.
+struct Sweep<'a> {
+    sy: &'a Symbolic,
+    l: &'a [c64],
+}
+
+impl Sweep<'_> {
+    /// Supernode `sn`'s diagonal block and the rows below it.
+    fn panel(&self, sn: usize) -> (MatRef<'_, c64>, MatRef<'_, c64>) {
+        let s = supernodal(&self.sy.sym);
+        let (begin, end, cpv) = (s.supernode_begin(), s.supernode_end(), s.col_ptr_for_val());
+        let (ncols, np) = (end[sn] - begin[sn], pattern(s, sn).len());
+        MatRef::from_column_major_slice(&self.l[cpv[sn]..cpv[sn + 1]], ncols + np, ncols)
+            .split_at_row(ncols)
+    }
+
+    /// Runs `run` on each group of `split`'s subtrees (each subtree with its rows of `x`, the
+    /// first row's index and the group's buffers), the groups on two threads when `par` has
+    /// them.
+    fn groups(
+        &self,
+        split: &Split,
+        x: MatMut<'_, c64>,
+        scratch: [&mut SolveScratch; 2],
+        par: Par,
+        run: impl Fn(&Self, std::ops::Range<usize>, MatMut<'_, c64>, usize, &mut SolveScratch) + Sync,
+    ) {
+        let s = supernodal(&self.sy.sym);
+        let (begin, end) = (s.supernode_begin(), s.supernode_end());
+        // each subtree's rows, cut from x in order of position
+        let mut ranges: Vec<(usize, usize, usize)> = split
+            .groups
+            .iter()
+            .enumerate()
+            .flat_map(|(g, rs)| rs.iter().map(move |&(f, e)| (f, e, g)))
+            .collect();
+        ranges.sort_unstable();
+        let mut parts: [Vec<(usize, usize, MatMut<'_, c64>)>; 2] = [Vec::new(), Vec::new()];
+        let mut rest = x;
+        let mut offset = 0;
+        for (first, last, g) in ranges {
+            let (r0, r1) = (begin[first], end[last - 1]);
+            let (_, tail) = rest.split_at_row_mut(r0 - offset);
+            let (mine, tail) = tail.split_at_row_mut(r1 - r0);
+            parts[g].push((first, last, mine));
+            rest = tail;
+            offset = r1;
+        }
+        let [p0, p1] = parts;
+        let [sc0, sc1] = scratch;
+        let group = |part: Vec<(usize, usize, MatMut<'_, c64>)>, sc: &mut SolveScratch| {
+            for (first, last, xg) in part {
+                run(self, first..last, xg, begin[first], sc);
+            }
         };
-        // L y = P b
-        for sn in 0..s.n_supernodes() {
-            let (top, bot) = panel(sn);
+        if par.degree() > 1 {
+            rayon::join(|| group(p0, sc0), || group(p1, sc1));
+        } else {
+            group(p0, sc0);
+            group(p1, sc1);
+        }
+    }
+
+    /// L y = b over the supernodes `sns`: `x` holds the rows from `r0` on of every supernode
+    /// in `sns` and of every row they update, except rows r with `top_pos[r]` set (a group's
+    /// contributions to the top), which go to `sc.top`.
+    fn forward(
+        &self,
+        sns: impl Iterator<Item = usize>,
+        mut x: MatMut<'_, c64>,
+        r0: usize,
+        sc: &mut SolveScratch,
+        top_pos: &[usize],
+        par: Par,
+    ) {
+        let s = supernodal(&self.sy.sym);
+        let begin = s.supernode_begin();
+        let k = x.ncols();
+        let one = c64::new(1.0, 0.0);
+        for sn in sns {
+            let (top, bot) = self.panel(sn);
             let pat = pattern(s, sn);
             let p = par_for((top.nrows() + pat.len()) * top.nrows() * k, par);
-            let mut xs = x.rb_mut().subrows_mut(begin[sn], top.nrows());
+            let mut xs = x.rb_mut().subrows_mut(begin[sn] - r0, top.nrows());
             solve_unit_lower_triangular_in_place(top, xs.rb_mut(), p);
-            let mut g = self.gathered.as_mut().submatrix_mut(0, 0, pat.len(), k);
+            let mut g = sc.gathered.as_mut().submatrix_mut(0, 0, pat.len(), k);
             matmul(g.rb_mut(), Accum::Replace, bot, xs.rb(), one, p);
             for c in 0..k {
                 for (i, &r) in pat.iter().enumerate() {
-                    x[(r, c)] -= g[(i, c)];
+                    match top_pos.get(r) {
+                        Some(&t) if t != usize::MAX => sc.top[(t, c)] += g[(i, c)],
+                        _ => x[(r - r0, c)] -= g[(i, c)],
+                    }
                 }
             }
         }
-        // D z = y
-        for sn in 0..s.n_supernodes() {
-            let (top, _) = panel(sn);
-            for j in 0..top.ncols() {
-                let inv = top[(j, j)].inv();
-                for c in 0..k {
-                    x[(begin[sn] + j, c)] *= inv;
-                }
-            }
-        }
-        // Lᵀ (P x) = z
-        for sn in (0..s.n_supernodes()).rev() {
-            let (top, bot) = panel(sn);
+    }
+
+    /// Lᵀ x = z over the supernodes `sns` (in reverse order), `x` and `top_pos` as in
+    /// [`Self::forward`]: the top's rows are read from `sc.top`.
+    fn backward(
+        &self,
+        sns: impl Iterator<Item = usize>,
+        mut x: MatMut<'_, c64>,
+        r0: usize,
+        sc: &mut SolveScratch,
+        top_pos: &[usize],
+        par: Par,
+    ) {
+        let s = supernodal(&self.sy.sym);
+        let begin = s.supernode_begin();
+        let k = x.ncols();
+        let one = c64::new(1.0, 0.0);
+        for sn in sns {
+            let (top, bot) = self.panel(sn);
             let pat = pattern(s, sn);
-            let mut g = self.gathered.as_mut().submatrix_mut(0, 0, pat.len(), k);
+            let mut g = sc.gathered.as_mut().submatrix_mut(0, 0, pat.len(), k);
             for c in 0..k {
                 for (i, &r) in pat.iter().enumerate() {
-                    g[(i, c)] = x[(r, c)];
+                    g[(i, c)] = match top_pos.get(r) {
+                        Some(&t) if t != usize::MAX => sc.top[(t, c)],
+                        _ => x[(r - r0, c)],
+                    };
                 }
             }
             let p = par_for((top.nrows() + pat.len()) * top.nrows() * k, par);
-            let mut xs = x.rb_mut().subrows_mut(begin[sn], top.nrows());
+            let mut xs = x.rb_mut().subrows_mut(begin[sn] - r0, top.nrows());
             matmul(xs.rb_mut(), Accum::Add, bot.transpose(), g.rb(), -one, p);
             solve_unit_upper_triangular_in_place(top.transpose(), xs, p);
         }
-        for c in 0..k {
-            for i in 0..n {
-                rhs[(fwd[i], c)] = x[(i, c)];
+    }
+
+    /// D z = y: with threads, the supernodes in two halves (disjoint rows of x).
+    fn diagonal(&self, x: MatMut<'_, c64>, par: Par) {
+        let s = supernodal(&self.sy.sym);
+        let begin = s.supernode_begin();
+        let scale = |sns: std::ops::Range<usize>, mut x: MatMut<'_, c64>, r0: usize| {
+            for sn in sns {
+                let (top, _) = self.panel(sn);
+                for j in 0..top.ncols() {
+                    let inv = top[(j, j)].inv();
+                    for c in 0..x.ncols() {
+                        x[(begin[sn] + j - r0, c)] *= inv;
+                    }
+                }
             }
+        };
+        let ns = s.n_supernodes();
+        if par.degree() > 1 && ns > 1 {
+            let mid = ns / 2;
+            let (a, b) = x.split_at_row_mut(begin[mid]);
+            rayon::join(|| scale(0..mid, a, 0), || scale(mid..ns, b, begin[mid]));
+        } else {
+            scale(0..ns, x, 0);
         }
     }
 }

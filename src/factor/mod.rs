@@ -43,7 +43,7 @@ pub mod umfpack;
 pub use cholesky::{reference_cholesky, symbolic_cholesky};
 pub use inertia::{count_eigenvalues_below, count_eigenvalues_below_with};
 pub use lblt::PivotStats;
-pub use ordering::{symbolic_cholesky_ordered, OrderingChoice};
+pub use ordering::{symbolic_cholesky_ordered, Order, OrderingChoice};
 pub use refine::MAX_REFINEMENTS;
 
 pub(crate) use cholesky::Cholesky;

@@ -5,7 +5,7 @@
 
 use crate::common::*;
 use faer::linalg::solvers::Solve;
-use faer::{c64, Mat, Par};
+use faer::{c64, Mat, MatRef, Par};
 use proptest::prelude::*;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
@@ -186,10 +186,10 @@ fn the_pivoting_fallback_solves_like_dense() {
 /// The ordering: AMD always; with the `metis` feature METIS's nested dissection is kept when
 /// it leaves fewer entries — on a chunky 3-D body (a 6³-element cube, N = 1029) it does, on
 /// the slender paper bar it does not — and the transfer functions on the kept ordering equal
-/// dense solves.
+/// dense solves. Both are below the size of the level-set bisection.
 #[test]
 fn the_ordering_with_fewer_entries_is_kept_and_solves_equal_dense() {
-    use sparsemor::factor::symbolic_cholesky_ordered;
+    use sparsemor::factor::{symbolic_cholesky_ordered, Order};
     use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
     use sparsemor::sweep::SweepOptions;
     let cube = BoxSpec {
@@ -202,31 +202,68 @@ fn the_ordering_with_fewer_entries_is_kept_and_solves_equal_dense() {
         let (sym, choice) = symbolic_cholesky_ordered(&Pencil::new(&model)).unwrap();
         let metis = cfg!(feature = "metis");
         assert_eq!(choice.nd_nnz.is_some(), metis, "{choice}");
+        assert_eq!(choice.bisected_nnz, None, "{choice}");
         let nd_fills_less = choice.nd_nnz.is_some_and(|nd| nd < choice.amd_nnz);
-        assert_eq!(choice.nested_dissection, nd_fills_less);
-        assert_eq!(choice.nested_dissection, metis && chunky, "{choice}");
-        assert_eq!(
-            sym.len_val(),
-            choice
-                .nd_nnz
-                .filter(|_| choice.nested_dissection)
-                .unwrap_or(choice.amd_nnz)
-        );
+        let expected = if nd_fills_less {
+            Order::NestedDissection
+        } else {
+            Order::Amd
+        };
+        assert_eq!(choice.kept, expected);
+        assert_eq!(nd_fills_less, metis && chunky, "{choice}");
+        assert_eq!(sym.len_val(), choice.nnz());
         let opts = SweepOptions::default();
         assert_sweep_matches_dense(&model, &paper_scene(&spec), &[130.0, 2400.0], &opts, 1e-9);
     }
 }
 
-/// A cube of `elements` elements (0.1 m) at 700 Hz, two right-hand sides b, solved with one
-/// numeric LDLᵀ factored on one thread and then on two: (model, pencil, ω, b, x one thread,
-/// x two threads).
-fn cube_one_and_two_threads(
+/// The level-set bisection: on a slender bar (2×3×150 elements, N = 5436) the separator is
+/// one cross-section and each half is a band toward it, which leaves fewer entries than AMD
+/// (and than METIS), so it is kept; on a cube (12³ elements, N = 6591) a level is a large
+/// diagonal surface and AMD (or METIS) is kept.
+#[test]
+fn the_level_set_bisection_is_kept_on_a_slender_bar_only() {
+    use sparsemor::factor::{symbolic_cholesky_ordered, Order};
+    use sparsemor::fe::{bar_model, BoxSpec};
+    let bar = BoxSpec {
+        elements: [2, 3, 150],
+        ..BoxSpec::paper_bar()
+    };
+    let cube = BoxSpec {
+        elements: [12, 12, 12],
+        size_m: [0.1, 0.1, 0.1],
+        ..BoxSpec::paper_bar()
+    };
+    for (spec, slender) in [(bar, true), (cube, false)] {
+        let model = bar_model(&spec).unwrap();
+        let (sym, choice) = symbolic_cholesky_ordered(&Pencil::new(&model)).unwrap();
+        let bisected = choice.bisected_nnz.expect("above the bisection's size");
+        assert_eq!(choice.kept == Order::Bisected, slender, "{choice}");
+        if slender {
+            assert!(bisected < choice.amd_nnz, "{choice}");
+            assert!(choice.nd_nnz.is_none_or(|nd| bisected < nd), "{choice}");
+        } else {
+            assert!(bisected as f64 > 1.05 * choice.amd_nnz as f64, "{choice}");
+        }
+        assert_eq!(sym.len_val(), choice.nnz());
+    }
+}
+
+/// A body of `elements` elements at 700 Hz, two right-hand sides b, factored and solved with
+/// one numeric LDLᵀ on one thread and then on two: (model, pencil, ω, b, x one thread,
+/// x two threads). A cube of 0.1 m unless `slender`, then the paper bar's cross-section.
+fn one_and_two_threads(
     elements: [usize; 3],
+    slender: bool,
 ) -> (Model, Pencil, f64, Mat<c64>, Mat<c64>, Mat<c64>) {
     use sparsemor::fe::{bar_model, BoxSpec};
     let spec = BoxSpec {
         elements,
-        size_m: [0.1, 0.1, 0.1],
+        size_m: if slender {
+            BoxSpec::paper_bar().size_m
+        } else {
+            [0.1, 0.1, 0.1]
+        },
         ..BoxSpec::paper_bar()
     };
     let model = bar_model(&spec).unwrap();
@@ -241,7 +278,7 @@ fn cube_one_and_two_threads(
             .unwrap()
             .unwrap();
         let mut x = b.clone();
-        num.solve(x.as_mut(), Par::Seq);
+        sparsemor::pool::with_pool(2, || num.solve(x.as_mut(), par)).unwrap();
         x
     };
     let (one, two) = (solve(Par::Seq), solve(Par::rayon(2)));
@@ -254,7 +291,7 @@ fn cube_one_and_two_threads(
 /// solutions agree to the last bit, and they equal the dense solution.
 #[test]
 fn two_threads_inside_the_factorization_give_the_one_thread_factor() {
-    let (model, _, omega, b, one, two) = cube_one_and_two_threads([6, 6, 6]);
+    let (model, _, omega, b, one, two) = one_and_two_threads([6, 6, 6], false);
     assert_eq!((&one - &two).norm_max(), 0.0);
     let reference = dense_a(&model, omega).partial_piv_lu().solve(&b);
     let e = (&two - &reference).norm_l2() / reference.norm_l2();
@@ -267,15 +304,38 @@ fn two_threads_inside_the_factorization_give_the_one_thread_factor() {
 /// the solution instead.
 #[test]
 fn two_threads_on_large_separators_give_the_one_thread_factor() {
-    let (model, pencil, omega, b, one, two) = cube_one_and_two_threads([12, 12, 12]);
-    let n = model.n();
+    let (model, pencil, omega, b, one, two) = one_and_two_threads([12, 12, 12], false);
     assert_eq!((&one - &two).norm_max(), 0.0);
-    let mut ax = Mat::<c64>::zeros(n, 2);
-    pencil.apply(omega, two.as_ref(), ax.as_mut());
-    // normwise backward error ‖b − A x‖∞ / (‖A‖∞ ‖x‖∞), ‖A‖∞ = ‖A‖₁ (A symmetric) bounded
-    // from above by the column sums of |K| and |M| (within a factor 2 of the exact norm)
+    let r = backward_error(&model, &pencil, omega, b.as_ref(), two.as_ref());
+    assert!(r <= 1e-14, "{r:.1e}");
+}
+
+/// The same on a slender bar whose level-set bisection is kept (2×3×150 elements,
+/// N = 5436): two chains of supernodes under one cross-section, factored and solved (forward
+/// and backward) on their own threads.
+#[test]
+fn two_threads_on_the_halves_of_a_bisected_bar_give_the_one_thread_solution() {
+    let (model, pencil, omega, b, one, two) = one_and_two_threads([2, 3, 150], true);
+    assert_eq!((&one - &two).norm_max(), 0.0);
+    let r = backward_error(&model, &pencil, omega, b.as_ref(), two.as_ref());
+    assert!(r <= 1e-14, "{r:.1e}");
+}
+
+/// The normwise backward error ‖b − A x‖∞ / (‖A‖∞ ‖x‖∞) of a solve of A(iω) x = b, with
+/// ‖A‖∞ = ‖A‖₁ (A symmetric) bounded from above by the column sums of |K| and |M| (within a
+/// factor 2 of the exact norm).
+fn backward_error(
+    model: &Model,
+    pencil: &Pencil,
+    omega: f64,
+    b: MatRef<'_, c64>,
+    x: MatRef<'_, c64>,
+) -> f64 {
+    let n = model.n();
+    let mut ax = Mat::<c64>::zeros(n, b.ncols());
+    pencil.apply(omega, x, ax.as_mut());
     let Damping::Rayleigh { alpha, beta } = model.damping else {
-        panic!("the generated cube has Rayleigh damping")
+        panic!("the generated body has Rayleigh damping")
     };
     let col_sums = |a: &sparsemor::sparse::Csc| {
         (0..n)
@@ -286,6 +346,5 @@ fn two_threads_on_large_separators_give_the_one_thread_factor() {
     let norm_a = (0..n)
         .map(|j| (1.0 + omega * beta.abs()) * k1[j] + (omega * omega + omega * alpha.abs()) * m1[j])
         .fold(0.0, f64::max);
-    let r = (&b - &ax).norm_max() / (norm_a * two.norm_max());
-    assert!(r <= 1e-14, "{r:.1e}");
+    (&b - &ax).norm_max() / (norm_a * x.norm_max())
 }
