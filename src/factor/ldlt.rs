@@ -111,6 +111,18 @@ struct Split {
 }
 
 impl Split {
+    /// Every subtree of the groups as (first supernode, last + 1, group), in order.
+    fn subtrees(&self) -> Vec<(usize, usize, usize)> {
+        let mut ranges: Vec<(usize, usize, usize)> = self
+            .groups
+            .iter()
+            .enumerate()
+            .flat_map(|(g, rs)| rs.iter().map(move |&(f, e)| (f, e, g)))
+            .collect();
+        ranges.sort_unstable();
+        ranges
+    }
+
     /// The split of the supernodal elimination tree of `s` (`parent` from [`supernode_tree`]), or
     /// `None` when it is not a postorder (subtrees not contiguous) or no two groups of
     /// subtrees hold comparable work. Work of a supernode: ncols · nrows², its dense flops up
@@ -429,13 +441,7 @@ impl Numeric<'_> {
         }
         let second = self.second.as_mut().expect("allocated above");
         // each subtree's values, cut from L in order of position
-        let mut ranges: Vec<(usize, usize, usize)> = split
-            .groups
-            .iter()
-            .enumerate()
-            .flat_map(|(g, rs)| rs.iter().map(move |&(f, e)| (f, e, g)))
-            .collect();
-        ranges.sort_unstable();
+        let ranges = split.subtrees();
         let mut parts: [Vec<(usize, usize, &mut [c64])>; 2] = [Vec::new(), Vec::new()];
         let mut rest: &mut [c64] = &mut self.l;
         let mut offset = 0;
@@ -645,12 +651,20 @@ impl Numeric<'_> {
         let solver = Sweep { sy, l: &self.l };
         let all = 0..s.n_supernodes();
         match sy.split.as_ref() {
-            None => solver.forward(all.clone(), x.rb_mut(), 0, s0, &[], par),
+            None => solver.substitute(Direction::Forward, all.clone(), x.rb_mut(), 0, s0, &[], par),
             Some(split) => {
                 s0.top.fill(c64::new(0.0, 0.0));
                 s1.top.fill(c64::new(0.0, 0.0));
                 solver.groups(split, x.rb_mut(), [s0, s1], par, |sw, sns, xg, r0, sc| {
-                    sw.forward(sns, xg, r0, sc, &split.top_pos, Par::Seq)
+                    sw.substitute(
+                        Direction::Forward,
+                        sns,
+                        xg,
+                        r0,
+                        sc,
+                        &split.top_pos,
+                        Par::Seq,
+                    )
                 });
                 for c in 0..k {
                     for &t in &split.top {
@@ -660,14 +674,30 @@ impl Numeric<'_> {
                         }
                     }
                 }
-                solver.forward(split.top.iter().copied(), x.rb_mut(), 0, s0, &[], par);
+                solver.substitute(
+                    Direction::Forward,
+                    split.top.iter().copied(),
+                    x.rb_mut(),
+                    0,
+                    s0,
+                    &[],
+                    par,
+                );
             }
         }
         solver.diagonal(x.rb_mut(), par);
         match sy.split.as_ref() {
-            None => solver.backward(all.rev(), x.rb_mut(), 0, s0, &[], par),
+            None => solver.substitute(Direction::Backward, all.rev(), x.rb_mut(), 0, s0, &[], par),
             Some(split) => {
-                solver.backward(split.top.iter().rev().copied(), x.rb_mut(), 0, s0, &[], par);
+                solver.substitute(
+                    Direction::Backward,
+                    split.top.iter().rev().copied(),
+                    x.rb_mut(),
+                    0,
+                    s0,
+                    &[],
+                    par,
+                );
                 for sc in [&mut *s0, &mut *s1] {
                     for c in 0..k {
                         for &t in &split.top {
@@ -678,7 +708,15 @@ impl Numeric<'_> {
                     }
                 }
                 solver.groups(split, x.rb_mut(), [s0, s1], par, |sw, sns, xg, r0, sc| {
-                    sw.backward(sns.rev(), xg, r0, sc, &split.top_pos, Par::Seq)
+                    sw.substitute(
+                        Direction::Backward,
+                        sns.rev(),
+                        xg,
+                        r0,
+                        sc,
+                        &split.top_pos,
+                        Par::Seq,
+                    )
                 });
             }
         }
@@ -708,6 +746,13 @@ fn by_columns(x: MatMut<'_, c64>, par: Par, f: impl Fn(usize, faer::ColMut<'_, c
     } else {
         x.col_iter_mut().enumerate().for_each(|(c, col)| f(c, col));
     }
+}
+
+/// Forward (L y = b) or backward (Lᵀ x = z) substitution.
+#[derive(Clone, Copy)]
+enum Direction {
+    Forward,
+    Backward,
 }
 
 /// The triangular solves of one numeric factorization, supernode by supernode.
@@ -740,13 +785,7 @@ impl Sweep<'_> {
         let s = supernodal(&self.sy.sym);
         let (begin, end) = (s.supernode_begin(), s.supernode_end());
         // each subtree's rows, cut from x in order of position
-        let mut ranges: Vec<(usize, usize, usize)> = split
-            .groups
-            .iter()
-            .enumerate()
-            .flat_map(|(g, rs)| rs.iter().map(move |&(f, e)| (f, e, g)))
-            .collect();
-        ranges.sort_unstable();
+        let ranges = split.subtrees();
         let mut parts: [Vec<(usize, usize, MatMut<'_, c64>)>; 2] = [Vec::new(), Vec::new()];
         let mut rest = x;
         let mut offset = 0;
@@ -773,11 +812,15 @@ impl Sweep<'_> {
         }
     }
 
-    /// L y = b over the supernodes `sns`: `x` holds the rows from `r0` on of every supernode
-    /// in `sns` and of every row they update, except rows r with `top_pos[r]` set (a group's
-    /// contributions to the top), which go to `sc.top`.
-    fn forward(
+    /// One substitution over the supernodes `sns`: forward L y = b, or backward Lᵀ x = z
+    /// (`sns` then in reverse order). `x` holds the rows from `r0` on of every supernode in
+    /// `sns` and of every row below them, except rows r with `top_pos[r]` set (the top's, seen
+    /// from a group): forward, a group's contributions to them go to `sc.top`; backward, their
+    /// solution is read from `sc.top`.
+    #[allow(clippy::too_many_arguments)]
+    fn substitute(
         &self,
+        direction: Direction,
         sns: impl Iterator<Item = usize>,
         mut x: MatMut<'_, c64>,
         r0: usize,
@@ -789,56 +832,40 @@ impl Sweep<'_> {
         let begin = s.supernode_begin();
         let k = x.ncols();
         let one = c64::new(1.0, 0.0);
+        let in_top = |r: usize| top_pos.get(r).copied().filter(|&t| t != usize::MAX);
         for sn in sns {
             let (top, bot) = self.panel(sn);
             let pat = pattern(s, sn);
             let p = par_for((top.nrows() + pat.len()) * top.nrows() * k, par);
-            let mut xs = x.rb_mut().subrows_mut(begin[sn] - r0, top.nrows());
-            solve_unit_lower_triangular_in_place(top, xs.rb_mut(), p);
             let mut g = sc.gathered.as_mut().submatrix_mut(0, 0, pat.len(), k);
-            matmul(g.rb_mut(), Accum::Replace, bot, xs.rb(), one, p);
-            for c in 0..k {
-                for (i, &r) in pat.iter().enumerate() {
-                    match top_pos.get(r) {
-                        Some(&t) if t != usize::MAX => sc.top[(t, c)] += g[(i, c)],
-                        _ => x[(r - r0, c)] -= g[(i, c)],
+            match direction {
+                Direction::Forward => {
+                    let mut xs = x.rb_mut().subrows_mut(begin[sn] - r0, top.nrows());
+                    solve_unit_lower_triangular_in_place(top, xs.rb_mut(), p);
+                    matmul(g.rb_mut(), Accum::Replace, bot, xs.rb(), one, p);
+                    for c in 0..k {
+                        for (i, &r) in pat.iter().enumerate() {
+                            match in_top(r) {
+                                Some(t) => sc.top[(t, c)] += g[(i, c)],
+                                None => x[(r - r0, c)] -= g[(i, c)],
+                            }
+                        }
                     }
                 }
-            }
-        }
-    }
-
-    /// Lᵀ x = z over the supernodes `sns` (in reverse order), `x` and `top_pos` as in
-    /// [`Self::forward`]: the top's rows are read from `sc.top`.
-    fn backward(
-        &self,
-        sns: impl Iterator<Item = usize>,
-        mut x: MatMut<'_, c64>,
-        r0: usize,
-        sc: &mut SolveScratch,
-        top_pos: &[usize],
-        par: Par,
-    ) {
-        let s = supernodal(&self.sy.sym);
-        let begin = s.supernode_begin();
-        let k = x.ncols();
-        let one = c64::new(1.0, 0.0);
-        for sn in sns {
-            let (top, bot) = self.panel(sn);
-            let pat = pattern(s, sn);
-            let mut g = sc.gathered.as_mut().submatrix_mut(0, 0, pat.len(), k);
-            for c in 0..k {
-                for (i, &r) in pat.iter().enumerate() {
-                    g[(i, c)] = match top_pos.get(r) {
-                        Some(&t) if t != usize::MAX => sc.top[(t, c)],
-                        _ => x[(r - r0, c)],
-                    };
+                Direction::Backward => {
+                    for c in 0..k {
+                        for (i, &r) in pat.iter().enumerate() {
+                            g[(i, c)] = match in_top(r) {
+                                Some(t) => sc.top[(t, c)],
+                                None => x[(r - r0, c)],
+                            };
+                        }
+                    }
+                    let mut xs = x.rb_mut().subrows_mut(begin[sn] - r0, top.nrows());
+                    matmul(xs.rb_mut(), Accum::Add, bot.transpose(), g.rb(), -one, p);
+                    solve_unit_upper_triangular_in_place(top.transpose(), xs, p);
                 }
             }
-            let p = par_for((top.nrows() + pat.len()) * top.nrows() * k, par);
-            let mut xs = x.rb_mut().subrows_mut(begin[sn] - r0, top.nrows());
-            matmul(xs.rb_mut(), Accum::Add, bot.transpose(), g.rb(), -one, p);
-            solve_unit_upper_triangular_in_place(top.transpose(), xs, p);
         }
     }
 

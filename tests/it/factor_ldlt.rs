@@ -346,5 +346,5 @@ fn backward_error(
     let norm_a = (0..n)
         .map(|j| (1.0 + omega * beta.abs()) * k1[j] + (omega * omega + omega * alpha.abs()) * m1[j])
         .fold(0.0, f64::max);
-    (&b - &ax).norm_max() / (norm_a * x.norm_max())
+    (b - &ax).norm_max() / (norm_a * x.norm_max())
 }
