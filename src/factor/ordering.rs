@@ -87,35 +87,43 @@ const BISECTED_ALLOWANCE: f64 = 1.05;
 pub fn symbolic_cholesky_ordered(
     pencil: &Pencil,
 ) -> Result<(SymbolicCholesky<usize>, OrderingChoice)> {
-    // the orderings are independent: side by side when there are threads
+    // the orderings are independent: side by side when there are threads; the bisection
+    // and METIS share one graph, and a custom order is postordered only if it is kept
     let (amd, (bis, nd)) = rayon::join(
         || analyse(pencil, SymmetricOrdering::Amd),
         || {
+            let graph = Graph::new(pencil);
             rayon::join(
                 || {
-                    bisected(pencil)
-                        .map(|o| analyse_postordered(pencil, o))
+                    bisected(&graph)
+                        .map(|o| analyse_custom(pencil, o))
                         .transpose()
                 },
-                || nested_dissection_analysis(pencil),
+                || nested_dissection_analysis(pencil, &graph),
             )
         },
     );
     let (amd, bis, nd) = (amd?, bis?, nd?);
     let amd_nnz = amd.len_val();
-    let bisected_nnz = bis.as_ref().map(|s| s.len_val());
-    let nd_nnz = nd.as_ref().map(|s| s.len_val());
+    let mut bisected_nnz = bis.as_ref().map(|(s, _)| s.len_val());
+    let mut nd_nnz = nd.as_ref().map(|(s, _)| s.len_val());
     let best = [Some(amd_nnz), nd_nnz]
         .into_iter()
         .flatten()
         .min()
         .unwrap_or(amd_nnz);
-    let kept = if bisected_nnz.is_some_and(|b| b as f64 <= BISECTED_ALLOWANCE * best as f64) {
-        Order::Bisected
-    } else if nd_nnz.is_some_and(|nd| nd < amd_nnz) {
-        Order::NestedDissection
-    } else {
-        Order::Amd
+    let (kept, sym) = match (bis, nd) {
+        (Some(bis), _) if bis.0.len_val() as f64 <= BISECTED_ALLOWANCE * best as f64 => {
+            let sym = postordered(pencil, bis)?;
+            bisected_nnz = Some(sym.len_val());
+            (Order::Bisected, sym)
+        }
+        (_, Some(nd)) if nd.0.len_val() < amd_nnz => {
+            let sym = postordered(pencil, nd)?;
+            nd_nnz = Some(sym.len_val());
+            (Order::NestedDissection, sym)
+        }
+        _ => (Order::Amd, amd),
     };
     let choice = OrderingChoice {
         kept,
@@ -123,35 +131,35 @@ pub fn symbolic_cholesky_ordered(
         bisected_nnz,
         nd_nnz,
     };
-    let sym = match kept {
-        Order::Amd => Some(amd),
-        Order::Bisected => bis,
-        Order::NestedDissection => nd,
-    };
-    Ok((sym.expect("the kept ordering was analysed"), choice))
+    Ok((sym, choice))
 }
 
+/// A custom order's first analysis and the order (row i of P A Pᵀ is row `fwd[i]` of A).
+type Custom = (SymbolicCholesky<usize>, Vec<usize>);
+
 /// The analysis on METIS's order, or `None` without the feature or when METIS fails.
-fn nested_dissection_analysis(pencil: &Pencil) -> Result<Option<SymbolicCholesky<usize>>> {
+fn nested_dissection_analysis(pencil: &Pencil, graph: &Graph) -> Result<Option<Custom>> {
     #[cfg(feature = "metis")]
-    if let Some(order) = nested_dissection(pencil) {
-        return analyse_postordered(pencil, order).map(Some);
+    if let Some(order) = nested_dissection(graph) {
+        return analyse_custom(pencil, order).map(Some);
     }
-    let _ = pencil;
+    let _ = (pencil, graph);
     Ok(None)
 }
 
-/// The analysis on the custom order `(fwd, inv)`, its supernodes renumbered in postorder:
-/// faer keeps a custom order as given, and the LDLᵀ's parallel subtrees need a postorder.
-fn analyse_postordered(
-    pencil: &Pencil,
-    (fwd, inv): (Vec<usize>, Vec<usize>),
-) -> Result<SymbolicCholesky<usize>> {
-    let n = pencil.n();
-    let perm = faer::perm::PermRef::new_checked(&fwd, &inv, n);
-    let first = analyse(pencil, SymmetricOrdering::Custom(perm))?;
+/// The analysis on the custom order `(fwd, inv)`, as faer keeps it (not in postorder).
+fn analyse_custom(pencil: &Pencil, (fwd, inv): (Vec<usize>, Vec<usize>)) -> Result<Custom> {
+    let perm = faer::perm::PermRef::new_checked(&fwd, &inv, pencil.n());
+    let sym = analyse(pencil, SymmetricOrdering::Custom(perm))?;
+    Ok((sym, fwd))
+}
+
+/// The analysis on a custom order with its supernodes renumbered in postorder: the LDLᵀ's
+/// parallel subtrees must be contiguous.
+fn postordered(pencil: &Pencil, (first, fwd): Custom) -> Result<SymbolicCholesky<usize>> {
     let (fwd, inv) = postorder(&first, &fwd);
-    let perm = faer::perm::PermRef::new_checked(&fwd, &inv, n);
+    drop(first);
+    let perm = faer::perm::PermRef::new_checked(&fwd, &inv, pencil.n());
     analyse(pencil, SymmetricOrdering::Custom(perm))
 }
 
@@ -222,15 +230,14 @@ fn inverse(fwd: &[usize]) -> Vec<usize> {
 /// permutation (row i of P A Pᵀ is row fwd[i] of A) and its inverse, or `None` when the graph
 /// does not fit METIS's 32-bit indices or METIS reports an error.
 #[cfg(feature = "metis")]
-fn nested_dissection(pencil: &Pencil) -> Option<(Vec<usize>, Vec<usize>)> {
+fn nested_dissection(graph: &Graph) -> Option<(Vec<usize>, Vec<usize>)> {
     use metis_sys::idx_t;
-    let n = pencil.n();
-    let (xadj, adjncy) = graph(pencil);
-    if xadj[n] > idx_t::MAX as usize || n > idx_t::MAX as usize {
+    let n = graph.n();
+    if graph.adjncy.len() > idx_t::MAX as usize || n > idx_t::MAX as usize {
         return None;
     }
-    let mut adjncy: Vec<idx_t> = adjncy.into_iter().map(|v| v as idx_t).collect();
-    let mut xadj: Vec<idx_t> = xadj.into_iter().map(|x| x as idx_t).collect();
+    let mut adjncy: Vec<idx_t> = graph.adjncy.iter().map(|&v| v as idx_t).collect();
+    let mut xadj: Vec<idx_t> = graph.xadj.iter().map(|&x| x as idx_t).collect();
     let mut nvtxs = n as idx_t;
     let mut options = [0 as idx_t; metis_sys::METIS_NOPTIONS as usize];
     let (mut perm, mut iperm) = (vec![0 as idx_t; n], vec![0 as idx_t; n]);
@@ -244,7 +251,7 @@ fn nested_dissection(pencil: &Pencil) -> Option<(Vec<usize>, Vec<usize>)> {
     // SAFETY: `options` has METIS_NOPTIONS entries, as METIS_SetDefaultOptions requires.
     // METIS_NodeND reads the CSR graph `xadj` (n + 1 entries, non-decreasing, ending at
     // adjncy.len()) and `adjncy` (neighbour indices < n, no self loops, symmetric by
-    // construction in `graph`), no vertex weights (null), and writes n entries each to `perm`
+    // construction in `Graph::new`), no vertex weights (null), and writes n entries each to `perm`
     // and `iperm`; all buffers live across the call and indices fit idx_t (checked above).
     let status = unsafe {
         metis_sys::METIS_SetDefaultOptions(options.as_mut_ptr());
@@ -274,38 +281,49 @@ fn nested_dissection(pencil: &Pencil) -> Option<(Vec<usize>, Vec<usize>)> {
     Some((fwd, inv))
 }
 
-/// The graph of the pencil's pattern (both triangles, no diagonal) in compressed rows:
-/// the neighbours of vertex i are `adjncy[xadj[i]..xadj[i + 1]]`, increasing.
-fn graph(pencil: &Pencil) -> (Vec<usize>, Vec<usize>) {
-    let n = pencil.n();
-    let (cp, ri) = (pencil.col_ptr(), pencil.row_idx());
-    let mut xadj = vec![0usize; n + 1];
-    for j in 0..n {
-        for &i in &ri[cp[j]..cp[j + 1]] {
-            if i != j {
-                xadj[i + 1] += 1;
-                xadj[j + 1] += 1;
+/// The graph of the pencil's pattern (both triangles, no diagonal) in compressed rows: the
+/// neighbours of vertex i are `adjncy[xadj[i]..xadj[i + 1]]`, increasing.
+struct Graph {
+    xadj: Vec<usize>,
+    adjncy: Vec<usize>,
+}
+
+impl Graph {
+    fn new(pencil: &Pencil) -> Graph {
+        let n = pencil.n();
+        let (cp, ri) = (pencil.col_ptr(), pencil.row_idx());
+        let mut xadj = vec![0usize; n + 1];
+        for j in 0..n {
+            for &i in &ri[cp[j]..cp[j + 1]] {
+                if i != j {
+                    xadj[i + 1] += 1;
+                    xadj[j + 1] += 1;
+                }
             }
         }
-    }
-    for i in 0..n {
-        xadj[i + 1] += xadj[i];
-    }
-    let mut next: Vec<usize> = xadj[..n].to_vec();
-    let mut adjncy = vec![0usize; xadj[n]];
-    // column by column: vertex v's neighbours u < v arrive with the columns u, in
-    // increasing order, before those below it (the rows of column v), which are increasing
-    for j in 0..n {
-        for &i in &ri[cp[j]..cp[j + 1]] {
-            if i != j {
-                adjncy[next[i]] = j;
-                next[i] += 1;
-                adjncy[next[j]] = i;
-                next[j] += 1;
+        for i in 0..n {
+            xadj[i + 1] += xadj[i];
+        }
+        let mut next: Vec<usize> = xadj[..n].to_vec();
+        let mut adjncy = vec![0usize; xadj[n]];
+        // column by column: vertex v's neighbours u < v arrive with the columns u, in
+        // increasing order, before those below it (the rows of column v), which are increasing
+        for j in 0..n {
+            for &i in &ri[cp[j]..cp[j + 1]] {
+                if i != j {
+                    adjncy[next[i]] = j;
+                    next[i] += 1;
+                    adjncy[next[j]] = i;
+                    next[j] += 1;
+                }
             }
         }
+        Graph { xadj, adjncy }
     }
-    (xadj, adjncy)
+
+    fn n(&self) -> usize {
+        self.xadj.len() - 1
+    }
 }
 
 /// At most this many restarts of the search for a pseudo-peripheral vertex.
@@ -324,12 +342,12 @@ const MIN_BISECTED: usize = 4096;
 /// 10 % fewer entries than AMD on the 10⁵ bar; on a chunky body the levels are large and
 /// the analysis keeps AMD. `None` below [`MIN_BISECTED`] unknowns, for a disconnected
 /// graph, or with fewer than three levels.
-fn bisected(pencil: &Pencil) -> Option<(Vec<usize>, Vec<usize>)> {
-    let n = pencil.n();
+fn bisected(graph: &Graph) -> Option<(Vec<usize>, Vec<usize>)> {
+    let n = graph.n();
     if n < MIN_BISECTED {
         return None;
     }
-    let (xadj, adjncy) = graph(pencil);
+    let (xadj, adjncy) = (&graph.xadj, &graph.adjncy);
     let degree = |v: usize| xadj[v + 1] - xadj[v];
     let mut level = vec![usize::MAX; n];
     let mut queue = Vec::with_capacity(n);
@@ -416,7 +434,8 @@ mod tests {
         };
         let pencil = Pencil::new(&bar_model(&spec).unwrap());
         let n = pencil.n();
-        let (fwd, inv) = bisected(&pencil).expect("a connected bar above the size limit");
+        let (fwd, inv) =
+            bisected(&Graph::new(&pencil)).expect("a connected bar above the size limit");
         assert_eq!(inverse(&fwd), inv);
         let mut sorted = fwd.clone();
         sorted.sort_unstable();
@@ -441,7 +460,7 @@ mod tests {
     fn small_or_disconnected_patterns_are_not_bisected() {
         let paper = Pencil::new(&bar_model(&BoxSpec::paper_bar()).unwrap());
         assert!(paper.n() < MIN_BISECTED);
-        assert!(bisected(&paper).is_none());
+        assert!(bisected(&Graph::new(&paper)).is_none());
         // two bars side by side, without a common entry
         let spec = BoxSpec {
             elements: [2, 3, 150],
@@ -468,7 +487,7 @@ mod tests {
             3,
         )
         .unwrap();
-        assert!(bisected(&Pencil::new(&two)).is_none());
-        assert!(bisected(&Pencil::new(&one)).is_some());
+        assert!(bisected(&Graph::new(&Pencil::new(&two))).is_none());
+        assert!(bisected(&Graph::new(&Pencil::new(&one))).is_some());
     }
 }
