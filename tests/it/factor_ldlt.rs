@@ -285,10 +285,11 @@ fn one_and_two_threads(
     (model, pencil, omega, b, one, two)
 }
 
-/// Two threads inside one factorization (independent subtrees of the elimination tree on
-/// their own threads, then the top with threads in the dense products) compute the same
-/// factor as one thread: every supernode is computed in the same order either way, so the
-/// solutions agree to the last bit, and they equal the dense solution.
+/// Two threads inside one factorization compute the same factor as one thread: every
+/// supernode is computed in the same order either way, so the solutions agree to the last
+/// bit, and they equal the dense solution. (AMD's tree of this cube has no two groups of
+/// subtrees worth a thread each, so the threads work inside the dense products; the bisected
+/// bar below runs its two halves on their own threads.)
 #[test]
 fn two_threads_inside_the_factorization_give_the_one_thread_factor() {
     let (model, _, omega, b, one, two) = one_and_two_threads([6, 6, 6], false);
