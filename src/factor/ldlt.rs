@@ -106,8 +106,8 @@ struct Split {
     /// Row → its position among the top supernodes' rows (`usize::MAX` for a group's row):
     /// where a group's solve leaves its contributions to the top.
     top_pos: Vec<usize>,
-    /// Rows of the top supernodes.
-    top_rows: usize,
+    /// The top supernodes' rows, by position.
+    top_rows: Vec<usize>,
 }
 
 impl Split {
@@ -201,13 +201,10 @@ impl Split {
         }
         let mut top = best_top;
         top.sort_unstable();
+        let top_rows: Vec<usize> = top.iter().flat_map(|&t| begin[t]..end[t]).collect();
         let mut top_pos = vec![usize::MAX; s.nrows()];
-        let mut top_rows = 0;
-        for &t in &top {
-            for c in begin[t]..end[t] {
-                top_pos[c] = top_rows;
-                top_rows += 1;
-            }
+        for (p, &r) in top_rows.iter().enumerate() {
+            top_pos[r] = p;
         }
         Some(Split {
             groups,
@@ -378,7 +375,7 @@ impl Symbolic {
             x: Mat::zeros(n, rhs),
             solve: std::array::from_fn(|_| SolveScratch {
                 gathered: Mat::zeros(self.max_pattern, rhs),
-                top: Mat::zeros(self.split.as_ref().map_or(0, |sp| sp.top_rows), rhs),
+                top: Mat::zeros(self.split.as_ref().map_or(0, |sp| sp.top_rows.len()), rhs),
             }),
             pivot_ratio: f64::NAN,
             perturbed: 0,
@@ -637,7 +634,6 @@ impl Numeric<'_> {
     fn solve_block(&mut self, rhs: MatMut<'_, c64>, par: Par) {
         let sy = self.symbolic;
         let s = supernodal(&sy.sym);
-        let (begin, end) = (s.supernode_begin(), s.supernode_end());
         let (n, k) = (rhs.nrows(), rhs.ncols());
         let fwd = &sy.fwd;
         let mut x = self.x.as_mut().submatrix_mut(0, 0, n, k);
@@ -667,11 +663,8 @@ impl Numeric<'_> {
                     )
                 });
                 for c in 0..k {
-                    for &t in &split.top {
-                        for r in begin[t]..end[t] {
-                            let p = split.top_pos[r];
-                            x[(r, c)] -= s0.top[(p, c)] + s1.top[(p, c)];
-                        }
+                    for (p, &r) in split.top_rows.iter().enumerate() {
+                        x[(r, c)] -= s0.top[(p, c)] + s1.top[(p, c)];
                     }
                 }
                 solver.substitute(
@@ -700,10 +693,8 @@ impl Numeric<'_> {
                 );
                 for sc in [&mut *s0, &mut *s1] {
                     for c in 0..k {
-                        for &t in &split.top {
-                            for r in begin[t]..end[t] {
-                                sc.top[(split.top_pos[r], c)] = x[(r, c)];
-                            }
+                        for (p, &r) in split.top_rows.iter().enumerate() {
+                            sc.top[(p, c)] = x[(r, c)];
                         }
                     }
                 }

@@ -349,11 +349,10 @@ fn bisected(graph: &Graph) -> Option<(Vec<usize>, Vec<usize>)> {
     }
     let (xadj, adjncy) = (&graph.xadj, &graph.adjncy);
     let degree = |v: usize| xadj[v + 1] - xadj[v];
-    let mut level = vec![usize::MAX; n];
-    let mut queue = Vec::with_capacity(n);
     // breadth-first levels from `root` into `level`, visiting order into `queue`; the depth
-    let search = |root: usize, level: &mut [usize], queue: &mut Vec<usize>| {
-        level.fill(usize::MAX);
+    let search = |root: usize, level: &mut Vec<usize>, queue: &mut Vec<usize>| {
+        level.clear();
+        level.resize(n, usize::MAX);
         queue.clear();
         level[root] = 0;
         queue.push(root);
@@ -370,13 +369,15 @@ fn bisected(graph: &Graph) -> Option<(Vec<usize>, Vec<usize>)> {
         }
         queue.last().map_or(0, |&v| level[v])
     };
-    let mut root = (0..n).min_by_key(|&v| degree(v)).unwrap_or(0);
+    let (mut level, mut queue) = (Vec::with_capacity(n), Vec::with_capacity(n));
+    let root = (0..n).min_by_key(|&v| degree(v)).unwrap_or(0);
     let mut depth = search(root, &mut level, &mut queue);
     if queue.len() < n {
         return None;
     }
     // George and Liu's restarts (a few suffice: on a bar the second search already starts
-    // at the far end)
+    // at the far end); a search that does not deepen the levels leaves them as they were
+    let (mut next_level, mut next_queue) = (Vec::with_capacity(n), Vec::with_capacity(n));
     for _ in 0..PERIPHERAL_RESTARTS {
         let far = queue
             .iter()
@@ -385,25 +386,25 @@ fn bisected(graph: &Graph) -> Option<(Vec<usize>, Vec<usize>)> {
             .copied()
             .min_by_key(|&v| degree(v))
             .unwrap_or(root);
-        let d = search(far, &mut level, &mut queue);
+        let d = search(far, &mut next_level, &mut next_queue);
         if d <= depth {
-            // keep the levels of the last root that deepened them
-            search(root, &mut level, &mut queue);
             break;
         }
-        (root, depth) = (far, d);
+        std::mem::swap(&mut level, &mut next_level);
+        std::mem::swap(&mut queue, &mut next_queue);
+        depth = d;
     }
+    drop((next_level, next_queue));
     if depth < 2 {
         return None;
     }
-    let mut count = vec![0usize; depth + 1];
-    for &l in &level {
-        count[l] += 1;
-    }
     // vertices before level m: before[m]
     let mut before = vec![0usize; depth + 2];
+    for &l in &level {
+        before[l + 1] += 1;
+    }
     for l in 0..=depth {
-        before[l + 1] = before[l] + count[l];
+        before[l + 1] += before[l];
     }
     let sep = (1..depth)
         .min_by_key(|&m| before[m].abs_diff(n - before[m + 1]))
