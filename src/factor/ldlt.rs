@@ -328,7 +328,7 @@ impl Symbolic {
         let split = Split::new(s, &parent);
         let factor_nnz = s.len_val();
         let scratch = 16 * (max_update + max_cols * max_cols / 2) + 8 * n;
-        let bytes = 16 * factor_nnz
+        let bytes = 16 * (factor_nnz + n)
             + scratch * if split.is_some() { 2 } else { 1 }
             + 16 * (n + max_pattern) * (max_rhs + 1)
             + 8 * (2 * assembly.len() + desc.len())
@@ -370,6 +370,7 @@ impl Symbolic {
         Ok(Numeric {
             symbolic: self,
             l: try_vec(supernodal(&self.sym).len_val())?,
+            d_inv: try_vec(n)?,
             scratch: self.scratch()?,
             second: None,
             x: Mat::zeros(n, rhs),
@@ -388,6 +389,8 @@ pub(super) struct Numeric<'a> {
     symbolic: &'a Symbolic,
     /// L (strictly lower part) and D (its diagonal) in faer's supernodal layout.
     l: Vec<c64>,
+    /// D⁻¹, in the order of L's columns.
+    d_inv: Vec<c64>,
     scratch: Scratch,
     /// The second thread's buffers when subtrees run in parallel (allocated on first use).
     second: Option<Scratch>,
@@ -467,6 +470,33 @@ impl Numeric<'_> {
             sy.factor_supernode(sn, &mut self.l, 0, a, &mut self.scratch, &mut pivots, par);
         }
         Ok(pivots)
+    }
+}
+
+impl Numeric<'_> {
+    /// D⁻¹ from the factor's diagonal, for the solves: with threads, the supernodes in two
+    /// halves.
+    fn invert_diagonal(&mut self, par: Par) {
+        let s = supernodal(&self.symbolic.sym);
+        let (begin, end, cpv) = (s.supernode_begin(), s.supernode_end(), s.col_ptr_for_val());
+        let l = &self.l;
+        let invert = |sns: std::ops::Range<usize>, d: &mut [c64], r0: usize| {
+            for sn in sns {
+                let ncols = end[sn] - begin[sn];
+                let stride = ncols + pattern(s, sn).len();
+                for j in 0..ncols {
+                    d[begin[sn] + j - r0] = l[cpv[sn] + j * stride + j].inv();
+                }
+            }
+        };
+        let ns = s.n_supernodes();
+        if par.degree() > 1 && ns > 1 {
+            let mid = ns / 2;
+            let (a, b) = self.d_inv.split_at_mut(begin[mid]);
+            rayon::join(|| invert(0..mid, a, 0), || invert(mid..ns, b, begin[mid]));
+        } else {
+            invert(0..ns, &mut self.d_inv, 0);
+        }
     }
 }
 
@@ -594,6 +624,7 @@ impl Factorization for Numeric<'_> {
         if pivots.perturbed > 0 {
             pivots = self.factor_with(a, f64::EPSILON.sqrt() * amax, par)?;
         }
+        self.invert_diagonal(par);
         self.perturbed = pivots.perturbed;
         self.pivot_ratio = if pivots.hi > 0.0 {
             pivots.lo / pivots.hi
@@ -678,7 +709,12 @@ impl Numeric<'_> {
                 );
             }
         }
-        solver.diagonal(x.rb_mut(), par);
+        let d_inv = &self.d_inv;
+        by_columns(x.rb_mut(), par, |_, xc| {
+            for (v, d) in xc.iter_mut().zip(d_inv) {
+                *v *= *d;
+            }
+        });
         match sy.split.as_ref() {
             None => solver.substitute(Direction::Backward, all.rev(), x.rb_mut(), 0, s0, &[], par),
             Some(split) => {
@@ -857,31 +893,6 @@ impl Sweep<'_> {
                     solve_unit_upper_triangular_in_place(top.transpose(), xs, p);
                 }
             }
-        }
-    }
-
-    /// D z = y: with threads, the supernodes in two halves (disjoint rows of x).
-    fn diagonal(&self, x: MatMut<'_, c64>, par: Par) {
-        let s = supernodal(&self.sy.sym);
-        let begin = s.supernode_begin();
-        let scale = |sns: std::ops::Range<usize>, mut x: MatMut<'_, c64>, r0: usize| {
-            for sn in sns {
-                let (top, _) = self.panel(sn);
-                for j in 0..top.ncols() {
-                    let inv = top[(j, j)].inv();
-                    for c in 0..x.ncols() {
-                        x[(begin[sn] + j - r0, c)] *= inv;
-                    }
-                }
-            }
-        };
-        let ns = s.n_supernodes();
-        if par.degree() > 1 && ns > 1 {
-            let mid = ns / 2;
-            let (a, b) = x.split_at_row_mut(begin[mid]);
-            rayon::join(|| scale(0..mid, a, 0), || scale(mid..ns, b, begin[mid]));
-        } else {
-            scale(0..ns, x, 0);
         }
     }
 }

@@ -146,20 +146,41 @@ pub(super) fn symmetric_residual<T: Scalar, F: Fn(usize) -> T + Sync>(
     }
 }
 
+/// Rows per tile when columns are copied to and from the interleaved layout: the tile's
+/// rows stay in cache while each column streams through it (column by column over all
+/// rows, every column re-read the whole interleaved buffer: 4.6 s of the 10⁶-DoF bar's
+/// 20-frequency sweep went to the copy back alone).
+const TILE: usize = 512;
+
 /// The entries of `m` mapped by `f` into `v`, row by row: entry (i, c) at i·w + c.
-fn interleave<T: Copy, U>(m: MatRef<'_, T>, v: &mut Vec<U>, f: impl Fn(T) -> U) {
-    v.clear();
-    for i in 0..m.nrows() {
-        v.extend((0..m.ncols()).map(|c| f(m[(i, c)])));
+fn interleave<T: Copy, U: Copy>(m: MatRef<'_, T>, v: &mut Vec<U>, f: impl Fn(T) -> U) {
+    let (n, w) = (m.nrows(), m.ncols());
+    if n * w == 0 {
+        return v.clear();
+    }
+    if v.len() != n * w {
+        v.clear();
+        v.resize(n * w, f(m[(0, 0)]));
+    }
+    for i0 in (0..n).step_by(TILE) {
+        let i1 = (i0 + TILE).min(n);
+        for (c, col) in m.col_iter().enumerate() {
+            for i in i0..i1 {
+                v[i * w + c] = f(col[i]);
+            }
+        }
     }
 }
 
 /// The inverse of [`interleave`] (without a map): entry i·w + c of `v` into `m[(i, c)]`.
 fn deinterleave<U: Copy>(v: &[U], mut m: MatMut<'_, U>) {
-    let w = m.ncols();
-    for c in 0..w {
-        for i in 0..m.nrows() {
-            m[(i, c)] = v[i * w + c];
+    let (n, w) = (m.nrows(), m.ncols());
+    for i0 in (0..n).step_by(TILE) {
+        let i1 = (i0 + TILE).min(n);
+        for c in 0..w {
+            for i in i0..i1 {
+                m[(i, c)] = v[i * w + c];
+            }
         }
     }
 }

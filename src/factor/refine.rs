@@ -113,6 +113,7 @@ mod tests {
     use super::*;
     use crate::fe::{bar_model, BoxSpec};
     use crate::pencil::Pencil;
+    use faer::c64;
     use faer::linalg::solvers::Solve;
 
     /// The componentwise backward error maxᵢ |b − A x|ᵢ / (|A||x| + |b|)ᵢ of one column.
@@ -158,29 +159,40 @@ mod tests {
     }
 
     /// The blocked residual r = b − A x and s = |A||x| + |b| against a dense product, for
-    /// 1–37 columns (one block, several, a partial last one) sequentially and on two
-    /// threads, with one scratch reused across calls: the same numbers either way.
-    #[test]
-    fn blocked_residual_equals_a_dense_product() {
-        let (pencil, vals, a) = shifted_bar([1, 2, 5], -3e5);
+    /// 1–37 columns (one block, several, a partial last one; partial blocks of every
+    /// size) sequentially and on two threads, with one scratch reused across calls: the
+    /// same numbers either way.
+    fn blocked_residual_case<T: Scalar<Real = f64>>(
+        vals: &[T],
+        pencil: &Pencil,
+        value: impl Fn(usize) -> T,
+    ) {
         let n = pencil.n();
-        let abs_a = Mat::<f64>::from_fn(n, n, |i, j| a[(i, j)].abs());
+        let (cp, ri) = (pencil.col_ptr(), pencil.row_idx());
+        let mut a = Mat::<T>::zeros(n, n);
+        for j in 0..n {
+            for p in cp[j]..cp[j + 1] {
+                a[(ri[p], j)] = vals[p];
+                a[(j, ri[p])] = vals[p];
+            }
+        }
+        let abs_a = Mat::<f64>::from_fn(n, n, |i, j| a[(i, j)].abs1());
         let entry = |p: usize| vals[p];
         let lower = pattern::Lower {
-            pencil: &pencil,
+            pencil,
             entry: &entry,
         };
         let mut scratch = pattern::ResidualScratch::default();
-        for k in [1, 5, 16, 17, 37] {
-            let x = Mat::<f64>::from_fn(n, k, |i, c| ((i * 13 + c * 5) % 17) as f64 - 8.0);
-            let b = Mat::<f64>::from_fn(n, k, |i, c| ((i * 3 + c * 11) % 7) as f64 - 3.0);
+        for k in [1, 2, 3, 5, 9, 16, 17, 37] {
+            let x = Mat::<T>::from_fn(n, k, |i, c| value(i * 13 + c * 5));
+            let b = Mat::<T>::from_fn(n, k, |i, c| value(i * 3 + c * 11 + 1));
             let r_dense = &b - &a * &x;
-            let abs_x = Mat::<f64>::from_fn(n, k, |i, c| x[(i, c)].abs());
-            let abs_b = Mat::<f64>::from_fn(n, k, |i, c| b[(i, c)].abs());
+            let abs_x = Mat::<f64>::from_fn(n, k, |i, c| x[(i, c)].abs1());
+            let abs_b = Mat::<f64>::from_fn(n, k, |i, c| b[(i, c)].abs1());
             let s_dense = &abs_a * &abs_x + &abs_b;
             let mut results = Vec::new();
             for par in [Par::Seq, Par::rayon(2)] {
-                let (mut r, mut s) = (Mat::zeros(n, k), Mat::zeros(n, k));
+                let (mut r, mut s) = (Mat::<T>::zeros(n, k), Mat::zeros(n, k));
                 let sm = Some(s.as_mut());
                 pattern::symmetric_residual(
                     lower,
@@ -201,6 +213,20 @@ mod tests {
                 "k = {k}: threads changed the residual"
             );
         }
+    }
+
+    #[test]
+    fn blocked_residual_equals_a_dense_product() {
+        let (pencil, vals, _) = shifted_bar([1, 2, 5], -3e5);
+        let small = |m: usize| ((m % 17) as f64 - 8.0) / 8.0;
+        blocked_residual_case(&vals, &pencil, small);
+        // complex symmetric: a damping-like imaginary part on every entry
+        let cvals: Vec<c64> = vals
+            .iter()
+            .enumerate()
+            .map(|(p, &v)| c64::new(v, 0.3 * v * small(p)))
+            .collect();
+        blocked_residual_case(&cvals, &pencil, |m| c64::new(small(m), small(m / 3 + 5)));
     }
 
     /// Refinement with a solver of a perturbed matrix (A + E, |E| = 1e-8|A| on the diagonal)
