@@ -156,41 +156,36 @@ impl Pencil {
         }
     }
 
-    /// re ← K − ω²M, im ← ωD: the values of A(iω).
+    /// re ← K − ω²M, im ← ωD: the values of A(iω) ([`Self::value`] of every entry).
     pub fn fill_complex(&self, omega: f64, re: &mut [f64], im: &mut [f64]) {
-        self.fill_real(omega, re);
-        match &self.d {
-            DampingValues::Zero => im.fill(0.0),
-            DampingValues::Rayleigh { alpha, beta } => {
-                let (a, b) = (omega * alpha, omega * beta);
-                for ((x, &k), &m) in im.iter_mut().zip(&self.k).zip(&self.m) {
-                    *x = a * m + b * k;
-                }
-            }
-            DampingValues::Matrix(d) => {
-                for (x, &dv) in im.iter_mut().zip(d) {
-                    *x = omega * dv;
-                }
-            }
+        for (p, (r, i)) in re.iter_mut().zip(im.iter_mut()).enumerate() {
+            let v = self.value(omega, p);
+            (*r, *i) = (v.re, v.im);
         }
+    }
+
+    /// Entry `p` of A(iω) on the lower pattern: K − ω²M (as [`Self::fill_real`]) + i ωD, with
+    /// ωD = (ωα)M + (ωβ)K for Rayleigh damping. The factorizations that read the values once
+    /// compute them here instead of keeping a copy per frequency.
+    #[inline]
+    pub fn value(&self, omega: f64, p: usize) -> c64 {
+        let (k, m) = (self.k[p], self.m[p]);
+        let im = match &self.d {
+            DampingValues::Zero => 0.0,
+            DampingValues::Rayleigh { alpha, beta } => (omega * alpha) * m + (omega * beta) * k,
+            DampingValues::Matrix(d) => omega * d[p],
+        };
+        c64::new(k - (omega * omega) * m, im)
     }
 
     /// y ← A(iω) x for the symmetric A stored by its lower triangle.
     pub fn apply(&self, omega: f64, x: MatRef<'_, c64>, mut y: MatMut<'_, c64>) {
-        let w2 = omega * omega;
         y.fill(c64::new(0.0, 0.0));
         for c in 0..x.ncols() {
             for j in 0..self.n {
                 for p in self.col_ptr[j]..self.col_ptr[j + 1] {
                     let i = self.row_idx[p];
-                    let im = match &self.d {
-                        DampingValues::Zero => 0.0,
-                        DampingValues::Rayleigh { alpha, beta } => {
-                            omega * (alpha * self.m[p] + beta * self.k[p])
-                        }
-                        DampingValues::Matrix(d) => omega * d[p],
-                    };
-                    let a = c64::new(self.k[p] - w2 * self.m[p], im);
+                    let a = self.value(omega, p);
                     y[(i, c)] += a * x[(j, c)];
                     if i != j {
                         y[(j, c)] += a * x[(i, c)];

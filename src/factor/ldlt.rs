@@ -331,8 +331,7 @@ impl Symbolic {
         let bytes = 16 * (factor_nnz + n)
             + scratch * if split.is_some() { 2 } else { 1 }
             + 16 * (n + max_pattern) * (max_rhs + 1)
-            + 8 * (2 * assembly.len() + desc.len())
-            + 16 * pencil.nnz();
+            + 8 * (2 * assembly.len() + desc.len());
         let symbolic = Symbolic {
             sym: sym_n,
             fwd,
@@ -529,7 +528,7 @@ impl Symbolic {
         // A's entries into the zeroed panel
         panel.fill(c64::new(0.0, 0.0));
         for &(p, q) in &self.assembly[self.assembly_ptr[sn]..self.assembly_ptr[sn + 1]] {
-            panel[q - cpv[sn]] += c64::new(a.re[p], a.im[p]);
+            panel[q - cpv[sn]] += a.entry(p);
         }
         let mut ls = MatMut::from_column_major_slice_mut(panel, nrows, ncols);
         for &d in &self.desc[self.desc_ptr[sn]..self.desc_ptr[sn + 1]] {
@@ -604,18 +603,18 @@ impl Symbolic {
 impl Factorization for Numeric<'_> {
     fn factor(&mut self, a: &Values<'_>, freq_hz: f64, par: Par) -> Result<()> {
         // max |aᵢⱼ|, exact in any grouping: on two threads, halves
-        let max_sq = |re: &[f64], im: &[f64]| {
-            re.iter()
-                .zip(im)
-                .fold(0.0f64, |m, (&x, &y)| m.max(x * x + y * y))
+        let max_sq = |entries: std::ops::Range<usize>| {
+            entries.fold(0.0f64, |m, p| {
+                let v = a.entry(p);
+                m.max(v.re * v.re + v.im * v.im)
+            })
         };
+        let nnz = a.pattern.row_idx().len();
         let amax = if par.degree() > 1 {
-            let (r0, r1) = a.re.split_at(a.re.len() / 2);
-            let (i0, i1) = a.im.split_at(a.re.len() / 2);
-            let (m0, m1) = rayon::join(|| max_sq(r0, i0), || max_sq(r1, i1));
+            let (m0, m1) = rayon::join(|| max_sq(0..nnz / 2), || max_sq(nnz / 2..nnz));
             m0.max(m1)
         } else {
-            max_sq(a.re, a.im)
+            max_sq(0..nnz)
         }
         .sqrt();
         // numerically zero pivots only; if there were any, PARDISO's larger threshold, which
@@ -652,6 +651,10 @@ impl Factorization for Numeric<'_> {
 
     fn perturbed(&self) -> usize {
         self.perturbed
+    }
+
+    fn reads_arrays(&self) -> bool {
+        false
     }
 }
 
