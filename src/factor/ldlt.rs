@@ -77,8 +77,8 @@ pub(super) struct Symbolic {
     sym: Arc<SymbolicCholesky<usize>>,
     /// The fill-reducing order: row i of P A Pᵀ is row `fwd[i]` of A.
     fwd: Vec<usize>,
-    /// The entries of A by supernode, in the order of L's values: (position p in the
-    /// pencil's lower pattern, position in L's values), supernode s's at
+    /// The entries of A by supernode, each supernode's in the order of the pencil's pattern:
+    /// (position p in the pencil's lower pattern, position in L's values), supernode s's at
     /// `assembly[assembly_ptr[s]..assembly_ptr[s + 1]]`.
     assembly: Vec<(usize, usize)>,
     assembly_ptr: Vec<usize>,
@@ -271,8 +271,20 @@ impl Symbolic {
             None => ((0..n).collect(), (0..n).collect()),
         };
         // where entry (i, j) of A lands: (max, min) of the permuted indices, in the panel of
-        // the supernode owning the column
+        // the supernode owning the column; grouped by that supernode (a counting sort: the
+        // order inside a supernode does not matter, each position gets one entry)
         let (cp, ri) = (pencil.col_ptr(), pencil.row_idx());
+        let owner_of = |p: usize, j: usize| owner[inv[ri[p]].min(inv[j])];
+        let mut assembly_ptr = vec![0usize; ns + 1];
+        for j in 0..n {
+            for p in cp[j]..cp[j + 1] {
+                assembly_ptr[owner_of(p, j) + 1] += 1;
+            }
+        }
+        for sn in 0..ns {
+            assembly_ptr[sn + 1] += assembly_ptr[sn];
+        }
+        let mut next = assembly_ptr[..ns].to_vec();
         let mut assembly: Vec<(usize, usize)> = try_vec(ri.len())?;
         for j in 0..n {
             for p in cp[j]..cp[j + 1] {
@@ -291,16 +303,9 @@ impl Symbolic {
                             )
                         })?
                 };
-                assembly[p] = (p, cpv[sn] + (col - begin[sn]) * (ncols + pat.len()) + local);
+                assembly[next[sn]] = (p, cpv[sn] + (col - begin[sn]) * (ncols + pat.len()) + local);
+                next[sn] += 1;
             }
-        }
-        assembly.sort_unstable_by_key(|&(_, q)| q);
-        let mut assembly_ptr = Vec::with_capacity(ns + 1);
-        assembly_ptr.push(0);
-        for sn in 0..ns {
-            let next = assembly_ptr[sn]
-                + assembly[assembly_ptr[sn]..].partition_point(|&(_, q)| q < cpv[sn + 1]);
-            assembly_ptr.push(next);
         }
         // descendants: d updates every supernode owning a row of its pattern
         let mut lists: Vec<Vec<usize>> = vec![Vec::new(); ns];
