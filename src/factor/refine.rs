@@ -159,9 +159,8 @@ mod tests {
     }
 
     /// The blocked residual r = b − A x and s = |A||x| + |b| against a dense product, for
-    /// 1–37 columns (one block, several, a partial last one; partial blocks of every
-    /// size) sequentially and on two threads, with one scratch reused across calls: the
-    /// same numbers either way.
+    /// 1–37 columns (one block, several, a partial last one) sequentially and on two
+    /// threads, with one scratch reused across calls: the same numbers either way.
     fn blocked_residual_case<T: Scalar<Real = f64>>(
         vals: &[T],
         pencil: &Pencil,
@@ -215,9 +214,12 @@ mod tests {
         }
     }
 
+    /// [`blocked_residual_case`] for real and for complex-symmetric entries, on a bar of
+    /// 1116 DoFs: more than two tiles of the interleaved copies, the last one partial.
     #[test]
     fn blocked_residual_equals_a_dense_product() {
-        let (pencil, vals, _) = shifted_bar([1, 2, 5], -3e5);
+        let (pencil, vals, _) = shifted_bar([2, 3, 30], -3e5);
+        assert_eq!(pencil.n(), 1116);
         let small = |m: usize| ((m % 17) as f64 - 8.0) / 8.0;
         blocked_residual_case(&vals, &pencil, small);
         // complex symmetric: a damping-like imaginary part on every entry
