@@ -10,8 +10,11 @@
 //!   expanded pairwise), the shift-invert Cholesky of K − σM and the inertia count all factor
 //!   matrices with this pattern, so one analysis serves them all.
 //!
-//! A [`Body`] borrows its [`Model`]; the scene (inputs, outputs, band) is not part of it and is
-//! passed to each computation explicitly.
+//! A [`Body`] holds the model's matrices once, as the pencil's lower triangles (every later
+//! product with M, K or D is [`Pencil::mul`]), with the model's name, node coordinates and DoFs
+//! per node: the [`Model`] it was built from can be dropped (on the 10⁶-DoF bar its
+//! full-storage M and K are 2 GB beside the pencil's 1 GB; docs/design.md §2). The scene
+//! (inputs, outputs, band) is not part of it and is passed to each computation explicitly.
 
 use crate::model::Model;
 use crate::pencil::Pencil;
@@ -22,36 +25,56 @@ use faer::{c64, Mat};
 use std::sync::{Arc, OnceLock};
 
 /// A model prepared for computation; see the module doc.
-pub struct Body<'m> {
-    model: &'m Model,
+pub struct Body {
+    name: String,
+    nodes: Option<Vec<[f64; 3]>>,
+    dofs_per_node: usize,
     pencil: Pencil,
     rigid: Option<RigidBody>,
     symbolic: OnceLock<Arc<SymbolicCholesky<usize>>>,
 }
 
-impl<'m> Body<'m> {
-    /// Builds the pencil and detects the rigid part ([`RigidBody::detect`]). Cost O(nnz + N).
+impl Body {
+    /// Builds the pencil and detects the rigid part ([`RigidBody::detect`]); copies the
+    /// model's name and nodes. Cost O(nnz + N); the body keeps no reference to `model`.
     ///
     /// # Errors
     /// [`crate::Error::InvalidModel`] when the rigid modes' mass V0ᵀMV0 is not positive
     /// definite (wrong node coordinates).
-    pub fn new(model: &'m Model) -> Result<Self> {
+    pub fn new(model: &Model) -> Result<Self> {
+        let pencil = Pencil::new(model);
+        let rigid = match &model.nodes {
+            Some(nodes) => RigidBody::detect(&pencil, nodes, model.dofs_per_node)?,
+            None => None,
+        };
         Ok(Body {
-            model,
-            pencil: Pencil::new(model),
-            rigid: RigidBody::detect(model)?,
+            name: model.name.clone(),
+            nodes: model.nodes.clone(),
+            dofs_per_node: model.dofs_per_node,
+            pencil,
+            rigid,
             symbolic: OnceLock::new(),
         })
     }
 
-    /// The model.
-    pub fn model(&self) -> &'m Model {
-        self.model
+    /// The model's name.
+    pub fn name(&self) -> &str {
+        &self.name
     }
 
     /// Number of DoFs N.
     pub fn n(&self) -> usize {
-        self.model.n()
+        self.pencil.n()
+    }
+
+    /// The model's node coordinates, if it has them.
+    pub fn nodes(&self) -> Option<&[[f64; 3]]> {
+        self.nodes.as_deref()
+    }
+
+    /// DoFs per node (3 or 6).
+    pub fn dofs_per_node(&self) -> usize {
+        self.dofs_per_node
     }
 
     /// The pencil A(s) = s²M + sD + K.

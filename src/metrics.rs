@@ -61,7 +61,7 @@ impl Reference {
     /// # Errors
     /// The sweep's errors (e.g. f = 0 on a free body).
     pub fn compute(
-        body: &Body<'_>,
+        body: &Body,
         scene: &Scene,
         freqs_hz: &[f64],
         opts: &SweepOptions,

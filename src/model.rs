@@ -29,27 +29,6 @@ pub enum Damping {
 }
 
 impl Damping {
-    /// The damping counterpart of a mass term `m` and a stiffness term `k` (the same
-    /// operation applied to M and K, e.g. VᵀMV and VᵀKV, or MV and KV): 0 without damping,
-    /// α m + β k for Rayleigh damping, and `matrix(D)` (the operation applied to D) for an
-    /// explicit matrix. The one place where the damping model is applied.
-    pub fn combine(
-        &self,
-        m: &faer::Mat<f64>,
-        k: &faer::Mat<f64>,
-        matrix: impl FnOnce(&Csc) -> faer::Mat<f64>,
-    ) -> faer::Mat<f64> {
-        match self {
-            Damping::None => faer::Mat::zeros(m.nrows(), m.ncols()),
-            Damping::Rayleigh { alpha, beta } => {
-                faer::Mat::from_fn(m.nrows(), m.ncols(), |i, j| {
-                    alpha * m[(i, j)] + beta * k[(i, j)]
-                })
-            }
-            Damping::Matrix(d) => matrix(d),
-        }
-    }
-
     /// True when D = 0 (no damping matrix, or Rayleigh with α = β = 0).
     pub fn is_zero(&self) -> bool {
         matches!(

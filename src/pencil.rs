@@ -8,10 +8,27 @@
 //! The pattern is the lower triangle (row ≥ column) with sorted rows, diagonal first: the form
 //! the symmetric factorizations read. [`Pencil::apply`] multiplies the symmetric A(iω) by a
 //! block of complex vectors (used for the residual/probe checks of every factorization).
+//!
+//! The pencil is where a [`crate::body::Body`] holds the model's matrices: every product with
+//! M, K or D after the body is built ([`Pencil::mul`]: projections, rigid modes, eigenpair
+//! residuals) reads these lower triangles, so the model's full-storage matrices can be dropped
+//! (docs/design.md §2: on the 10⁶-DoF bar they are 2 GB beside the pencil's 1 GB).
 
 use crate::model::{Damping, Model};
-use crate::sparse::lower_triangle;
-use faer::{c64, MatMut, MatRef};
+use crate::sparse::{from_parts, lower_triangle, mirror_lower, Csc};
+use faer::{c64, Mat, MatMut, MatRef};
+use std::borrow::Cow;
+
+/// One coefficient matrix of the pencil A(s) = s²M + sD + K.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Coefficient {
+    /// M.
+    Mass,
+    /// K.
+    Stiffness,
+    /// D (zero without damping, αM + βK for Rayleigh damping).
+    Damping,
+}
 
 /// Lower-triangle union pattern of M, K, D with per-matrix coefficient arrays.
 #[derive(Clone, Debug)]
@@ -130,6 +147,148 @@ impl Pencil {
         matches!(self.d, DampingValues::Zero)
     }
 
+    /// True when D is an explicit matrix (not zero, not Rayleigh).
+    pub fn has_damping_matrix(&self) -> bool {
+        matches!(self.d, DampingValues::Matrix(_))
+    }
+
+    /// The values of M, K or D on the pattern (D computed for Rayleigh damping, zeros without
+    /// damping; M, K and an explicit D borrowed).
+    fn values(&self, which: Coefficient) -> Cow<'_, [f64]> {
+        match (which, &self.d) {
+            (Coefficient::Mass, _) => Cow::Borrowed(&self.m),
+            (Coefficient::Stiffness, _) => Cow::Borrowed(&self.k),
+            (Coefficient::Damping, DampingValues::Matrix(d)) => Cow::Borrowed(d),
+            (Coefficient::Damping, DampingValues::Zero) => Cow::Owned(vec![0.0; self.nnz()]),
+            (Coefficient::Damping, DampingValues::Rayleigh { alpha, beta }) => Cow::Owned(
+                self.m
+                    .iter()
+                    .zip(&self.k)
+                    .map(|(m, k)| alpha * m + beta * k)
+                    .collect(),
+            ),
+        }
+    }
+
+    /// Y = X·x for X ∈ {M, K, D} (see [`Self::mul_to`]).
+    pub fn mul(&self, which: Coefficient, x: MatRef<'_, f64>) -> Mat<f64> {
+        let mut y = Mat::<f64>::zeros(self.n, x.ncols());
+        self.mul_to(which, x, y.as_mut());
+        y
+    }
+
+    /// y ← X·x for X ∈ {M, K, D} symmetric, stored by its lower triangle: each off-diagonal
+    /// entry a_ij (i > j) adds a_ij x_j to y_i and a_ij x_i to y_j. Cost O(nnz · columns).
+    pub fn mul_to(&self, which: Coefficient, x: MatRef<'_, f64>, mut y: MatMut<'_, f64>) {
+        let vals = self.values(which);
+        y.fill(0.0);
+        for col in 0..x.ncols() {
+            let (xc, mut yc) = (x.col(col), y.as_mut().col_mut(col));
+            for j in 0..self.n {
+                let xj = xc[j];
+                let mut yj = 0.0;
+                for p in self.col_ptr[j]..self.col_ptr[j + 1] {
+                    let (i, a) = (self.row_idx[p], vals[p]);
+                    yc[i] += a * xj;
+                    if i != j {
+                        yj += a * xc[i];
+                    }
+                }
+                yc[j] += yj;
+            }
+        }
+    }
+
+    /// The damping counterpart of a mass term `m` and a stiffness term `k` (the same
+    /// operation applied to M and K, e.g. VᵀMV and VᵀKV, or MV and KV): 0 without damping,
+    /// α m + β k for Rayleigh damping, and `explicit()` (the operation applied to D through
+    /// [`Self::mul`] with [`Coefficient::Damping`]) for an explicit matrix. The one place
+    /// where the damping model is applied to products.
+    pub fn damping_term(
+        &self,
+        m: &Mat<f64>,
+        k: &Mat<f64>,
+        explicit: impl FnOnce() -> Mat<f64>,
+    ) -> Mat<f64> {
+        match self.d {
+            DampingValues::Zero => Mat::zeros(m.nrows(), m.ncols()),
+            DampingValues::Rayleigh { alpha, beta } => {
+                Mat::from_fn(m.nrows(), m.ncols(), |i, j| {
+                    alpha * m[(i, j)] + beta * k[(i, j)]
+                })
+            }
+            DampingValues::Matrix(_) => explicit(),
+        }
+    }
+
+    /// The diagonal of M, K or D (0 where the pattern has no diagonal entry).
+    pub fn diagonal(&self, which: Coefficient) -> Vec<f64> {
+        let vals = self.values(which);
+        (0..self.n)
+            .map(|j| {
+                let p = self.col_ptr[j];
+                if p < self.col_ptr[j + 1] && self.row_idx[p] == j {
+                    vals[p]
+                } else {
+                    0.0
+                }
+            })
+            .collect()
+    }
+
+    /// ‖X‖₁ = max column sum of |x_ij| of the symmetric M, K or D (= ‖X‖_∞ ≥ ‖X‖₂).
+    pub fn norm_1(&self, which: Coefficient) -> f64 {
+        let vals = self.values(which);
+        let mut sums = vec![0.0f64; self.n];
+        for j in 0..self.n {
+            for p in self.col_ptr[j]..self.col_ptr[j + 1] {
+                let i = self.row_idx[p];
+                sums[j] += vals[p].abs();
+                if i != j {
+                    sums[i] += vals[p].abs();
+                }
+            }
+        }
+        sums.into_iter().fold(0.0, f64::max)
+    }
+
+    /// ‖X‖_F of the symmetric M, K or D (off-diagonal entries counted twice).
+    pub fn norm_fro(&self, which: Coefficient) -> f64 {
+        let vals = self.values(which);
+        let mut sum = 0.0;
+        for j in 0..self.n {
+            for p in self.col_ptr[j]..self.col_ptr[j + 1] {
+                let w = if self.row_idx[p] == j { 1.0 } else { 2.0 };
+                sum += w * vals[p] * vals[p];
+            }
+        }
+        sum.sqrt()
+    }
+
+    /// The rows `keep` (new index `pos[i]`, `usize::MAX` for a dropped row) of the columns
+    /// `cols` (in that order) of the symmetric M, K or D, in full storage: e.g. K_ii, M_ii and
+    /// K_ib of a Craig–Bampton partition. `pos` must be increasing on the kept rows (rows stay
+    /// sorted). Memory: one full-storage index map of the pattern while it runs.
+    pub fn submatrix(&self, which: Coefficient, pos: &[usize], cols: &[usize]) -> Csc {
+        let vals = self.values(which);
+        let (full_ptr, full_row, src) = mirror_lower(self.n, &self.col_ptr, &self.row_idx);
+        let n_rows = pos.iter().filter(|&&p| p != usize::MAX).count();
+        let mut col_ptr = Vec::with_capacity(cols.len() + 1);
+        col_ptr.push(0);
+        let (mut row_idx, mut val) = (Vec::new(), Vec::new());
+        for &j in cols {
+            for q in full_ptr[j]..full_ptr[j + 1] {
+                let r = pos[full_row[q]];
+                if r != usize::MAX {
+                    row_idx.push(r);
+                    val.push(vals[src[q]]);
+                }
+            }
+            col_ptr.push(row_idx.len());
+        }
+        from_parts(n_rows, cols.len(), col_ptr, row_idx, val)
+    }
+
     /// The stiffness values on the pattern (A(0) = K).
     pub fn stiffness_values(&self) -> &[f64] {
         &self.k
@@ -192,6 +351,108 @@ impl Pencil {
                     }
                 }
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fe::{bar_model, BoxSpec};
+    use proptest::prelude::*;
+
+    /// A free 1×1×6 bar (N = 84) with damping `d`: Rayleigh, or an explicit D = a·M + b·K
+    /// with its own values (mass-like diagonal shift so that D differs from both).
+    fn model(explicit: bool, a: f64, b: f64) -> Model {
+        let spec = BoxSpec {
+            elements: [1, 1, 6],
+            ..BoxSpec::paper_bar()
+        };
+        let mut m = bar_model(&spec).unwrap();
+        m.damping = if explicit {
+            let mut d = m.stiffness.clone();
+            let (mass, stiff) = (m.mass.to_dense(), m.stiffness.to_dense());
+            for j in 0..d.ncols() {
+                let rows = d.symbolic().row_idx_of_col_raw(j).to_vec();
+                for (v, i) in d.val_of_col_mut(j).iter_mut().zip(rows) {
+                    *v = a * mass[(i, j)] + b * stiff[(i, j)] + if i == j { 0.5 } else { 0.0 };
+                }
+            }
+            Damping::Matrix(d)
+        } else {
+            Damping::Rayleigh { alpha: a, beta: b }
+        };
+        m
+    }
+
+    fn dense(model: &Model, which: Coefficient) -> Mat<f64> {
+        let (mass, stiff) = (model.mass.to_dense(), model.stiffness.to_dense());
+        match (which, &model.damping) {
+            (Coefficient::Mass, _) => mass,
+            (Coefficient::Stiffness, _) => stiff,
+            (Coefficient::Damping, Damping::Matrix(d)) => d.to_dense(),
+            (Coefficient::Damping, Damping::Rayleigh { alpha, beta }) => {
+                Mat::from_fn(mass.nrows(), mass.ncols(), |i, j| {
+                    alpha * mass[(i, j)] + beta * stiff[(i, j)]
+                })
+            }
+            (Coefficient::Damping, Damping::None) => Mat::zeros(mass.nrows(), mass.ncols()),
+        }
+    }
+
+    fn rel(a: &Mat<f64>, b: &Mat<f64>) -> f64 {
+        (a - b).norm_l2() / b.norm_l2()
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(24))]
+        /// The products, norms, diagonal and submatrices read from the lower triangles equal
+        /// those of the dense full matrices (M, K, Rayleigh and explicit D).
+        #[test]
+        fn lower_triangle_products_equal_dense_ones(
+            explicit in any::<bool>(),
+            a in 0.0f64..10.0,
+            b in 1e-6f64..1e-3,
+            cols in 1usize..4,
+            seed in 0u64..1000,
+        ) {
+            let model = model(explicit, a, b);
+            let pencil = Pencil::new(&model);
+            let n = model.n();
+            let x = Mat::from_fn(n, cols, |i, j| {
+                (((i * 7 + j * 13) as u64 + seed) % 17) as f64 - 8.0
+            });
+            for which in [Coefficient::Mass, Coefficient::Stiffness, Coefficient::Damping] {
+                let want = dense(&model, which);
+                prop_assert!(rel(&pencil.mul(which, x.as_ref()), &(&want * &x)) <= 1e-14);
+                let sums = (0..n).map(|j| (0..n).map(|i| want[(i, j)].abs()).sum::<f64>());
+                let norm_1 = sums.fold(0.0, f64::max);
+                prop_assert!((pencil.norm_1(which) - norm_1).abs() <= 1e-14 * norm_1);
+                let fro = want.norm_l2();
+                prop_assert!((pencil.norm_fro(which) - fro).abs() <= 1e-14 * fro);
+                let diag = pencil.diagonal(which);
+                prop_assert!((0..n).all(|i| diag[i] == want[(i, i)]));
+                // drop every third DoF from the rows; columns in a shuffled order
+                let mut pos = vec![usize::MAX; n];
+                let mut k = 0;
+                for (i, p) in pos.iter_mut().enumerate() {
+                    if (i as u64 + seed) % 3 != 0 {
+                        *p = k;
+                        k += 1;
+                    }
+                }
+                let cols: Vec<usize> = (0..n).rev().step_by(2).collect();
+                let sub = pencil.submatrix(which, &pos, &cols).to_dense();
+                for (c, &j) in cols.iter().enumerate() {
+                    for i in (0..n).filter(|&i| pos[i] != usize::MAX) {
+                        prop_assert_eq!(sub[(pos[i], c)], want[(i, j)]);
+                    }
+                }
+            }
+            let (m, k) = (Mat::from_fn(2, 2, |i, j| (i + j) as f64), Mat::identity(2, 2));
+            let term = pencil.damping_term(&m, &k, || Mat::full(2, 2, 7.0));
+            let want = if explicit { Mat::full(2, 2, 7.0) } else { &m * a + &k * b };
+            prop_assert_eq!(term, want);
         }
     }
 }

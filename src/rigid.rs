@@ -22,8 +22,7 @@
 //! Entry points: [`RigidBody::from_nodes`], [`RigidBody::detect`].
 
 use crate::dense::sym;
-use crate::model::Model;
-use crate::sparse::{mul_dense, Csc};
+use crate::pencil::{Coefficient, Pencil};
 use crate::{Error, Result};
 use faer::linalg::solvers::{DenseSolveCore, Solve};
 use faer::{c64, Mat, MatMut, MatRef};
@@ -75,23 +74,15 @@ pub fn rigid_modes(nodes: &[[f64; 3]], dofs_per_node: usize) -> Mat<f64> {
     v0
 }
 
-fn frob(a: MatRef<'_, f64>) -> f64 {
-    a.norm_l2()
-}
-
-fn sparse_frob(a: &Csc) -> f64 {
-    a.val().iter().map(|v| v * v).sum::<f64>().sqrt()
-}
-
 /// ‖K V0‖_F / (‖K‖_F ‖V0‖_F): 0 for a free body (docs/design.md §3.2).
-fn stiffness_residual(model: &Model, v0: &Mat<f64>) -> f64 {
-    let kv0 = mul_dense(model.stiffness.as_ref(), v0.as_ref());
-    frob(kv0.as_ref()) / (sparse_frob(&model.stiffness) * frob(v0.as_ref())).max(f64::MIN_POSITIVE)
+fn stiffness_residual(pencil: &Pencil, v0: &Mat<f64>) -> f64 {
+    let kv0 = pencil.mul(Coefficient::Stiffness, v0.as_ref());
+    kv0.norm_l2() / (pencil.norm_fro(Coefficient::Stiffness) * v0.norm_l2()).max(f64::MIN_POSITIVE)
 }
 
 impl RigidBody {
-    /// Builds V0 from the model's nodes and the projections; `None` when the model has no
-    /// nodes or K V0 ≠ 0 (a constrained body: nothing to separate).
+    /// Builds V0 from the model's `nodes` and the projections for the matrices of `pencil`;
+    /// `None` when K V0 ≠ 0 (a constrained body: nothing to separate).
     ///
     /// # Errors
     /// [`Error::InvalidModel`] when M0 = V0ᵀMV0 is not positive definite.
@@ -100,35 +91,38 @@ impl RigidBody {
     /// are one point or lie on a line (found by the extremes table, `tests/it/extremes.rs`:
     /// a constrained single node and a chain of node pairs were refused as "not positive
     /// definite").
-    pub fn detect(model: &Model) -> Result<Option<Self>> {
-        let Some(nodes) = &model.nodes else {
-            return Ok(None);
-        };
-        let v0 = rigid_modes(nodes, model.dofs_per_node);
-        let residual = stiffness_residual(model, &v0);
+    pub fn detect(
+        pencil: &Pencil,
+        nodes: &[[f64; 3]],
+        dofs_per_node: usize,
+    ) -> Result<Option<Self>> {
+        let v0 = rigid_modes(nodes, dofs_per_node);
+        let residual = stiffness_residual(pencil, &v0);
         if residual > FREE_BODY_RTOL {
             return Ok(None);
         }
-        Self::with_modes(model, v0, residual).map(Some)
+        Self::with_modes(pencil, v0, residual).map(Some)
     }
 
-    /// Builds V0 from `nodes` for `model` (does not check K V0 = 0; see [`Self::detect`]).
+    /// Builds V0 from `nodes` for the matrices of `pencil` (does not check K V0 = 0; see
+    /// [`Self::detect`]).
     ///
     /// # Errors
     /// [`Error::InvalidModel`] when M0 = V0ᵀMV0 is not positive definite.
-    pub fn from_nodes(model: &Model, nodes: &[[f64; 3]]) -> Result<Self> {
-        let v0 = rigid_modes(nodes, model.dofs_per_node);
-        let residual = stiffness_residual(model, &v0);
-        Self::with_modes(model, v0, residual)
+    pub fn from_nodes(pencil: &Pencil, nodes: &[[f64; 3]], dofs_per_node: usize) -> Result<Self> {
+        let v0 = rigid_modes(nodes, dofs_per_node);
+        let residual = stiffness_residual(pencil, &v0);
+        Self::with_modes(pencil, v0, residual)
     }
 
     /// The projections for rigid modes `v0` whose relative K V0 is `stiffness_residual`.
-    fn with_modes(model: &Model, v0: Mat<f64>, stiffness_residual: f64) -> Result<Self> {
-        let mv0 = mul_dense(model.mass.as_ref(), v0.as_ref());
+    fn with_modes(pencil: &Pencil, v0: Mat<f64>, stiffness_residual: f64) -> Result<Self> {
+        let mv0 = pencil.mul(Coefficient::Mass, v0.as_ref());
         let m0 = sym((v0.transpose() * &mv0).as_ref());
         // K V0 = 0 on a free body, so the stiffness part of Rayleigh damping drops out
-        let d0 = model.damping.combine(&m0, &Mat::zeros(6, 6), |d| {
-            sym((v0.transpose() * mul_dense(d.as_ref(), v0.as_ref())).as_ref())
+        let d0 = pencil.damping_term(&m0, &Mat::zeros(6, 6), || {
+            let dv0 = pencil.mul(Coefficient::Damping, v0.as_ref());
+            sym((v0.transpose() * dv0).as_ref())
         });
         let llt = m0.llt(faer::Side::Lower).map_err(|_| {
             Error::InvalidModel(

@@ -1,12 +1,11 @@
 //! Small CSC helpers shared by the model, pencil and reduction code: symmetry check, lower
-//! triangle extraction and its inverse (mirroring a lower triangle to full storage), products
-//! with full-storage symmetric matrices.
+//! triangle extraction and its inverse (mirroring a lower triangle to full storage). Products
+//! with the model's matrices are the pencil's ([`crate::pencil::Pencil::mul`]).
 //!
 //! Matrices are faer [`SparseColMat<usize, f64>`] in full storage (both triangles) with sorted
 //! row indices per column, as produced by `io::matrix_market::read_sparse` and `fe`.
 
 use faer::sparse::{SparseColMat, SparseColMatRef, SymbolicSparseColMat};
-use faer::{Mat, MatRef};
 
 /// Full-storage real sparse matrix, the crate's matrix type.
 pub type Csc = SparseColMat<usize, f64>;
@@ -110,20 +109,6 @@ pub fn mirror_lower(
         }
     }
     (full_ptr, full_row, src)
-}
-
-/// y = A x for a full-storage sparse A and a dense real block x (faer's sparse × dense).
-pub fn mul_dense(a: SparseColMatRef<'_, usize, f64>, x: MatRef<'_, f64>) -> Mat<f64> {
-    let mut y = Mat::<f64>::zeros(a.nrows(), x.ncols());
-    faer::sparse::linalg::matmul::sparse_dense_matmul(
-        y.as_mut(),
-        faer::Accum::Replace,
-        a,
-        x,
-        1.0,
-        faer::Par::Seq,
-    );
-    y
 }
 
 /// Builds a CSC matrix from parts that are known to be valid (sorted, in range).
@@ -269,6 +254,7 @@ impl Triplets {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use faer::Mat;
 
     #[test]
     fn mirror_lower_inverts_lower_triangle() {

@@ -200,7 +200,7 @@ pub struct Snapshot<'a> {
 
 /// Frequency-independent preparation of a sweep; see the module doc.
 pub struct Solver<'a> {
-    body: &'a Body<'a>,
+    body: &'a Body,
     analysis: Analysis,
     response: Response,
     inputs: Vec<usize>,
@@ -221,7 +221,7 @@ impl<'a> Solver<'a> {
     /// # Errors
     /// Bad settings ([`Error::InvalidSetting`]) and analysis failures ([`Error::Factor`]).
     pub fn new(
-        body: &'a Body<'a>,
+        body: &'a Body,
         inputs: &[usize],
         response: Response,
         opts: &SweepOptions,
@@ -295,7 +295,7 @@ impl<'a> Solver<'a> {
     }
 
     /// The prepared body.
-    pub fn body(&self) -> &'a Body<'a> {
+    pub fn body(&self) -> &'a Body {
         self.body
     }
 
@@ -607,7 +607,7 @@ fn zero_hz_total() -> Error {
 /// # Errors
 /// As [`Solver::new`] and [`Solver::run`]; `Part::Rigid` on a model without rigid part.
 pub fn transfer_function(
-    body: &Body<'_>,
+    body: &Body,
     scene: &Scene,
     freqs_hz: &[f64],
     part: Part,
@@ -645,7 +645,7 @@ pub fn transfer_function(
     // low frequency (relative error 1.9 at 1e-6·f1 on a coarse bar, tests/it/extremes.rs).
     let split = part == Part::Total
         && !keep_snapshots
-        && !matches!(body.model().damping, crate::model::Damping::Matrix(_))
+        && !body.pencil().has_damping_matrix()
         && body.rigid().is_some();
     if split && freqs_hz.contains(&0.0) {
         return Err(zero_hz_total());

@@ -430,8 +430,9 @@ pub unsafe extern "C" fn sparsemor_model_is_free(
     ffi_body!({
         let m = unsafe { obj(model, "model")? };
         // in a call-local pool: faer's dense products would otherwise start rayon's global pool
-        let rigid = crate::pool::in_pool(1, || sparsemor::rigid::RigidBody::detect(&m.model))??;
-        let free = rigid.is_some();
+        let free = crate::pool::in_pool(1, || {
+            sparsemor::body::Body::new(&m.model).map(|b| b.rigid().is_some())
+        })??;
         unsafe { write_out(free_out, i32::from(free), "free_out") }
     })
 }

@@ -186,7 +186,7 @@ pub unsafe extern "C" fn sparsemor_reduce_serep(
             user_data,
             resolve_threads(o.threads),
             m,
-            |body: &Body<'_>| serep::reduce(body, scene, &opts, None),
+            |body: &Body| serep::reduce(body, scene, &opts, None),
         )?;
         unsafe { emit(rom, rom_out) }
     })
@@ -200,7 +200,7 @@ fn bracketed(
     user_data: *mut c_void,
     threads: usize,
     m: &sparsemor::model::Model,
-    reduce: impl FnOnce(&Body<'_>) -> sparsemor::Result<Rom> + Send,
+    reduce: impl FnOnce(&Body) -> sparsemor::Result<Rom> + Send,
 ) -> Result<Rom, Failure> {
     let cb = Callback::new(progress, user_data);
     let cancelled = || {
@@ -256,7 +256,7 @@ pub unsafe extern "C" fn sparsemor_reduce_craig_bampton(
         let mut opts = CraigBamptonOptions::new(interface, c, scene.band_hz[1]);
         opts.keep_basis = o.keep_basis;
         opts.threads = threads;
-        let rom = bracketed(progress, user_data, threads, m, |body: &Body<'_>| {
+        let rom = bracketed(progress, user_data, threads, m, |body: &Body| {
             craig_bampton::reduce(body, scene, &opts)
         })?;
         unsafe { emit(rom, rom_out) }
@@ -786,7 +786,7 @@ pub unsafe extern "C" fn sparsemor_rom_transfer_error(
     ffi_body!({
         let m = &unsafe { obj(model, "model")? }.model;
         let r = unsafe { obj(rom, "rom")? };
-        r.rom.check_model(m)?;
+        r.rom.check_model(m.n())?;
         if n_freqs == 0 {
             return Err(Failure::arg("transfer error: n_freqs = 0"));
         }

@@ -3,7 +3,6 @@
 
 use super::args::{linspace, parse_band};
 use super::progress::{rank0_share, with_progress, with_slice_progress};
-use sparsemor::body::Body;
 use sparsemor::distributed::Cluster;
 use sparsemor::eigen::{eigenpairs_with_progress, EigenOptions, Request};
 use sparsemor::factor::count_eigenvalues_below_with;
@@ -73,12 +72,11 @@ impl EvaluateArgs {
 
 /// `cluster`: the ranks the full-model solves are spread over (rank 0 runs this).
 pub fn evaluate(a: &EvaluateArgs, cluster: Option<Arc<dyn Cluster>>) -> Result<()> {
-    let (model, scene, _) = model_dir::read(&a.model)?;
+    let (body, scene) = model_dir::read_body(&a.model)?;
     let rom = rom_dir::read(&a.rom)?;
-    rom.check_model(&model)
+    rom.check_model(body.n())
         .map_err(|e| Error::InvalidSetting(format!("{}: {e}", a.rom.display())))?;
     let band = evaluation_band(&scene, a.band.as_deref())?;
-    let body = Body::new(&model)?;
     let rom_scene = Scene {
         inputs: rom.inputs.clone(),
         outputs: rom.outputs.clone(),

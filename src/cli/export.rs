@@ -48,7 +48,7 @@ pub struct ExportArgs {
 pub fn export(a: &ExportArgs) -> Result<()> {
     let (model, scene, _) = model_dir::read(&a.model)?;
     let rom = rom_dir::read(&a.rom)?;
-    rom.check_model(&model)
+    rom.check_model(model.n())
         .map_err(|e| Error::InvalidSetting(format!("{}: {e}", a.rom.display())))?;
     let body = Body::new(&model)?;
     let rom_scene = Scene {

@@ -32,13 +32,14 @@ pub fn info(dir: &Path) -> Result<()> {
     );
     println!("dofs per node    {}", model.dofs_per_node);
     println!("damping          {}", describe_damping(&model.damping));
+    let pencil = Pencil::new(&model);
     match &model.nodes {
         None => println!(
             "nodes            none (rigid part cannot be separated; fine for constrained bodies)"
         ),
         Some(nodes) => {
             println!("nodes            {}", nodes.len());
-            let rb = RigidBody::from_nodes(&model, nodes)?;
+            let rb = RigidBody::from_nodes(&pencil, nodes, model.dofs_per_node)?;
             let free = rb.stiffness_residual <= sparsemor::rigid::FREE_BODY_RTOL;
             println!(
                 "rigid modes      {} (|K V0| / |K||V0| = {:.1e})",
@@ -57,7 +58,6 @@ pub fn info(dir: &Path) -> Result<()> {
         scene.outputs.len(),
         scene.band_hz
     );
-    let pencil = Pencil::new(&model);
     let t_order = Instant::now();
     let (chol, ordering) = sparsemor::factor::symbolic_cholesky_ordered(&pencil)?;
     let t_order = t_order.elapsed().as_secs_f64();

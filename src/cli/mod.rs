@@ -179,10 +179,11 @@ fn on_ranks(cli: Cli, c: Arc<dyn Cluster>) -> sparsemor::Result<Done> {
         sparsemor::distributed::stop(&*c, code);
         return done.or(Ok(Done::Failed));
     }
+    // the model is dropped once its body is built: the body holds the matrices
     let (body, opts) = match &setup {
         Ok((path, opts)) => (
             sparsemor::io::model_dir::read(path)
-                .map(|(m, _, _)| m)
+                .and_then(|(m, _, _)| sparsemor::body::Body::new(&m))
                 .map_err(|e| e.to_string()),
             opts.clone(),
         ),
@@ -192,10 +193,6 @@ fn on_ranks(cli: Cli, c: Arc<dyn Cluster>) -> sparsemor::Result<Done> {
             sparsemor::sweep::SweepOptions::default(),
         ),
     };
-    let body = body
-        .as_ref()
-        .map_err(|e| e.clone())
-        .and_then(|m| sparsemor::body::Body::new(m).map_err(|e| e.to_string()));
     match sparsemor::distributed::serve(&*c, body.as_ref().map_err(|e| e.as_str()), &opts)? {
         0 => Ok(Done::Met),
         3 => Ok(Done::RequestNotMet),

@@ -2,7 +2,6 @@
 
 use super::args::parse_band;
 use super::progress::with_slice_progress;
-use sparsemor::body::Body;
 use sparsemor::eigen::{eigenpairs_with_progress, EigenOptions, Modes, Request};
 use sparsemor::io::{atomic, model_dir};
 use sparsemor::Result;
@@ -35,8 +34,7 @@ pub struct ModesArgs {
 }
 
 pub fn modes(a: &ModesArgs) -> Result<()> {
-    let (model, scene, _) = model_dir::read(&a.model)?;
-    let body = Body::new(&model)?;
+    let (body, scene) = model_dir::read_body(&a.model)?;
     let req = match (&a.band, a.count) {
         (Some(b), _) => {
             let b = parse_band(b)?;

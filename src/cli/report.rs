@@ -3,7 +3,6 @@
 
 use super::args::linspace;
 use super::progress::with_progress;
-use sparsemor::body::Body;
 use sparsemor::eigen::{eigenpairs, EigenOptions, Request};
 use sparsemor::io::{atomic, model_dir, rom_dir};
 use sparsemor::metrics::{mac_matrix, ErrorCurve, MacMatrix, ModalComparison, Reference};
@@ -60,13 +59,13 @@ struct Evaluated {
 pub fn report(a: &ReportArgs) -> Result<()> {
     // before the sweeps, not after
     atomic::check_dir_free(&a.out)?;
-    let (model, scene, _) = model_dir::read(&a.model)?;
+    let (body, scene) = model_dir::read_body(&a.model)?;
     let roms: Vec<(String, Rom)> = a
         .roms
         .iter()
         .map(|p| {
             let rom = rom_dir::read(p)?;
-            rom.check_model(&model)
+            rom.check_model(body.n())
                 .map_err(|e| Error::InvalidSetting(format!("{}: {e}", p.display())))?;
             Ok((p.display().to_string(), rom))
         })
@@ -106,7 +105,6 @@ pub fn report(a: &ReportArgs) -> Result<()> {
         outputs: first.outputs.clone(),
         band_hz: band,
     };
-    let body = Body::new(&model)?;
     let freqs = linspace(band, a.points);
     let opts = SweepOptions {
         threads: a.threads,
@@ -129,7 +127,7 @@ pub fn report(a: &ReportArgs) -> Result<()> {
             })
         })
         .collect::<Result<_>>()?;
-    let mut html = page_head(&model.name, model.n(), band, a.points, &evaluated);
+    let mut html = page_head(body.name(), body.n(), band, a.points, &evaluated);
     for &(o, i) in &pairs {
         figure(&mut html, &magnitude_svg(&reference, &evaluated, (o, i), band)?, &format!(
             "|H| from input DoF {i} to output DoF {o}: the full model's elastic transfer function H1 (black) and each ROM's Hr (dashed); dots mark a line-fitting ROM's reference frequencies (the paper's figures 4–5)."
@@ -149,7 +147,7 @@ pub fn report(a: &ReportArgs) -> Result<()> {
     if let (Some(rows), Some(path)) = (&tradeoff, &a.tradeoff) {
         figure(
             &mut html,
-            &tradeoff_svg(&format!("{}: time vs accuracy", model.name), rows)?,
+            &tradeoff_svg(&format!("{}: time vs accuracy", body.name()), rows)?,
             &format!(
             "Speed/accuracy of the reductions in {}: wall time against verified max ε (eq. 23).",
             esc(&path.display().to_string())

@@ -69,7 +69,7 @@ impl SweepArgs {
 
 /// `cluster`: the ranks the frequencies are spread over (rank 0 runs this).
 pub fn sweep(a: &SweepArgs, verbose: bool, cluster: Option<Arc<dyn Cluster>>) -> Result<()> {
-    let (model, scene, _) = model_dir::read(&a.model)?;
+    let (body, scene) = model_dir::read_body(&a.model)?;
     let freqs = match (&a.freqs, &a.band) {
         (Some(f), _) => parse_list::<f64>(f, "--freqs")?,
         (None, Some(b)) => linspace(parse_band(b)?, a.points),
@@ -90,7 +90,6 @@ pub fn sweep(a: &SweepArgs, verbose: bool, cluster: Option<Arc<dyn Cluster>>) ->
         cluster,
         ..a.sweep_setup()?.1
     };
-    let body = sparsemor::body::Body::new(&model)?;
     let frf = with_progress(share, "sweep", |cb| {
         transfer_function(&body, &scene, &freqs, part, false, &opts, cb)
     })?;

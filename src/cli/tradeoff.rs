@@ -5,7 +5,6 @@
 use super::args::{linspace, parse_list};
 use super::progress::with_progress;
 use super::reduce::sampling_message;
-use sparsemor::body::Body;
 use sparsemor::eigen::EigenOptions;
 use sparsemor::io::{atomic, model_dir};
 use sparsemor::metrics::{ErrorCurve, Reference};
@@ -63,8 +62,7 @@ pub struct TradeoffArgs {
 /// Speed vs accuracy: the sampling loop per tolerance and SEREP per mode count, each
 /// verified on a fine grid by full solves (computed once).
 pub fn tradeoff(a: &TradeoffArgs) -> Result<()> {
-    let (model, scene, _) = model_dir::read(&a.model)?;
-    let body = Body::new(&model)?;
+    let (body, scene) = model_dir::read_body(&a.model)?;
     let outputs = &scene.outputs;
     let tols: Vec<f64> = parse_list(&a.tols, "--tols")?;
     let modes: Vec<usize> = parse_list(&a.serep_modes, "--serep-modes")?;
@@ -118,7 +116,7 @@ pub fn tradeoff(a: &TradeoffArgs) -> Result<()> {
         // r = c retained DoFs (SEREP needs c >= r): the outputs first, then spread DoFs
         let mut retain: Vec<usize> = outputs.iter().copied().take(c).collect();
         if c > retain.len() {
-            retain.extend(linefit::spread_dofs(&model, c - retain.len(), outputs)?);
+            retain.extend(linefit::spread_dofs(&body, c - retain.len(), outputs)?);
         }
         let t = Instant::now();
         let opts = SerepOptions {
@@ -175,7 +173,7 @@ pub fn tradeoff(a: &TradeoffArgs) -> Result<()> {
         atomic::write_bytes(path, TradeoffRow::to_csv(&rows))?;
     }
     if let Some(path) = &a.svg {
-        let svg = tradeoff_svg(&format!("{}: time vs accuracy", model.name), &rows)?;
+        let svg = tradeoff_svg(&format!("{}: time vs accuracy", body.name()), &rows)?;
         atomic::write_bytes(path, svg)?;
     }
     Ok(())

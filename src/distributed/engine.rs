@@ -19,7 +19,7 @@ use std::sync::Arc;
 /// Solves frequencies for one body: in this process, or — when the options carry a
 /// [`Cluster`] of more than one rank — on every rank, each taking its share.
 pub(crate) struct Engine<'a> {
-    body: &'a Body<'a>,
+    body: &'a Body,
     opts: SweepOptions,
     /// This rank's solvers, one per (response, inputs), built on first use.
     solvers: Vec<(Response, Vec<usize>, Solver<'a>)>,
@@ -45,7 +45,7 @@ impl<'a> Engine<'a> {
     /// An engine for `body` with the sweep options of the run (and their cluster, if any). On
     /// a cluster the ranks of a machine share its cores and memory: the default thread count
     /// and memory budget are divided by their number.
-    pub fn new(body: &'a Body<'a>, opts: &SweepOptions) -> Self {
+    pub fn new(body: &'a Body, opts: &SweepOptions) -> Self {
         let mut opts = opts.clone();
         if let Some(c) = opts.cluster.clone().filter(|c| c.size() > 1) {
             let node = c.node_size().max(1);

@@ -71,9 +71,9 @@ pub trait Cluster: Send + Sync + std::fmt::Debug {
 ///
 /// # Errors
 /// [`Error::Distributed`] when a command does not decode; the run cannot go on then.
-pub fn serve<'a>(
+pub fn serve(
     cluster: &dyn Cluster,
-    body: std::result::Result<&'a Body<'a>, &str>,
+    body: std::result::Result<&Body, &str>,
     opts: &SweepOptions,
 ) -> Result<i32> {
     let (rank, size) = (cluster.rank(), cluster.size());

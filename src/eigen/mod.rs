@@ -38,7 +38,7 @@ mod operator;
 mod slicing;
 
 use crate::body::Body;
-use crate::sparse::mul_dense;
+use crate::pencil::Coefficient;
 use crate::units::hz_to_lambda;
 use crate::{Error, Result};
 use faer::{Mat, Side};
@@ -291,7 +291,7 @@ impl Modes {
 /// [`Error::NotConverged`] when a slice's iteration stops short of its count (it names the
 /// slice, the modes found and the largest residual); [`Error::Factor`] when a factorization
 /// fails.
-pub fn eigenpairs(body: &Body<'_>, req: Request, opts: &EigenOptions) -> Result<Modes> {
+pub fn eigenpairs(body: &Body, req: Request, opts: &EigenOptions) -> Result<Modes> {
     eigenpairs_with_progress(body, req, opts, &|_| true)
 }
 
@@ -301,7 +301,7 @@ pub fn eigenpairs(body: &Body<'_>, req: Request, opts: &EigenOptions) -> Result<
 /// # Errors
 /// As [`eigenpairs`], and [`Error::Cancelled`].
 pub fn eigenpairs_with_progress(
-    body: &Body<'_>,
+    body: &Body,
     req: Request,
     opts: &EigenOptions,
     progress: &(dyn Fn(EigenProgress) -> bool + Sync),
@@ -324,7 +324,7 @@ pub fn eigenpairs_with_progress(
 
 /// [`eigenpairs_with_progress`] inside its pool.
 fn solve_request(
-    body: &Body<'_>,
+    body: &Body,
     req: Request,
     opts: &EigenOptions,
     progress: &(dyn Fn(EigenProgress) -> bool + Sync),
@@ -395,7 +395,7 @@ fn solve_request(
 /// Every mode in [lo, hi] Hz (lo = None: from the bottom of the spectrum, rigid modes
 /// included), counted at both ends and sliced; also returns ν(lo).
 fn band(
-    slicer: &Slicer<'_, '_>,
+    slicer: &Slicer<'_>,
     lo: Option<f64>,
     hi: f64,
     progress: &(dyn Fn(EigenProgress) -> bool + Sync),
@@ -428,7 +428,7 @@ fn band(
 /// copies of multiple eigenvalues are not lost. Also returns the cost of the first solve when
 /// it served only as the estimate.
 fn lowest(
-    slicer: &Slicer<'_, '_>,
+    slicer: &Slicer<'_>,
     c: usize,
     opts: &EigenOptions,
     progress: &(dyn Fn(EigenProgress) -> bool + Sync),
@@ -540,21 +540,18 @@ fn random_vector(n: usize, seed: u64) -> Mat<f64> {
 }
 
 /// The shared post-processing: ascending order, residuals and the rigid count.
-fn finish(
-    body: &Body<'_>,
-    lambdas: Vec<f64>,
-    vectors: Mat<f64>,
-    stats: EigenStats,
-) -> Result<Modes> {
-    let model = body.model();
-    let n = model.n();
+fn finish(body: &Body, lambdas: Vec<f64>, vectors: Mat<f64>, stats: EigenStats) -> Result<Modes> {
+    let (pencil, n) = (body.pencil(), body.n());
     let mut order: Vec<usize> = (0..lambdas.len()).collect();
     order.sort_by(|&a, &b| lambdas[a].total_cmp(&lambdas[b]));
     let lambdas: Vec<f64> = order.iter().map(|&c| lambdas[c]).collect();
     let vectors = Mat::from_fn(n, order.len(), |i, c| vectors[(i, order[c])]);
-    let kphi = mul_dense(model.stiffness.as_ref(), vectors.as_ref());
-    let mphi = mul_dense(model.mass.as_ref(), vectors.as_ref());
-    let (norm_k, norm_m) = (norm_1(&model.stiffness), norm_1(&model.mass));
+    let kphi = pencil.mul(Coefficient::Stiffness, vectors.as_ref());
+    let mphi = pencil.mul(Coefficient::Mass, vectors.as_ref());
+    let (norm_k, norm_m) = (
+        pencil.norm_1(Coefficient::Stiffness),
+        pencil.norm_1(Coefficient::Mass),
+    );
     let residuals: Vec<f64> = (0..lambdas.len())
         .map(|c| {
             let r = kphi.col(c) - mphi.col(c) * lambdas[c];
@@ -592,9 +589,11 @@ fn finish(
                 .count()
         }
         None => {
-            let scale = (0..n)
-                .map(|i| diag(&model.stiffness, i) / diag(&model.mass, i))
-                .fold(0.0, f64::max);
+            let (k, m) = (
+                pencil.diagonal(Coefficient::Stiffness),
+                pencil.diagonal(Coefficient::Mass),
+            );
+            let scale = k.iter().zip(&m).map(|(k, m)| k / m).fold(0.0, f64::max);
             lambdas
                 .iter()
                 .filter(|&&l| l.abs() <= RIGID_RTOL * scale)
@@ -608,18 +607,4 @@ fn finish(
         rigid,
         stats,
     })
-}
-
-/// ‖A‖₁ = max column sum of |a_ij| (= ‖A‖_∞ for a symmetric A, ≥ ‖A‖₂).
-fn norm_1(a: &crate::sparse::Csc) -> f64 {
-    (0..a.ncols())
-        .map(|j| a.val_of_col(j).iter().map(|v| v.abs()).sum::<f64>())
-        .fold(0.0, f64::max)
-}
-
-fn diag(a: &crate::sparse::Csc, i: usize) -> f64 {
-    let rows = a.symbolic().row_idx_of_col_raw(i);
-    rows.binary_search(&i)
-        .map(|p| a.val_of_col(i)[p])
-        .unwrap_or(0.0)
 }

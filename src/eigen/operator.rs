@@ -9,13 +9,10 @@
 //!   inertia also gives ν(σ), the number of eigenvalues below σ (Sylvester).
 
 use crate::factor::{Cholesky, ShiftedLblt};
-use crate::model::Model;
-use crate::pencil::Pencil;
+use crate::pencil::{Coefficient, Pencil};
 use crate::{Error, Result};
 use faer::sparse::linalg::cholesky::SymbolicCholesky;
-use faer::sparse::linalg::matmul::sparse_dense_matmul;
-use faer::sparse::SparseColMatRef;
-use faer::{Accum, MatMut, MatRef, Par};
+use faer::{MatMut, MatRef, Par};
 use std::sync::Arc;
 
 enum Factor<'a> {
@@ -26,7 +23,7 @@ enum Factor<'a> {
 /// S = (K − σM)⁻¹ M: the factor of K − σM and the mass matrix.
 pub(crate) struct ShiftInvert<'a> {
     factor: Factor<'a>,
-    mass: SparseColMatRef<'a, usize, f64>,
+    pencil: &'a Pencil,
     pub(crate) sigma: f64,
 }
 
@@ -39,7 +36,6 @@ impl<'a> ShiftInvert<'a> {
     /// [`Error::Factor`] when K − σM (σ < 0) is not positive definite or memory is short;
     /// [`Error::Singular`] when σ is an eigenvalue to working precision.
     pub(crate) fn new(
-        model: &'a Model,
         pencil: &'a Pencil,
         sym: Arc<SymbolicCholesky<usize>>,
         sigma: f64,
@@ -59,7 +55,7 @@ impl<'a> ShiftInvert<'a> {
         };
         Ok(ShiftInvert {
             factor,
-            mass: model.mass.as_ref(),
+            pencil,
             sigma,
         })
     }
@@ -90,12 +86,12 @@ impl<'a> ShiftInvert<'a> {
 
     /// Dimension N.
     pub(crate) fn n(&self) -> usize {
-        self.mass.nrows()
+        self.pencil.n()
     }
 
     /// y ← M x.
     pub(crate) fn mass_mul(&self, x: MatRef<'_, f64>, y: MatMut<'_, f64>) {
-        sparse_dense_matmul(y, Accum::Replace, self.mass, x, 1.0, Par::Seq);
+        self.pencil.mul_to(Coefficient::Mass, x, y);
     }
 
     /// X ← (K − σM)⁻¹ X (at most the `rhs` columns of [`Self::new`]).

@@ -29,7 +29,7 @@ use super::{EigenBackend, EigenOptions, EigenProgress, SliceStats};
 use crate::body::Body;
 use crate::dense::{sym, sym_eigen};
 use crate::factor::count_eigenvalues_below_with;
-use crate::sparse::mul_dense;
+use crate::pencil::Coefficient;
 use crate::units::{hz_to_lambda, lambda_to_hz};
 use crate::{Error, Result};
 use faer::sparse::linalg::cholesky::SymbolicCholesky;
@@ -62,8 +62,8 @@ impl Solved {
 }
 
 /// The slicing context of one [`super::eigenpairs`] call.
-pub(super) struct Slicer<'b, 'm> {
-    body: &'b Body<'m>,
+pub(super) struct Slicer<'b> {
+    body: &'b Body,
     sym: Arc<SymbolicCholesky<usize>>,
     opts: &'b EigenOptions,
     /// Workers: the size of the pool [`super::eigenpairs`] runs in (`crate::pool`).
@@ -75,8 +75,8 @@ pub(super) struct Slicer<'b, 'm> {
     counts: Mutex<(f64, usize)>,
 }
 
-impl<'b, 'm> Slicer<'b, 'm> {
-    pub(super) fn new(body: &'b Body<'m>, opts: &'b EigenOptions) -> Result<Self> {
+impl<'b> Slicer<'b> {
+    pub(super) fn new(body: &'b Body, opts: &'b EigenOptions) -> Result<Self> {
         let threads = crate::sweep::resolve_threads(opts.threads);
         let budget = opts
             .memory_budget
@@ -98,7 +98,7 @@ impl<'b, 'm> Slicer<'b, 'm> {
     }
 
     /// The body being solved.
-    pub(super) fn body(&self) -> &'b Body<'m> {
+    pub(super) fn body(&self) -> &'b Body {
         self.body
     }
 
@@ -271,7 +271,6 @@ impl<'b, 'm> Slicer<'b, 'm> {
         par: Par,
         progress: &(dyn Fn(EigenProgress) -> bool + Sync),
     ) -> Result<Solved> {
-        let model = self.body.model();
         let base = if target.lower.is_finite() {
             0.5 * (target.lower + target.upper)
         } else {
@@ -296,7 +295,6 @@ impl<'b, 'm> Slicer<'b, 'm> {
                 base + 1e-6 * attempt as f64 * (target.upper - target.lower)
             };
             match ShiftInvert::new(
-                model,
                 self.body.pencil(),
                 self.sym.clone(),
                 sigma,
@@ -320,7 +318,6 @@ impl<'b, 'm> Slicer<'b, 'm> {
             extra_solves = solves;
             if op.sigma.abs() < 1e-3 * guess {
                 op = ShiftInvert::new(
-                    model,
                     self.body.pencil(),
                     self.sym.clone(),
                     -0.01 * guess,
@@ -407,8 +404,7 @@ pub(super) fn weyl_between(a: f64, b: f64, t: f64) -> f64 {
 
 /// Concatenates the slices (ascending) and restores M-orthonormality across each bound
 /// where it is lost (module doc): returns (λ, vectors, bounds repaired).
-pub(super) fn join(body: &Body<'_>, slices: Vec<Solved>) -> Result<(Vec<f64>, Mat<f64>, usize)> {
-    let model = body.model();
+pub(super) fn join(body: &Body, slices: Vec<Solved>) -> Result<(Vec<f64>, Mat<f64>, usize)> {
     let n = body.n();
     let total: usize = slices.iter().map(|s| s.lambdas.len()).sum();
     let mut lambdas = Vec::with_capacity(total);
@@ -429,7 +425,7 @@ pub(super) fn join(body: &Body<'_>, slices: Vec<Solved>) -> Result<(Vec<f64>, Ma
             v.as_ref().subcols(a, mid - a),
             v.as_ref().subcols(mid, b - mid),
         );
-        let gram = left.transpose() * mul_dense(model.mass.as_ref(), right);
+        let gram = left.transpose() * body.pencil().mul(Coefficient::Mass, right);
         let worst = (0..gram.nrows())
             .flat_map(|i| (0..gram.ncols()).map(move |j| (i, j)))
             .map(|(i, j)| gram[(i, j)].abs())
@@ -448,11 +444,10 @@ pub(super) fn join(body: &Body<'_>, slices: Vec<Solved>) -> Result<(Vec<f64>, Ma
 
 /// Rayleigh–Ritz of (K, M) on span W (W nearly M-orthonormal): B = WᵀMW = U D Uᵀ,
 /// B^{-1/2} = U D^{-1/2} Uᵀ, C = B^{-1/2} WᵀKW B^{-1/2} = Y Θ Yᵀ, X = W B^{-1/2} Y.
-fn rayleigh_ritz(body: &Body<'_>, w: &Mat<f64>) -> Result<(Vec<f64>, Mat<f64>)> {
-    let model = body.model();
+fn rayleigh_ritz(body: &Body, w: &Mat<f64>) -> Result<(Vec<f64>, Mat<f64>)> {
     let k = w.ncols();
-    let b = w.transpose() * mul_dense(model.mass.as_ref(), w.as_ref());
-    let a = w.transpose() * mul_dense(model.stiffness.as_ref(), w.as_ref());
+    let b = w.transpose() * body.pencil().mul(Coefficient::Mass, w.as_ref());
+    let a = w.transpose() * body.pencil().mul(Coefficient::Stiffness, w.as_ref());
     let fail = || Error::NotConverged("dense Rayleigh–Ritz across slices did not converge".into());
     let (db, ub) = sym_eigen(b.as_ref()).ok_or_else(fail)?;
     if db.iter().any(|&d| !(d > 0.5)) {

@@ -209,8 +209,8 @@ mod tests {
         }
         let want = spec.density * volume;
         assert!((mx - want).abs() <= 1e-12 * want, "mass {mx} vs {want}");
-        let rb = crate::rigid::RigidBody::detect(&model).unwrap();
-        assert!(rb.is_some(), "a free body: K V0 = 0");
+        let body = crate::body::Body::new(&model).unwrap();
+        assert!(body.rigid().is_some(), "a free body: K V0 = 0");
         assert_eq!(scene.inputs.len(), 9);
     }
 

@@ -49,6 +49,7 @@
 //! directory atomically ([`atomic::write_dir`]: a temporary sibling renamed at the end), so an
 //! interrupted write never leaves a directory that looks complete.
 
+use crate::body::Body;
 use crate::io::import::{self, Direction, Dof};
 use crate::io::{atomic, matrix_market};
 use crate::model::{Damping, Model, ValidationReport};
@@ -347,6 +348,17 @@ pub(crate) fn toml_error(path: &Path, text: &str, e: &toml::de::Error) -> Error 
 pub fn read(dir: &Path) -> Result<(Model, Scene, ValidationReport)> {
     let l = load(dir)?;
     Ok((l.model, l.scene, l.report))
+}
+
+/// [`read`], prepared for computation: the [`Body`] and the default scene. The full-storage
+/// model is dropped once the body is built, which holds the matrices once (its pencil's lower
+/// triangles; docs/design.md §2).
+///
+/// # Errors
+/// As [`load`] and [`Body::new`].
+pub fn read_body(dir: &Path) -> Result<(Body, Scene)> {
+    let l = load(dir)?;
+    Ok((Body::new(&l.model)?, l.scene))
 }
 
 /// A model directory as [`load`] returns it.

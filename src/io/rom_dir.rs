@@ -4,10 +4,10 @@
 //! (Matrix Market `array real general`, full double precision), optional `V.mtx`, and the
 //! same ROM for Python users as `rom.npz` ([`npz`]). Written atomically ([`atomic::write_dir`]).
 
+use crate::body::Body;
 use crate::io::model_dir::toml_error;
 use crate::io::{atomic, matrix_market, npz};
 use crate::metrics::rom_eigenfrequencies;
-use crate::model::Model;
 use crate::reduce::linefit::{Outcome, SamplingReport, Verified};
 use crate::reduce::{CraigBamptonReport, Definiteness, FitReport, Provenance, Rom, Timing};
 use crate::{Error, Result};
@@ -77,7 +77,7 @@ fn outcome_name(o: &Outcome) -> &'static str {
     }
 }
 
-/// Writes `rom` into a new directory (`rom.npz` without node data; see [`write_for_model`]).
+/// Writes `rom` into a new directory (`rom.npz` without node data; see [`write_for_body`]).
 ///
 /// # Errors
 /// [`Error::InvalidSetting`] if `dir` exists and is not empty; I/O errors.
@@ -85,19 +85,19 @@ pub fn write(dir: &Path, rom: &Rom) -> Result<()> {
     write_dir(dir, rom, None)
 }
 
-/// [`write()`], with the node data of `model` in `rom.npz`: `nodes` (coordinates, one row per
-/// node) and `dof_node`, `dof_dir` (node and direction of each ROM coordinate's DoF).
+/// [`write()`], with the node data of the body's model in `rom.npz`: `nodes` (coordinates, one
+/// row per node) and `dof_node`, `dof_dir` (node and direction of each ROM coordinate's DoF).
 ///
 /// # Errors
 /// As [`write()`].
-pub fn write_for_model(dir: &Path, rom: &Rom, model: &Model) -> Result<()> {
-    write_dir(dir, rom, Some(model))
+pub fn write_for_body(dir: &Path, rom: &Rom, body: &Body) -> Result<()> {
+    write_dir(dir, rom, Some(body))
 }
 
 /// `rom.npz`: the matrices exactly as in the `.mtx` files, `V` when kept, the DoF lists,
 /// reference frequencies, SEREP modes, the ROM's eigenfrequencies (when Mr is positive
-/// definite), node data of `model`, and `rom.toml`'s text as `metadata`.
-fn write_npz(path: &Path, rom: &Rom, model: Option<&Model>, manifest: &str) -> Result<()> {
+/// definite), node data of the body's model, and `rom.toml`'s text as `metadata`.
+fn write_npz(path: &Path, rom: &Rom, body: Option<&Body>, manifest: &str) -> Result<()> {
     npz::write(path, |z| {
         for (name, m) in rom.matrices() {
             z.matrix(name, m.as_ref())?;
@@ -113,9 +113,9 @@ fn write_npz(path: &Path, rom: &Rom, model: Option<&Model>, manifest: &str) -> R
         if let Ok(f) = rom_eigenfrequencies(rom) {
             z.vector("eigenfrequencies_hz", &f)?;
         }
-        if let Some((model, nodes)) = model.and_then(|m| m.nodes.as_ref().map(|n| (m, n))) {
+        if let Some((body, nodes)) = body.and_then(|b| b.nodes().map(|n| (b, n))) {
             z.rows("nodes", nodes.as_flattened(), 3)?;
-            let dpn = model.dofs_per_node;
+            let dpn = body.dofs_per_node();
             let (node, dir): (Vec<usize>, Vec<usize>) =
                 rom.dofs.iter().map(|&d| (d / dpn, d % dpn)).unzip();
             z.indices("dof_node", &node)?;
@@ -125,7 +125,7 @@ fn write_npz(path: &Path, rom: &Rom, model: Option<&Model>, manifest: &str) -> R
     })
 }
 
-fn write_dir(dir: &Path, rom: &Rom, model: Option<&Model>) -> Result<()> {
+fn write_dir(dir: &Path, rom: &Rom, body: Option<&Body>) -> Result<()> {
     atomic::write_dir(dir, |tmp| {
         for (name, m) in rom.matrices() {
             matrix_market::write_array(&tmp.join(format!("{name}.mtx")), m.as_ref())?;
@@ -173,7 +173,7 @@ fn write_dir(dir: &Path, rom: &Rom, model: Option<&Model>) -> Result<()> {
         };
         let text = toml::to_string(&man)
             .map_err(|e| Error::InvalidSetting(format!("cannot serialize rom.toml: {e}")))?;
-        write_npz(&tmp.join("rom.npz"), rom, model, &text)?;
+        write_npz(&tmp.join("rom.npz"), rom, body, &text)?;
         atomic::write_bytes(&tmp.join("rom.toml"), text)
     })
 }

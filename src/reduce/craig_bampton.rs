@@ -26,8 +26,9 @@ use crate::body::Body;
 use crate::eigen::{eigenpairs, EigenOptions, Request};
 use crate::factor::{Analysis, Backend, Cholesky};
 use crate::model::{Damping, Model};
+use crate::pencil::Coefficient;
 use crate::scene::{check_dofs, Scene};
-use crate::sparse::{from_parts, mul_dense, Csc};
+use crate::sparse::Csc;
 use crate::sweep::resolve_threads;
 use crate::{Error, Result};
 use faer::{c64, Mat, MatMut, Par};
@@ -95,12 +96,11 @@ impl CraigBamptonOptions {
 /// every DoF, more modes than interior DoFs, and a boundary that does not hold a free body's
 /// rigid motions; [`Error::Singular`] when K_ii is singular (a constrained body whose boundary
 /// does not hold it); the eigensolver's errors.
-pub fn reduce(body: &Body<'_>, scene: &Scene, opts: &CraigBamptonOptions) -> Result<Rom> {
-    let model = body.model();
+pub fn reduce(body: &Body, scene: &Scene, opts: &CraigBamptonOptions) -> Result<Rom> {
     let n_full = body.n();
     check_dofs(&scene.inputs, n_full, "inputs")?;
     check_dofs(&scene.outputs, n_full, "outputs")?;
-    let boundary = opts.interface.resolve(model, &scene.outputs)?;
+    let boundary = opts.interface.resolve(body, &scene.outputs)?;
     check_dofs(&boundary, n_full, "boundary DoFs")?;
     if boundary.is_empty() || boundary.len() >= n_full {
         return Err(Error::InvalidSetting(format!(
@@ -127,20 +127,22 @@ pub fn reduce(body: &Body<'_>, scene: &Scene, opts: &CraigBamptonOptions) -> Res
         pos[d] = k;
     }
     let t = Instant::now();
+    let pencil = body.pencil();
     let (k_ii, m_ii) = (
-        submatrix(&model.stiffness, &pos, &interior),
-        submatrix(&model.mass, &pos, &interior),
+        pencil.submatrix(Coefficient::Stiffness, &pos, &interior),
+        pencil.submatrix(Coefficient::Mass, &pos, &interior),
     );
-    let k_ib = submatrix(&model.stiffness, &pos, &boundary);
+    let k_ib = pencil.submatrix(Coefficient::Stiffness, &pos, &boundary);
     let (inner, _) = Model::new(
-        format!("{} (interior)", model.name),
+        format!("{} (interior)", body.name()),
         m_ii,
         k_ii,
         Damping::None,
         None,
-        model.dofs_per_node,
+        body.dofs_per_node(),
     )?;
     let inner_body = Body::new(&inner)?;
+    drop(inner);
     let threads = resolve_threads(opts.threads);
     let par = if threads > 1 {
         Par::rayon(threads)
@@ -229,7 +231,7 @@ pub fn reduce(body: &Body<'_>, scene: &Scene, opts: &CraigBamptonOptions) -> Res
 /// On a free body, the boundary must hold the rigid motions: V0 (N×6) restricted to the
 /// boundary rows has full rank 6, otherwise K_ii is singular (a rigid motion leaves the
 /// boundary at rest).
-fn check_holds_rigid_motion(body: &Body<'_>, boundary: &[usize]) -> Result<()> {
+fn check_holds_rigid_motion(body: &Body, boundary: &[usize]) -> Result<()> {
     let Some(rb) = body.rigid() else {
         return Ok(());
     };
@@ -256,27 +258,6 @@ fn check_holds_rigid_motion(body: &Body<'_>, boundary: &[usize]) -> Result<()> {
     Ok(())
 }
 
-/// The rows of `a` with `pos[row] != usize::MAX`, renumbered to `pos[row]`, of the columns
-/// `cols` (in that order): K_ii, M_ii (cols = interior) and K_ib (cols = boundary).
-fn submatrix(a: &Csc, pos: &[usize], cols: &[usize]) -> Csc {
-    let n_rows = pos.iter().filter(|&&p| p != usize::MAX).count();
-    let mut col_ptr = Vec::with_capacity(cols.len() + 1);
-    col_ptr.push(0);
-    let (mut row_idx, mut val) = (Vec::new(), Vec::new());
-    for &j in cols {
-        let rows = a.symbolic().row_idx_of_col_raw(j);
-        for (&r, &x) in rows.iter().zip(a.val_of_col(j)) {
-            if pos[r] != usize::MAX {
-                row_idx.push(pos[r]);
-                val.push(x);
-            }
-        }
-        col_ptr.push(row_idx.len());
-    }
-    // `pos` is increasing on the interior, so the rows stay sorted
-    from_parts(n_rows, cols.len(), col_ptr, row_idx, val)
-}
-
 /// How the static constraint modes were computed.
 struct Statics {
     factorization: &'static str,
@@ -290,7 +271,7 @@ struct Statics {
 /// factorization of K_ii (Cholesky, or LBLᵀ when K_ii is not positive definite), solves in
 /// column blocks of [`BLOCK`], and the relative residual of every column.
 fn constraint_modes(
-    inner: &Body<'_>,
+    inner: &Body,
     k_ib: &Csc,
     interior: &[usize],
     mut v: MatMut<'_, f64>,
@@ -340,7 +321,7 @@ fn constraint_modes(
             }
         }
         // residual K_ii x + K_ib e_j, relative to ‖K_ib e_j‖
-        let kx = mul_dense(inner.model().stiffness.as_ref(), x.as_ref());
+        let kx = pencil.mul(Coefficient::Stiffness, x.as_ref());
         for j in 0..w {
             let col = k_ib.symbolic().row_idx_of_col_raw(start + j);
             let mut r = kx.col(j).to_owned();

@@ -24,8 +24,8 @@ use super::projection::project;
 use super::rom::Rom;
 use crate::body::Body;
 use crate::dense::{sym_eigen, sym_eigenvalues};
+use crate::pencil::Coefficient;
 use crate::scene::Scene;
-use crate::sparse::mul_dense;
 use crate::units::lambda_to_hz;
 use crate::{Error, Result};
 use faer::linalg::solvers::Solve;
@@ -75,9 +75,9 @@ fn eigenpairs(a: Mat<f64>) -> Result<(Vec<f64>, Mat<f64>)> {
 /// # Errors
 /// [`Error::InvalidSetting`] when the ROM has no basis (reduce with `--keep-basis`), does not
 /// belong to the body's model, or nothing is left after removing the rigid part.
-pub fn elastic_basis(body: &Body<'_>, scene: &Scene, rom: &Rom) -> Result<ElasticBasis> {
-    let model = body.model();
-    rom.check_model(model)?;
+pub fn elastic_basis(body: &Body, scene: &Scene, rom: &Rom) -> Result<ElasticBasis> {
+    let pencil = body.pencil();
+    rom.check_model(body.n())?;
     let v = rom.basis.as_ref().ok_or_else(|| {
         Error::InvalidSetting(
             "the ROM has no basis V (V.mtx): reduce again with --keep-basis to export it".into(),
@@ -87,7 +87,7 @@ pub fn elastic_basis(body: &Body<'_>, scene: &Scene, rom: &Rom) -> Result<Elasti
     if let Some(rb) = body.rigid() {
         rb.project_response_real(x.as_mut());
     }
-    let (s, u) = eigenpairs(x.transpose() * mul_dense(model.mass.as_ref(), x.as_ref()))?;
+    let (s, u) = eigenpairs(x.transpose() * pencil.mul(Coefficient::Mass, x.as_ref()))?;
     let s_max = s.last().copied().unwrap_or(0.0);
     let keep: Vec<usize> = (0..s.len())
         .filter(|&i| s[i] > DEPENDENT_RTOL * s_max)
@@ -105,10 +105,10 @@ pub fn elastic_basis(body: &Body<'_>, scene: &Scene, rom: &Rom) -> Result<Elasti
         u[(i, keep[j])] / s[keep[j]].sqrt()
     });
     let y = x * scale;
-    let (lambdas, q) = eigenpairs(y.transpose() * mul_dense(model.stiffness.as_ref(), y.as_ref()))?;
+    let (lambdas, q) = eigenpairs(y.transpose() * pencil.mul(Coefficient::Stiffness, y.as_ref()))?;
     let phi = y * q;
     let rigid_coupling = body.rigid().map(|rb| {
-        let w = rb.modes().transpose() * mul_dense(model.mass.as_ref(), phi.as_ref());
+        let w = rb.modes().transpose() * pencil.mul(Coefficient::Mass, phi.as_ref());
         match rb.mass().llt(faer::Side::Lower) {
             Ok(llt) => max_eig((w.transpose() * llt.solve(&w)).as_ref())
                 .max(0.0)

@@ -3,8 +3,8 @@
 
 use crate::body::Body;
 use crate::dense::{sym, sym_eigenvalues};
+use crate::pencil::Coefficient;
 use crate::scene::Scene;
-use crate::sparse::mul_dense;
 use faer::{Mat, MatRef};
 
 /// Definiteness check of a small symmetric matrix (Cholesky + extreme eigenvalues).
@@ -66,14 +66,14 @@ pub struct Projected {
 }
 
 /// Projects the body onto V (N×n) for the scene's unit loads and outputs.
-pub fn project(body: &Body<'_>, scene: &Scene, v: MatRef<'_, f64>) -> Projected {
-    let model = body.model();
+pub fn project(body: &Body, scene: &Scene, v: MatRef<'_, f64>) -> Projected {
+    let pencil = body.pencil();
     let sym = |a: Mat<f64>| sym(a.as_ref());
-    let mr = sym(v.transpose() * mul_dense(model.mass.as_ref(), v));
-    let kr = sym(v.transpose() * mul_dense(model.stiffness.as_ref(), v));
-    let dr = model
-        .damping
-        .combine(&mr, &kr, |d| sym(v.transpose() * mul_dense(d.as_ref(), v)));
+    let mr = sym(v.transpose() * pencil.mul(Coefficient::Mass, v));
+    let kr = sym(v.transpose() * pencil.mul(Coefficient::Stiffness, v));
+    let dr = pencil.damping_term(&mr, &kr, || {
+        sym(v.transpose() * pencil.mul(Coefficient::Damping, v))
+    });
     let pb = body.elastic_load(&scene.inputs);
     let pb_re = Mat::from_fn(pb.nrows(), pb.ncols(), |i, j| pb[(i, j)].re);
     let br = v.transpose() * pb_re;

@@ -4,7 +4,6 @@
 
 use super::linefit::report::SamplingReport;
 use super::projection::{Definiteness, Projected};
-use crate::model::Model;
 use crate::scene::Scene;
 use crate::{Error, Result};
 use faer::linalg::solvers::Solve;
@@ -250,13 +249,12 @@ impl Rom {
         }
     }
 
-    /// Checks that this ROM can belong to `model`: the same N (when recorded) and every DoF
-    /// (coordinates, inputs, outputs) and the basis' row count within it.
+    /// Checks that this ROM can belong to a model with `n` DoFs: the same N (when recorded)
+    /// and every DoF (coordinates, inputs, outputs) and the basis' row count within it.
     ///
     /// # Errors
     /// [`Error::InvalidSetting`] saying which size or DoF does not fit.
-    pub fn check_model(&self, model: &Model) -> Result<()> {
-        let n = model.n();
+    pub fn check_model(&self, n: usize) -> Result<()> {
         if self.full_n != 0 && self.full_n != n {
             return Err(Error::InvalidSetting(format!(
                 "the ROM was built from a model with N = {} but this model has N = {n}",

@@ -86,7 +86,7 @@ pub struct SerepOptions {
 /// singular), more modes than DoFs, bad or duplicate DoF lists, mode numbers out of range or
 /// repeated; the eigensolver's errors.
 pub fn reduce(
-    body: &Body<'_>,
+    body: &Body,
     scene: &Scene,
     opts: &SerepOptions,
     known: Option<&Modes>,

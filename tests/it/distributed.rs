@@ -102,7 +102,7 @@ fn on_ranks<T: Send>(
     size: usize,
     opts: &SweepOptions,
     readable: impl Fn(usize) -> bool + Sync,
-    work: impl FnOnce(&Body<'_>, SweepOptions) -> sparsemor::Result<T> + Send,
+    work: impl FnOnce(&Body, SweepOptions) -> sparsemor::Result<T> + Send,
 ) -> (sparsemor::Result<T>, Vec<i32>) {
     let mut world = Threads::world(size).into_iter();
     let c0: Arc<dyn Cluster> = Arc::new(world.next().unwrap());
@@ -139,7 +139,7 @@ fn on_ranks<T: Send>(
 fn on_all<T: Send>(
     model: &Model,
     size: usize,
-    work: impl FnOnce(&Body<'_>, SweepOptions) -> sparsemor::Result<T> + Send,
+    work: impl FnOnce(&Body, SweepOptions) -> sparsemor::Result<T> + Send,
 ) -> (sparsemor::Result<T>, Vec<i32>) {
     on_ranks(model, size, &SweepOptions::default(), |_| true, work)
 }

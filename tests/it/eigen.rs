@@ -12,7 +12,6 @@ use sparsemor::fe::{bar_model, BoxSpec};
 use sparsemor::model::{Damping, Model};
 use sparsemor::reduce::serep::{self, ModeChoice, SerepOptions};
 use sparsemor::scene::Scene;
-use sparsemor::sparse::mul_dense;
 use sparsemor::units::{hz_to_lambda, lambda_to_hz};
 use sparsemor::Error;
 use std::sync::OnceLock;
@@ -796,4 +795,22 @@ fn lowest_modes_in_memory_capped_slices_match_dense() {
         }
         assert!(m_orthonormality(model, &modes.vectors) <= 1e-10);
     }
+}
+
+/// A x for the full-storage A (faer's sparse × dense): the reference the library's products on
+/// the pencil's lower triangles are checked against.
+fn mul_dense(
+    a: faer::sparse::SparseColMatRef<'_, usize, f64>,
+    x: faer::MatRef<'_, f64>,
+) -> Mat<f64> {
+    let mut y = Mat::<f64>::zeros(a.nrows(), x.ncols());
+    faer::sparse::linalg::matmul::sparse_dense_matmul(
+        y.as_mut(),
+        faer::Accum::Replace,
+        a,
+        x,
+        1.0,
+        faer::Par::Seq,
+    );
+    y
 }

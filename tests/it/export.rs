@@ -87,7 +87,7 @@ fn rom_npz_loads_in_numpy_and_equals_the_mtx_files_bitwise() {
     let rom = bar_rom(&model, &scene);
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("rom");
-    rom_dir::write_for_model(&dir, &rom, &model).unwrap();
+    rom_dir::write_for_body(&dir, &rom, &Body::new(&model).unwrap()).unwrap();
     let out = python(&["-c", NPZ_CHECK, dir.to_str().unwrap()]);
     let mut it = out.split_whitespace();
     assert_eq!(it.next(), Some("552"), "{out}");

@@ -143,7 +143,8 @@ fn free_bar_matches_dense_reference() {
     let (model, scene) = (bar_model(&spec).unwrap(), paper_scene(&spec));
     assert!(model.n() <= 1000);
     let mut interface = scene.outputs.clone();
-    interface.extend(spread_dofs(&model, 4, &interface).unwrap());
+    let body = Body::new(&model).unwrap();
+    interface.extend(spread_dofs(&body, 4, &interface).unwrap());
     check_against_dense(
         &model,
         &scene,

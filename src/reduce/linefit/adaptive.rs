@@ -62,7 +62,7 @@ enum Next {
 
 /// The state of the sampling loop.
 struct Loop<'a> {
-    body: &'a Body<'a>,
+    body: &'a Body,
     scene: &'a Scene,
     opts: &'a LineFitOptions,
     sampling: &'a SamplingOptions,
@@ -95,7 +95,7 @@ struct Loop<'a> {
 
 /// Line-fitting with iteratively chosen reference frequencies; see the module doc.
 pub(super) fn reduce(
-    body: &Body<'_>,
+    body: &Body,
     scene: &Scene,
     opts: &LineFitOptions,
     sampling: &SamplingOptions,
@@ -122,7 +122,7 @@ pub(super) fn reduce(
 impl<'a> Loop<'a> {
     /// Checks the settings, solves the seed frequencies and fits the first ROM.
     fn seed(
-        body: &'a Body<'a>,
+        body: &'a Body,
         scene: &'a Scene,
         opts: &'a LineFitOptions,
         sampling: &'a SamplingOptions,

@@ -35,10 +35,10 @@ pub(crate) struct Worker {
 
 impl Partition {
     /// Resolves the interface setting and checks it (in range, unique, contains the outputs).
-    pub fn new(body: &Body<'_>, scene: &Scene, interface: &Interface) -> Result<Self> {
+    pub fn new(body: &Body, scene: &Scene, interface: &Interface) -> Result<Self> {
         let n_full = body.n();
         let outputs = &scene.outputs;
-        let interface = interface.resolve(body.model(), outputs)?;
+        let interface = interface.resolve(body, outputs)?;
         check_dofs(&interface, n_full, "interface")?;
         if let Some(o) = outputs.iter().find(|o| !interface.contains(o)) {
             return Err(Error::InvalidSetting(format!(
@@ -59,7 +59,7 @@ impl Partition {
     }
 
     /// The same split with one more interface DoF `d` appended.
-    pub fn grown(&self, body: &Body<'_>, scene: &Scene, d: usize) -> Result<Self> {
+    pub fn grown(&self, body: &Body, scene: &Scene, d: usize) -> Result<Self> {
         let mut interface = self.interface.clone();
         interface.push(d);
         Partition::new(body, scene, &Interface::Explicit(interface))
@@ -121,7 +121,7 @@ impl Partition {
     /// Returns the ROM with V kept, no timings and no sampling history.
     pub fn finish(
         &self,
-        body: &Body<'_>,
+        body: &Body,
         scene: &Scene,
         qr: &StreamedQr,
         lsq: &LsqOptions,

@@ -8,8 +8,8 @@
 //! is Δ(s) = ‖Res(s)‖_F / ‖PB‖_F; each evaluation costs O((p + 3n)² p), independent of N.
 
 use crate::body::Body;
+use crate::pencil::Coefficient;
 use crate::reduce::rom::Rom;
-use crate::sparse::mul_dense;
 use crate::{Error, Result};
 use faer::{c64, Mat};
 
@@ -26,19 +26,17 @@ impl Indicator {
     ///
     /// # Errors
     /// [`Error::InvalidSetting`] when the ROM has no basis.
-    pub fn new(body: &Body<'_>, rom: &Rom) -> Result<Self> {
+    pub fn new(body: &Body, rom: &Rom) -> Result<Self> {
         let v = rom
             .basis
             .as_ref()
             .ok_or_else(|| Error::InvalidSetting("the indicator needs the ROM's basis V".into()))?;
-        let model = body.model();
+        let pencil = body.pencil();
         let (n_full, n, p) = (body.n(), v.ncols(), rom.inputs.len());
         let pb = body.elastic_load(&rom.inputs);
-        let mv = mul_dense(model.mass.as_ref(), v.as_ref());
-        let kv = mul_dense(model.stiffness.as_ref(), v.as_ref());
-        let dv = model
-            .damping
-            .combine(&mv, &kv, |d| mul_dense(d.as_ref(), v.as_ref()));
+        let mv = pencil.mul(Coefficient::Mass, v.as_ref());
+        let kv = pencil.mul(Coefficient::Stiffness, v.as_ref());
+        let dv = pencil.damping_term(&mv, &kv, || pencil.mul(Coefficient::Damping, v.as_ref()));
         let w = p + 3 * n;
         let z = Mat::<f64>::from_fn(n_full, w, |i, j| {
             if j < p {

@@ -54,7 +54,7 @@ use std::time::Instant;
 /// frequency, frequency ≤ 0 on a free body, tol ≤ 0), [`Error::DofOutOfRange`],
 /// [`Error::Underdetermined`] (2pz < n), the eigensolver's and the sweep's errors.
 pub fn reduce(
-    body: &Body<'_>,
+    body: &Body,
     scene: &Scene,
     opts: &LineFitOptions,
     known: Option<&Modes>,
@@ -88,7 +88,7 @@ pub fn reduce(
 
 /// Line-fitting on a fixed set of reference frequencies.
 fn fixed(
-    body: &Body<'_>,
+    body: &Body,
     scene: &Scene,
     opts: &LineFitOptions,
     freqs: &[f64],

@@ -3,8 +3,8 @@
 //! docs/design.md §3.5) and how the loop may grow the interface.
 
 use super::placement::spread_dofs;
+use crate::body::Body;
 use crate::lsq::LsqOptions;
-use crate::model::Model;
 use crate::sweep::SweepOptions;
 
 /// How the interface (the ROM's DoFs, order n) is chosen.
@@ -31,14 +31,14 @@ impl Interface {
     ///
     /// # Errors
     /// As [`spread_dofs`].
-    pub fn resolve(&self, model: &Model, outputs: &[usize]) -> crate::Result<Vec<usize>> {
+    pub fn resolve(&self, body: &Body, outputs: &[usize]) -> crate::Result<Vec<usize>> {
         let extra = match self {
             Interface::Explicit(i) => return Ok(i.clone()),
             Interface::OutputsPlus(k) => *k,
             Interface::Auto => Interface::auto_extra(outputs.len()),
         };
         let mut i = outputs.to_vec();
-        i.extend(spread_dofs(model, extra, outputs)?);
+        i.extend(spread_dofs(body, extra, outputs)?);
         Ok(i)
     }
 }

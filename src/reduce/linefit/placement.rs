@@ -1,7 +1,7 @@
 //! Where line-fitting's extra interface DoFs and its reference frequencies go when the user
 //! gives only their number (docs/design.md §3.3).
 
-use crate::model::Model;
+use crate::body::Body;
 use crate::{Error, Result};
 
 /// `k` DoFs spread uniformly along the body, none of them in `exclude`.
@@ -15,8 +15,8 @@ use crate::{Error, Result};
 ///
 /// # Errors
 /// [`Error::InvalidSetting`] when fewer than k DoFs are available.
-pub fn spread_dofs(model: &Model, k: usize, exclude: &[usize]) -> Result<Vec<usize>> {
-    let n = model.n();
+pub fn spread_dofs(body: &Body, k: usize, exclude: &[usize]) -> Result<Vec<usize>> {
+    let n = body.n();
     if k + exclude.len() > n {
         return Err(Error::InvalidSetting(format!(
             "cannot spread {k} extra interface DoFs over a model with N = {n}"
@@ -27,7 +27,7 @@ pub fn spread_dofs(model: &Model, k: usize, exclude: &[usize]) -> Result<Vec<usi
         taken[d] = true;
     }
     let mut out = Vec::with_capacity(k);
-    let Some(nodes) = &model.nodes else {
+    let Some(nodes) = body.nodes() else {
         for j in 0..k {
             let mut d = ((j as f64 + 0.5) / k as f64 * n as f64) as usize % n;
             while taken[d] {
@@ -50,7 +50,7 @@ pub fn spread_dofs(model: &Model, k: usize, exclude: &[usize]) -> Result<Vec<usi
         .max_by(|&a, &b| (hi[a] - lo[a]).total_cmp(&(hi[b] - lo[b])))
         .unwrap_or(2);
     let perp = [(axis + 1) % 3, (axis + 2) % 3];
-    let dpn = model.dofs_per_node;
+    let dpn = body.dofs_per_node();
     for j in 0..k {
         let mut target = c;
         target[axis] = lo[axis] + (j as f64 + 0.5) / k as f64 * (hi[axis] - lo[axis]);
