@@ -178,24 +178,32 @@ impl Pencil {
     }
 
     /// y ← X·x for X ∈ {M, K, D} symmetric, stored by its lower triangle: each off-diagonal
-    /// entry a_ij (i > j) adds a_ij x_j to y_i and a_ij x_i to y_j. Cost O(nnz · columns).
+    /// entry a_ij (i > j) adds a_ij x_j to y_i and a_ij x_i to y_j. Cost O(nnz · columns); each
+    /// column goes through a contiguous copy (x and y may be strided views).
     pub fn mul_to(&self, which: Coefficient, x: MatRef<'_, f64>, mut y: MatMut<'_, f64>) {
         let vals = self.values(which);
-        y.fill(0.0);
+        let (mut xc, mut yc) = (vec![0.0; self.n], vec![0.0; self.n]);
         for col in 0..x.ncols() {
-            let (xc, mut yc) = (x.col(col), y.as_mut().col_mut(col));
+            xc.iter_mut()
+                .zip(x.col(col).iter())
+                .for_each(|(d, s)| *d = *s);
+            yc.fill(0.0);
+            // row j of X in ascending columns, as a product with both triangles would sum it
             for j in 0..self.n {
                 let xj = xc[j];
-                let mut yj = 0.0;
-                for p in self.col_ptr[j]..self.col_ptr[j + 1] {
-                    let (i, a) = (self.row_idx[p], vals[p]);
+                let range = self.col_ptr[j]..self.col_ptr[j + 1];
+                for (&i, &a) in self.row_idx[range.clone()].iter().zip(&vals[range]) {
                     yc[i] += a * xj;
                     if i != j {
-                        yj += a * xc[i];
+                        yc[j] += a * xc[i];
                     }
                 }
-                yc[j] += yj;
             }
+            y.as_mut()
+                .col_mut(col)
+                .iter_mut()
+                .zip(&yc)
+                .for_each(|(d, s)| *d = *s);
         }
     }
 
