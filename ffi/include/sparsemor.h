@@ -168,8 +168,10 @@ typedef enum SparsemorStatus {
 } SparsemorStatus;
 
 /**
- * Opaque model handle: the validated full-order model M q'' + D q' + K q = B u, y = C q and
- * its scene (inputs, outputs, band). Created by `sparsemor_model_new`, released by
+ * Opaque model handle: the validated full-order model M q'' + D q' + K q = B u, y = C q,
+ * prepared once as a body (its matrices held once, the rigid part, the symbolic analysis
+ * computed by the first call that factors and reused by every later one; docs/design.md §2),
+ * and its scene (inputs, outputs, band). Created by `sparsemor_model_new`, released by
  * `sparsemor_model_free`. Read-only functions may share one handle across threads;
  * `sparsemor_model_set_scene` must not run concurrently with anything else on the handle.
  */

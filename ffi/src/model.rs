@@ -2,6 +2,7 @@
 
 use crate::error::{ffi_body, Failure, SparsemorStatus};
 use crate::util::{obj, obj_mut, slice_in, write_out};
+use sparsemor::body::Body;
 use sparsemor::io::import::{self, Dof};
 use sparsemor::model::{Damping, Model};
 use sparsemor::scene::Scene;
@@ -42,26 +43,39 @@ pub struct SparsemorCsc {
     pub storage: u32,
 }
 
-/// Opaque model handle: the validated full-order model M q'' + D q' + K q = B u, y = C q and
-/// its scene (inputs, outputs, band). Created by `sparsemor_model_new`, released by
+/// Opaque model handle: the validated full-order model M q'' + D q' + K q = B u, y = C q,
+/// prepared once as a body (its matrices held once, the rigid part, the symbolic analysis
+/// computed by the first call that factors and reused by every later one; docs/design.md §2),
+/// and its scene (inputs, outputs, band). Created by `sparsemor_model_new`, released by
 /// `sparsemor_model_free`. Read-only functions may share one handle across threads;
 /// `sparsemor_model_set_scene` must not run concurrently with anything else on the handle.
 pub struct SparsemorModel {
-    pub(crate) model: Model,
+    pub(crate) body: Body,
     pub(crate) scene: Option<Scene>,
     /// Node number and direction of every DoF, when the model was imported from FE files.
     pub(crate) dofs: Option<Vec<Dof>>,
 }
 
 impl SparsemorModel {
-    /// The model and its scene, after checking that a scene was set.
-    pub(crate) fn with_scene(&self) -> Result<(&Model, &Scene), Failure> {
+    /// A handle for `model` (its body built in a call-local pool: faer's dense products
+    /// would otherwise start rayon's global pool) with no scene yet.
+    fn boxed(model: &Model, dofs: Option<Vec<Dof>>) -> Result<Box<Self>, Failure> {
+        let body = crate::pool::in_pool(1, || Body::new(model))??;
+        Ok(Box::new(SparsemorModel {
+            body,
+            scene: None,
+            dofs,
+        }))
+    }
+
+    /// The body and its scene, after checking that a scene was set.
+    pub(crate) fn with_scene(&self) -> Result<(&Body, &Scene), Failure> {
         let scene = self.scene.as_ref().ok_or_else(|| {
             Failure::arg(
                 "the model has no scene: call sparsemor_model_set_scene (inputs, outputs, band) first",
             )
         })?;
-        Ok((&self.model, scene))
+        Ok((&self.body, scene))
     }
 }
 
@@ -261,11 +275,7 @@ pub unsafe extern "C" fn sparsemor_model_new(
             (Some(nodes), dofs_per_node)
         };
         let (model, _) = Model::new("ffi".into(), m, k, damping, nodes, dpn)?;
-        let h = Box::new(SparsemorModel {
-            model,
-            scene: None,
-            dofs: None,
-        });
+        let h = SparsemorModel::boxed(&model, None)?;
         unsafe { write_out(model_out, Box::into_raw(h), "model_out")? };
         Ok(())
     })
@@ -335,11 +345,7 @@ pub unsafe extern "C" fn sparsemor_model_from_files(
         let dofs = imported.dofs.clone();
         let name = files[0].display().to_string();
         let (model, _) = imported.into_model(name)?;
-        let h = Box::new(SparsemorModel {
-            model,
-            scene: None,
-            dofs: Some(dofs),
-        });
+        let h = SparsemorModel::boxed(&model, Some(dofs))?;
         unsafe { write_out(model_out, Box::into_raw(h), "model_out")? };
         Ok(())
     })
@@ -361,17 +367,17 @@ pub unsafe extern "C" fn sparsemor_model_dof(
 ) -> SparsemorStatus {
     ffi_body!({
         let m = unsafe { obj(model, "model")? };
-        let n = m.model.n();
+        let n = m.body.n();
         if index >= n {
             return Err(Failure::arg(format!(
                 "index = {index}: the model has DoFs 0..{}",
                 n.saturating_sub(1)
             )));
         }
-        let (node, dir) = match (&m.dofs, m.model.nodes.is_some()) {
+        let (node, dir) = match (&m.dofs, m.body.nodes().is_some()) {
             (Some(dofs), _) => (dofs[index].node, dofs[index].dir as u32 + 1),
             (None, true) => {
-                let dpn = m.model.dofs_per_node;
+                let dpn = m.body.dofs_per_node();
                 ((index / dpn) as u64, (index % dpn) as u32 + 1)
             }
             (None, false) => {
@@ -413,7 +419,7 @@ pub unsafe extern "C" fn sparsemor_model_n(
 ) -> SparsemorStatus {
     ffi_body!({
         let m = unsafe { obj(model, "model")? };
-        unsafe { write_out(n_out, m.model.n(), "n_out") }
+        unsafe { write_out(n_out, m.body.n(), "n_out") }
     })
 }
 
@@ -429,10 +435,7 @@ pub unsafe extern "C" fn sparsemor_model_is_free(
 ) -> SparsemorStatus {
     ffi_body!({
         let m = unsafe { obj(model, "model")? };
-        // in a call-local pool: faer's dense products would otherwise start rayon's global pool
-        let free = crate::pool::in_pool(1, || {
-            sparsemor::body::Body::new(&m.model).map(|b| b.rigid().is_some())
-        })??;
+        let free = m.body.rigid().is_some();
         unsafe { write_out(free_out, i32::from(free), "free_out") }
     })
 }
@@ -468,7 +471,7 @@ pub unsafe extern "C" fn sparsemor_model_set_scene(
             outputs,
             band_hz: [band_lo_hz, band_hi_hz],
         };
-        scene.validate(m.model.n(), "scene")?;
+        scene.validate(m.body.n(), "scene")?;
         m.scene = Some(scene);
         Ok(())
     })

@@ -133,10 +133,7 @@ pub unsafe extern "C" fn sparsemor_reduce_linefit(
                 .is_none_or(|c| c.call(p.done, p.total, p.freq_hz))
         };
         let opts = o.linefit(threads)?;
-        let rom = in_pool(threads, || {
-            let body = Body::new(m)?;
-            linefit::reduce(&body, scene, &opts, None, &report)
-        })??;
+        let rom = in_pool(threads, || linefit::reduce(m, scene, &opts, None, &report))??;
         unsafe { emit(rom, rom_out) }
     })
 }
@@ -199,7 +196,7 @@ fn bracketed(
     progress: SparsemorProgressFn,
     user_data: *mut c_void,
     threads: usize,
-    m: &sparsemor::model::Model,
+    m: &Body,
     reduce: impl FnOnce(&Body) -> sparsemor::Result<Rom> + Send,
 ) -> Result<Rom, Failure> {
     let cb = Callback::new(progress, user_data);
@@ -212,7 +209,7 @@ fn bracketed(
     if cb.as_ref().is_some_and(|c| !c.call(0, 1, 0.0)) {
         return Err(cancelled());
     }
-    let rom = in_pool(threads, || reduce(&Body::new(m)?))??;
+    let rom = in_pool(threads, || reduce(m))??;
     if cb.as_ref().is_some_and(|c| !c.call(1, 1, 0.0)) {
         return Err(cancelled());
     }
@@ -784,9 +781,9 @@ pub unsafe extern "C" fn sparsemor_rom_transfer_error(
     eps_total_out: *mut f64,
 ) -> SparsemorStatus {
     ffi_body!({
-        let m = &unsafe { obj(model, "model")? }.model;
+        let body = &unsafe { obj(model, "model")? }.body;
         let r = unsafe { obj(rom, "rom")? };
-        r.rom.check_model(m.n())?;
+        r.rom.check_model(body.n())?;
         if n_freqs == 0 {
             return Err(Failure::arg("transfer error: n_freqs = 0"));
         }
@@ -801,7 +798,6 @@ pub unsafe extern "C" fn sparsemor_rom_transfer_error(
         check_ptr(eps_total_out.cast_const(), n_freqs, "eps_total_out")?;
         let threads = resolve_threads(0);
         let curve = in_pool(threads, || {
-            let body = Body::new(m)?;
             // the ROM's inputs and outputs over the span of the evaluated frequencies
             let scene = Scene {
                 inputs: r.rom.inputs.clone(),
@@ -809,7 +805,7 @@ pub unsafe extern "C" fn sparsemor_rom_transfer_error(
                 band_hz: [0.0, f.iter().copied().fold(0.0, f64::max)],
             };
             Reference::compute(
-                &body,
+                body,
                 &scene,
                 f,
                 &SweepOptions {
