@@ -13,7 +13,7 @@
 //! A [`Body`] holds the model's matrices once, as the pencil's lower triangles (every later
 //! product with M, K or D is [`Pencil::mul`]), with the model's name, node coordinates and DoFs
 //! per node: the [`Model`] it was built from can be dropped (on the 10⁶-DoF bar its
-//! full-storage M and K are 2 GB beside the pencil's 1 GB; docs/design.md §2). The scene
+//! full-storage M and K are 1.36 GB beside the pencil's 0.77 GB; docs/design.md §2). The scene
 //! (inputs, outputs, band) is not part of it and is passed to each computation explicitly.
 
 use crate::model::Model;
