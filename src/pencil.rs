@@ -233,14 +233,7 @@ impl Pencil {
     pub fn diagonal(&self, which: Coefficient) -> Vec<f64> {
         let vals = self.values(which);
         (0..self.n)
-            .map(|j| {
-                let p = self.col_ptr[j];
-                if p < self.col_ptr[j + 1] && self.row_idx[p] == j {
-                    vals[p]
-                } else {
-                    0.0
-                }
-            })
+            .map(|j| self.diagonal_position(j).map_or(0.0, |p| vals[p]))
             .collect()
     }
 
@@ -305,12 +298,17 @@ impl Pencil {
     /// max_i |K_ii| (the first entry of each column is its diagonal).
     pub fn stiffness_diagonal_max(&self) -> f64 {
         (0..self.n)
-            .filter(|&j| {
-                self.col_ptr[j] < self.col_ptr[j + 1] && self.row_idx[self.col_ptr[j]] == j
-            })
-            .map(|j| self.k[self.col_ptr[j]].abs())
+            .filter_map(|j| self.diagonal_position(j))
+            .map(|p| self.k[p].abs())
             .fold(0.0, f64::max)
     }
+
+    /// The position of entry (j, j) in the pattern: the first of column j, if stored.
+    fn diagonal_position(&self, j: usize) -> Option<usize> {
+        let p = self.col_ptr[j];
+        (p < self.col_ptr[j + 1] && self.row_idx[p] == j).then_some(p)
+    }
+
     /// re ← K − ω²M (the real part of A(iω)).
     pub fn fill_real(&self, omega: f64, re: &mut [f64]) {
         self.fill_shifted(omega * omega, re);
