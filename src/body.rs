@@ -21,7 +21,7 @@ use crate::pencil::Pencil;
 use crate::rigid::RigidBody;
 use crate::Result;
 use faer::sparse::linalg::cholesky::SymbolicCholesky;
-use faer::{c64, Mat};
+use faer::Mat;
 use std::sync::{Arc, OnceLock};
 
 /// A model prepared for computation; see the module doc.
@@ -100,18 +100,18 @@ impl Body {
         Ok(self.symbolic.get_or_init(|| s).clone())
     }
 
-    /// B (N×p): unit forces at `inputs`, as complex columns.
-    pub fn unit_load(&self, inputs: &[usize]) -> Mat<c64> {
-        let mut b = Mat::<c64>::zeros(self.n(), inputs.len());
+    /// B (N×p): unit forces at `inputs`.
+    pub fn unit_load(&self, inputs: &[usize]) -> Mat<f64> {
+        let mut b = Mat::<f64>::zeros(self.n(), inputs.len());
         for (j, &d) in inputs.iter().enumerate() {
-            b[(d, j)] = c64::new(1.0, 0.0);
+            b[(d, j)] = 1.0;
         }
         b
     }
 
     /// P B: the unit load without its rigid component on a free body (inertia relief,
     /// §3.2); B itself on a constrained body.
-    pub fn elastic_load(&self, inputs: &[usize]) -> Mat<c64> {
+    pub fn elastic_load(&self, inputs: &[usize]) -> Mat<f64> {
         let mut b = self.unit_load(inputs);
         if let Some(rb) = &self.rigid {
             rb.project_load(b.as_mut());

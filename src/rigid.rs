@@ -162,8 +162,8 @@ impl RigidBody {
         self.m0.as_ref()
     }
 
-    /// x ← P x = x − M V0 M0⁻¹ V0ᵀ x (removes the rigid load component).
-    pub fn project_load(&self, x: MatMut<'_, c64>) {
+    /// x ← P x = x − M V0 M0⁻¹ V0ᵀ x (removes the rigid load component; loads are real).
+    pub fn project_load(&self, x: MatMut<'_, f64>) {
         apply_projector(self.mv0.as_ref(), &self.m0_inv, self.v0.as_ref(), x);
     }
 
@@ -195,24 +195,28 @@ impl RigidBody {
     }
 }
 
-/// x ← x − U G Wᵀ x for N×6 U, W and 6×6 G.
-fn apply_projector(u: MatRef<'_, f64>, g: &Mat<f64>, w: MatRef<'_, f64>, mut x: MatMut<'_, c64>) {
+/// x ← x − U G Wᵀ x for N×6 U, W and 6×6 G; x real or complex (the same operations on the
+/// real part either way).
+fn apply_projector<T>(u: MatRef<'_, f64>, g: &Mat<f64>, w: MatRef<'_, f64>, mut x: MatMut<'_, T>)
+where
+    T: Copy + Default + std::ops::AddAssign + std::ops::SubAssign + std::ops::Mul<f64, Output = T>,
+{
     let (n, k) = (x.nrows(), x.ncols());
     for c in 0..k {
-        let mut t = [c64::new(0.0, 0.0); 6];
+        let mut t = [T::default(); 6];
         for (a, ta) in t.iter_mut().enumerate() {
             for i in 0..n {
                 *ta += x[(i, c)] * w[(i, a)];
             }
         }
-        let mut s = [c64::new(0.0, 0.0); 6];
+        let mut s = [T::default(); 6];
         for (a, sa) in s.iter_mut().enumerate() {
             for (b, tb) in t.iter().enumerate() {
                 *sa += *tb * g[(a, b)];
             }
         }
         for i in 0..n {
-            let mut acc = c64::new(0.0, 0.0);
+            let mut acc = T::default();
             for (a, sa) in s.iter().enumerate() {
                 acc += *sa * u[(i, a)];
             }

@@ -204,7 +204,8 @@ pub struct Solver<'a> {
     analysis: Analysis,
     response: Response,
     inputs: Vec<usize>,
-    load: Mat<c64>,
+    /// B or P B (N×p), real.
+    load: Mat<f64>,
     probe: Mat<c64>,
     threads: usize,
     memory_budget: usize,
@@ -373,13 +374,13 @@ impl<'a> Solver<'a> {
             };
             let mut state = init();
             let mut rhs = Mat::<c64>::zeros(self.body.n(), self.inputs.len() + 1);
-            // the right-hand sides again for refinement, allocated on first use
-            let mut b = Mat::<c64>::zeros(0, 0);
+            // the probe's right-hand side A(iω) z, kept for refinement
+            let mut az = Mat::<c64>::zeros(self.body.n(), 1);
             while !stop.load(Ordering::Relaxed) {
                 let k = next.fetch_add(1, Ordering::Relaxed);
                 let Some(&f) = freqs_hz.get(k) else { break };
                 let r = self
-                    .solve_one(&mut numeric, f, &mut rhs, &mut b, par)
+                    .solve_one(&mut numeric, f, &mut rhs, &mut az, par)
                     .and_then(|st| {
                         let p = self.inputs.len();
                         step(
@@ -440,7 +441,7 @@ impl<'a> Solver<'a> {
         numeric: &mut Numeric,
         f: f64,
         rhs: &mut Mat<c64>,
-        b: &mut Mat<c64>,
+        az: &mut Mat<c64>,
         par: Par,
     ) -> Result<FreqStats> {
         let omega = 2.0 * std::f64::consts::PI * f;
@@ -456,7 +457,7 @@ impl<'a> Solver<'a> {
         let mut factor_s = t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
         let (mut probe_error, mut refinement_steps) =
-            self.solve_checked(numeric, omega, held.is_some(), rhs, b, par);
+            self.solve_checked(numeric, omega, held.is_some(), rhs, az, par);
         // the complex LDLᵀ pivots statically: when its solves stay inaccurate, the pivoting
         // LBLᵀ gets the frequency
         if !(probe_error <= self.probe_tol) && held.is_none() {
@@ -464,7 +465,7 @@ impl<'a> Solver<'a> {
             if numeric.factor_with_pivoting(self.body.pencil(), par)? {
                 factor_s += t.elapsed().as_secs_f64();
                 (probe_error, refinement_steps) =
-                    self.solve_checked(numeric, omega, false, rhs, b, par);
+                    self.solve_checked(numeric, omega, false, rhs, az, par);
             }
         }
         let solve_s = t1.elapsed().as_secs_f64();
@@ -499,19 +500,31 @@ impl<'a> Solver<'a> {
 
     /// Solves load + probe into `rhs` with the current factorization and refines all columns
     /// when the probe shows lost digits (not with the supported K at 0 Hz, whose right-hand
-    /// sides are modified). Returns the probe error and the refinement steps. `b` is a buffer
-    /// for the right-hand sides of the refinement, kept by the worker.
+    /// sides are modified). Returns the probe error and the refinement steps. `az` (N × 1,
+    /// kept by the worker) receives the probe's right-hand side A(iω) z, from which with the
+    /// load the refinement forms its right-hand sides again.
     fn solve_checked(
         &self,
         numeric: &mut Numeric,
         omega: f64,
         held: bool,
         rhs: &mut Mat<c64>,
-        b: &mut Mat<c64>,
+        az: &mut Mat<c64>,
         par: Par,
     ) -> (f64, usize) {
         let p = self.inputs.len();
-        self.right_hand_sides(omega, rhs.as_mut());
+        self.body
+            .pencil()
+            .apply(omega, self.probe.as_ref(), az.as_mut());
+        let right_hand_sides = |mut out: faer::MatMut<'_, c64>| {
+            for (o, l) in out.as_mut().col_iter_mut().zip(self.load.col_iter()) {
+                o.iter_mut()
+                    .zip(l.iter())
+                    .for_each(|(o, &l)| *o = c64::new(l, 0.0));
+            }
+            out.col_mut(p).copy_from(az.col(0));
+        };
+        right_hand_sides(rhs.as_mut());
         for &d in self.supports.iter().filter(|_| held).flat_map(|(s, _)| s) {
             for c in 0..=p {
                 rhs[(d, c)] = c64::new(0.0, 0.0);
@@ -520,21 +533,10 @@ impl<'a> Solver<'a> {
         numeric.solve(rhs.as_mut(), par);
         let probe_error = self.probe_error(rhs.as_ref().col(p));
         if probe_error > REFINE_ABOVE && !held {
-            b.resize_with(rhs.nrows(), p + 1, |_, _| c64::new(0.0, 0.0));
-            self.right_hand_sides(omega, b.as_mut());
-            let steps = numeric.refine(self.body.pencil(), b.as_ref(), rhs.as_mut(), par);
+            let steps = numeric.refine(self.body.pencil(), right_hand_sides, rhs.as_mut(), par);
             return (self.probe_error(rhs.as_ref().col(p)), steps);
         }
         (probe_error, 0)
-    }
-
-    /// [load | A(iω) z]: the load columns and the probe's right-hand side.
-    fn right_hand_sides(&self, omega: f64, mut out: faer::MatMut<'_, c64>) {
-        let p = self.inputs.len();
-        out.as_mut().subcols_mut(0, p).copy_from(&self.load);
-        self.body
-            .pencil()
-            .apply(omega, self.probe.as_ref(), out.subcols_mut(p, 1));
     }
 
     /// ‖Pᵀ(x − z)‖/‖z‖: the relative error of the probe solve `x` (elastic part on a free body).

@@ -10,6 +10,7 @@
 //! Timings are single runs: quote ratios from one table.
 
 use super::args::human_bytes;
+use faer::{c64, Mat};
 use sparsemor::body::Body;
 use sparsemor::factor::{reference_cholesky, Analysis, Backend};
 use sparsemor::fe::{paper_scene, BoxSpec};
@@ -240,7 +241,8 @@ fn measure(model: &Model, scene: &Scene, backend: Backend) -> Result<Row> {
     let pencil = Pencil::new(model);
     let an = Analysis::new(&pencil, backend, p + 1)?;
     let body = Body::new(model)?;
-    let mut rhs = body.unit_load(&scene.inputs);
+    let load = body.unit_load(&scene.inputs);
+    let mut rhs = Mat::<c64>::from_fn(load.nrows(), load.ncols(), |i, j| load[(i, j)].into());
     // the numeric factorization's own memory (values of A, L and D, work buffers): its peak
     // RSS above what the pencil and the analysis hold
     let symbolic_peak = memory::peak_rss_bytes().unwrap_or(0);

@@ -144,7 +144,7 @@ impl<'a> ShiftedLblt<'a> {
                 norm_inf: self.norm_inf,
                 above: REFINE_ABOVE,
             },
-            b.as_ref(),
+            |mut out| out.copy_from(&b),
             x,
             |r| factor.solve_in_place(sym, r, Par::Seq),
             &mut self.refine_buffers,

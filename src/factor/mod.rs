@@ -54,7 +54,7 @@ use crate::{Error, Result};
 use faer::dyn_stack::{MemBuffer, StackReq};
 use faer::sparse::linalg::cholesky::SymbolicCholesky;
 use faer::sparse::SymbolicSparseColMatRef;
-use faer::{c64, Mat, MatMut, MatRef, Par};
+use faer::{c64, Mat, MatMut, Par};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -558,13 +558,15 @@ impl<'a> Numeric<'a> {
         active(&mut self.factors, &mut self.pivoting, self.pivoted).solve(rhs, par);
     }
 
-    /// Refines a solution `x` of A X = `b` from [`Self::solve`] with the factored matrix
+    /// Refines a solution `x` of A X = B from [`Self::solve`] with the factored matrix
     /// itself by LAPACK xGERFS's rule: while the componentwise backward error exceeds ε and
-    /// halves, at most [`MAX_REFINEMENTS`] steps (module `refine`). Returns the steps taken.
+    /// halves, at most [`MAX_REFINEMENTS`] steps (module `refine`). `b` writes B into the
+    /// N × k block it is given, once per step, so the caller need not keep a copy of B.
+    /// Returns the steps taken.
     pub fn refine(
         &mut self,
         pencil: &Pencil,
-        b: MatRef<'_, c64>,
+        b: impl Fn(MatMut<'_, c64>),
         x: MatMut<'_, c64>,
         par: Par,
     ) -> usize {

@@ -10,7 +10,7 @@
 //!   position of every entry in the lower pattern so the values are gathered per frequency.
 //!
 //! Two products on the lower pattern serve the residuals of iterative refinement (`refine`):
-//! [`symmetric_residual`] (b − A x and |A||x| + |b|) and [`symmetric_norm_inf`] (‖A‖∞), real or
+//! [`symmetric_residual`] (b − A x and the componentwise backward error) and [`symmetric_norm_inf`] (‖A‖∞), real or
 //! complex.
 
 use crate::pencil::Pencil;
@@ -95,54 +95,60 @@ impl Scalar for faer::c64 {
     }
 }
 
-/// r ← b − A x, and with `s` also s ← |A| |x| + |b| (magnitudes by [`Scalar::abs1`]), for the
-/// symmetric A whose lower triangle has the entries `entry(p)` on the pencil's pattern.
-/// s is the denominator of the componentwise backward error; the normwise one needs r only,
-/// and skipping s halves the work (this runs after every solve of the eigensolver's interior
-/// shifts).
+/// r ← b − A x for the symmetric A whose lower triangle has the entries `entry(p)` on the
+/// pencil's pattern, in the N × k block of `scratch` ([`ResidualScratch::block`]), which holds
+/// b on entry. With `componentwise`, also returns the componentwise backward error
+/// maxᵢ,c |r|ᵢc / (|A||x| + |b|)ᵢc over the entries whose denominator is positive (magnitudes
+/// by [`Scalar::abs1`]); without, returns 0 and skips the denominator, which halves the work
+/// (this runs after every solve of the eigensolver's interior shifts, whose refinement stops
+/// by a normwise error).
 ///
 /// The columns go in blocks of up to [`RESIDUAL_BLOCK`], interleaved row by row, so one pass
 /// over the pattern serves a whole block: the pass is memory-bound (measured on the 10⁶-DoF
 /// bar, ten right-hand sides column by column: 1.3 s per residual, which made the sweep's
 /// refinement cost twice the factorization). Blocks run in parallel under `par`. Every entry
-/// of r and s is computed by the same operations in the same order as column by column.
+/// of r is computed by the same operations in the same order as column by column.
+///
+/// Memory: a block's columns of the N × k block hold b, then the interleaved x, then r, so
+/// beside it the residual needs only the interleaved r and |A||x| + |b| of each block (N × k
+/// values and N × k magnitudes in all); no copy of b and no column-major denominator (on the
+/// 10⁶-DoF bar's sweep, ten columns: 0.48 GB less than a block each for b, r, s, x and |x|).
 pub(super) fn symmetric_residual<T: Scalar, F: Fn(usize) -> T + Sync>(
     a: Lower<'_, F>,
-    b: MatRef<'_, T>,
     x: MatRef<'_, T>,
-    mut r: MatMut<'_, T>,
-    mut s: Option<MatMut<'_, f64>>,
+    componentwise: bool,
     scratch: &mut ResidualScratch<T>,
     par: Par,
-) {
-    let k = x.ncols();
+) -> f64 {
+    let (n, k) = (x.nrows(), x.ncols());
     if k == 0 {
-        return;
+        return 0.0;
     }
+    assert_eq!(scratch.xr.len(), n * k, "the residual block is N × k");
     let threads = par.degree().max(1);
     let width = k.div_ceil(threads).clamp(1, RESIDUAL_BLOCK);
     let blocks = k.div_ceil(width);
     if scratch.blocks.len() < blocks {
         scratch.blocks.resize_with(blocks, BlockScratch::default);
     }
-    let with_s = s.is_some();
-    let run = |(bi, ws): (usize, &mut BlockScratch<T>)| {
+    let run = |(bi, (xr, ws)): (usize, (&mut [T], &mut BlockScratch<T>))| {
         let (c0, w) = (bi * width, width.min(k - bi * width));
-        residual_block(a, b.subcols(c0, w), x.subcols(c0, w), with_s, ws);
+        residual_block(a, x.subcols(c0, w), xr, componentwise, ws)
     };
-    let used = &mut scratch.blocks[..blocks];
+    let parts = scratch
+        .xr
+        .chunks_mut(n * width)
+        .zip(&mut scratch.blocks[..blocks]);
     if threads > 1 && blocks > 1 {
         use rayon::prelude::*;
-        used.par_iter_mut().enumerate().for_each(run);
+        let parts: Vec<_> = parts.collect();
+        parts
+            .into_par_iter()
+            .enumerate()
+            .map(run)
+            .reduce(|| 0.0, f64::max)
     } else {
-        used.iter_mut().enumerate().for_each(run);
-    }
-    for (bi, ws) in used.iter().enumerate() {
-        let (c0, w) = (bi * width, width.min(k - bi * width));
-        deinterleave(&ws.rt, r.as_mut().subcols_mut(c0, w));
-        if let Some(s) = s.as_mut() {
-            deinterleave(&ws.st, s.as_mut().subcols_mut(c0, w));
-        }
+        parts.enumerate().map(run).fold(0.0, f64::max)
     }
 }
 
@@ -152,16 +158,10 @@ pub(super) fn symmetric_residual<T: Scalar, F: Fn(usize) -> T + Sync>(
 /// 20-frequency sweep went to the copy back alone).
 const TILE: usize = 512;
 
-/// The entries of `m` mapped by `f` into `v`, row by row: entry (i, c) at i·w + c.
-fn interleave<T: Copy, U: Copy>(m: MatRef<'_, T>, v: &mut Vec<U>, f: impl Fn(T) -> U) {
+/// The entries of `m` mapped by `f` into `v` (of length n·w), row by row: entry (i, c) at
+/// i·w + c.
+fn interleave<T: Copy, U: Copy>(m: MatRef<'_, T>, v: &mut [U], f: impl Fn(T) -> U) {
     let (n, w) = (m.nrows(), m.ncols());
-    if n * w == 0 {
-        return v.clear();
-    }
-    if v.len() != n * w {
-        v.clear();
-        v.resize(n * w, f(m[(0, 0)]));
-    }
     for i0 in (0..n).step_by(TILE) {
         let i1 = (i0 + TILE).min(n);
         for (c, col) in m.col_iter().enumerate() {
@@ -203,70 +203,98 @@ impl<F> Copy for Lower<'_, F> {}
 /// Columns per pass of [`symmetric_residual`].
 pub(super) const RESIDUAL_BLOCK: usize = 16;
 
-/// The row-interleaved buffers of [`symmetric_residual`], kept by the caller between calls:
-/// the residuals of a sweep's refinements then allocate once per worker, not per frequency
-/// (fresh pages of this size cost as much as the products here).
+/// The buffers of [`symmetric_residual`], kept by the caller between calls: the residuals of
+/// a sweep's refinements then allocate once per worker, not per frequency (fresh pages of
+/// this size cost as much as the products here).
 pub(super) struct ResidualScratch<T> {
+    /// The N × k block, column-major: b in, r out (and the blocks' interleaved x between).
+    xr: Vec<T>,
     blocks: Vec<BlockScratch<T>>,
 }
 
 impl<T> Default for ResidualScratch<T> {
     fn default() -> Self {
-        ResidualScratch { blocks: Vec::new() }
+        ResidualScratch {
+            xr: Vec::new(),
+            blocks: Vec::new(),
+        }
     }
 }
 
-/// x, r (and s, |x|) of one column block, entry (i, c) at i·w + c.
+impl<T: Scalar> ResidualScratch<T> {
+    /// The N × k block that holds b before [`symmetric_residual`] and r after it (its values
+    /// are kept while N and k stay the same).
+    pub(super) fn block(&mut self, n: usize, k: usize) -> MatMut<'_, T> {
+        if self.xr.len() != n * k {
+            self.xr.clear();
+            self.xr.resize(n * k, T::zero_impl());
+        }
+        MatMut::from_column_major_slice_mut(&mut self.xr, n, k)
+    }
+}
+
+/// The interleaved r and s = |A||x| + |b| of one column block, entry (i, c) at i·w + c.
 struct BlockScratch<T> {
-    xt: Vec<T>,
     rt: Vec<T>,
     st: Vec<f64>,
-    xa: Vec<f64>,
 }
 
 impl<T> Default for BlockScratch<T> {
     fn default() -> Self {
         BlockScratch {
-            xt: Vec::new(),
             rt: Vec::new(),
             st: Vec::new(),
-            xa: Vec::new(),
         }
     }
 }
 
-/// [`symmetric_residual`] of one block of w ≤ [`RESIDUAL_BLOCK`] columns into `ws`: each
-/// pattern entry updates w adjacent values of r (and of s, in the same pass: the pass is
-/// memory-bound, and one pass instead of two cut the solve phase of a refined frequency of
-/// the 10⁶-DoF bar, three residuals of ten columns, from 8.66 to 7.74 s; same numbers).
+/// [`symmetric_residual`] of one block of w ≤ [`RESIDUAL_BLOCK`] columns: `xr` holds the
+/// block's columns of b on entry (column-major), the interleaved x during the pass and r on
+/// exit. Each pattern entry updates w adjacent values of r (and of s, in the same pass: the
+/// pass is memory-bound, and one pass instead of two cut the solve phase of a refined
+/// frequency of the 10⁶-DoF bar, three residuals of ten columns, from 8.66 to 7.74 s; same
+/// numbers). Returns the block's componentwise backward error (0 without `componentwise`).
 fn residual_block<T: Scalar, F: Fn(usize) -> T>(
     a: Lower<'_, F>,
-    b: MatRef<'_, T>,
     x: MatRef<'_, T>,
-    with_s: bool,
+    xr: &mut [T],
+    componentwise: bool,
     ws: &mut BlockScratch<T>,
-) {
-    let w = x.ncols();
-    interleave(x, &mut ws.xt, |v| v);
-    interleave(b, &mut ws.rt, |v| v);
-    if with_s {
-        interleave(b, &mut ws.st, T::abs1);
-        interleave(x, &mut ws.xa, T::abs1);
-        residual_pass::<T, F, true>(a, w, ws);
-    } else {
-        residual_pass::<T, F, false>(a, w, ws);
+) -> f64 {
+    let (n, w) = (x.nrows(), x.ncols());
+    let BlockScratch { rt, st } = ws;
+    rt.resize(n * w, T::zero_impl());
+    st.resize(if componentwise { n * w } else { 0 }, 0.0);
+    let b = MatRef::from_column_major_slice(xr, n, w);
+    interleave(b, rt, |v| v);
+    if componentwise {
+        interleave(b, st, T::abs1);
     }
+    interleave(x, xr, |v| v);
+    let worst = if componentwise {
+        residual_pass::<T, F, true>(a, w, xr, rt, st);
+        rt.iter()
+            .zip(st.iter())
+            .filter(|(_, &s)| s > 0.0)
+            .fold(0.0f64, |m, (r, &s)| m.max(r.abs1() / s))
+    } else {
+        residual_pass::<T, F, false>(a, w, xr, rt, st);
+        0.0
+    };
+    deinterleave(rt, MatMut::from_column_major_slice_mut(xr, n, w));
+    worst
 }
 
 /// The pass of [`residual_block`] over the pattern: r ← r − A x and, when `S`,
-/// s ← s + |A||x| (r, s holding b and |b| on entry).
+/// s ← s + |A||x| (r, s holding b and |b| on entry; |x| is taken from x as it is read).
 fn residual_pass<T: Scalar, F: Fn(usize) -> T, const S: bool>(
     a: Lower<'_, F>,
     w: usize,
-    ws: &mut BlockScratch<T>,
+    xt: &[T],
+    rt: &mut [T],
+    st: &mut [f64],
 ) {
     let (cp, ri, entry) = (a.pencil.col_ptr(), a.pencil.row_idx(), a.entry);
-    let BlockScratch { xt, rt, st, xa } = ws;
     let zero = T::zero_impl();
     let mut acc = [zero; RESIDUAL_BLOCK];
     let mut acc_s = [0.0f64; RESIDUAL_BLOCK];
@@ -282,8 +310,8 @@ fn residual_pass<T: Scalar, F: Fn(usize) -> T, const S: bool>(
             for c in 0..w {
                 r_i[c] -= v * xj[c];
             }
+            let xi = &xt[i * w..(i + 1) * w];
             if i != j {
-                let xi = &xt[i * w..(i + 1) * w];
                 for c in 0..w {
                     acc[c] += v * xi[c];
                 }
@@ -291,14 +319,12 @@ fn residual_pass<T: Scalar, F: Fn(usize) -> T, const S: bool>(
             if S {
                 let v = v.abs1();
                 let s_i = &mut st[i * w..(i + 1) * w];
-                let xaj = &xa[j * w..(j + 1) * w];
                 for c in 0..w {
-                    s_i[c] += v * xaj[c];
+                    s_i[c] += v * xj[c].abs1();
                 }
                 if i != j {
-                    let xai = &xa[i * w..(i + 1) * w];
                     for c in 0..w {
-                        acc_s[c] += v * xai[c];
+                        acc_s[c] += v * xi[c].abs1();
                     }
                 }
             }

@@ -11,7 +11,7 @@
 //! not lower the forward error below about cond(A)·ε, which the sweep's probe then measures.
 
 use super::pattern::{self, Scalar};
-use faer::{Mat, MatMut, MatRef, Par};
+use faer::{MatMut, Par};
 
 /// At most this many refinement steps per solve (each one solve and one product with A).
 pub const MAX_REFINEMENTS: usize = 3;
@@ -36,70 +36,51 @@ pub(super) enum Stop {
     Componentwise,
 }
 
-/// The buffers of [`refine`], kept by the caller between calls (a sweep worker's
-/// factorization, an interior shift) so refinements allocate once, not per solve.
-pub(super) struct Buffers<T> {
-    r: Mat<T>,
-    s: Mat<f64>,
-    residual: pattern::ResidualScratch<T>,
-}
+/// The buffers of [`refine`] (the residual's), kept by the caller between calls (a sweep
+/// worker's factorization, an interior shift) so refinements allocate once, not per solve.
+pub(super) type Buffers<T> = pattern::ResidualScratch<T>;
 
-impl<T: Scalar> Default for Buffers<T> {
-    fn default() -> Self {
-        Buffers {
-            r: Mat::zeros(0, 0),
-            s: Mat::zeros(0, 0),
-            residual: pattern::ResidualScratch::default(),
-        }
-    }
-}
-
-/// Refines the solution `x` of A x = `b` as the module doc says, for the symmetric A given by
-/// its lower triangle `a`; `solve` applies A⁻¹ in place; `buffers` are reused between calls.
-/// Returns the steps taken.
+/// Refines the solution `x` of A x = b as the module doc says, for the symmetric A given by
+/// its lower triangle `a`; `b` writes the right-hand sides into the block it is given (once
+/// per step, into the residual's buffer: the caller keeps no N × k copy of b for this);
+/// `solve` applies A⁻¹ in place; `buffers` are reused between calls. Returns the steps taken.
 pub(super) fn refine<T: Scalar>(
     a: pattern::Lower<'_, impl Fn(usize) -> T + Sync>,
     stop: Stop,
-    b: MatRef<'_, T>,
+    b: impl Fn(MatMut<'_, T>),
     mut x: MatMut<'_, T>,
     mut solve: impl FnMut(MatMut<'_, T>),
     buffers: &mut Buffers<T>,
     par: Par,
 ) -> usize {
-    let componentwise = matches!(stop, Stop::Componentwise);
-    let (n, k) = (b.nrows(), b.ncols());
-    let Buffers { r, s, residual } = buffers;
-    r.resize_with(n, k, |_, _| T::zero_impl());
-    // |A||x| + |b|, only for the componentwise rule
-    s.resize_with(if componentwise { n } else { 0 }, k, |_, _| 0.0);
+    let (n, k) = (x.nrows(), x.ncols());
     let mut last = f64::INFINITY;
     for step in 0..MAX_REFINEMENTS {
-        let sm = componentwise.then_some(s.as_mut());
-        pattern::symmetric_residual(a, b, x.as_ref(), r.as_mut(), sm, residual, par);
-        let worst = (0..x.ncols())
-            .map(|c| match stop {
-                Stop::Normwise { norm_inf, .. } => {
-                    max_abs1(r.col(c))
-                        / (norm_inf * max_abs1(x.as_ref().col(c)) + max_abs1(b.col(c)))
-                }
-                Stop::Componentwise => r
-                    .col(c)
-                    .iter()
-                    .zip(s.col(c).iter())
-                    .filter(|(_, &s)| s > 0.0)
-                    .fold(0.0f64, |m, (r, &s)| m.max(r.abs1() / s)),
-            })
-            .fold(0.0, f64::max);
+        b(buffers.block(n, k));
         let again = match stop {
-            Stop::Normwise { above, .. } => worst > above,
-            Stop::Componentwise => worst > f64::EPSILON / 2.0 && 2.0 * worst <= last,
+            Stop::Normwise { norm_inf, above } => {
+                let b_norms: Vec<f64> = buffers.block(n, k).col_iter().map(max_abs1).collect();
+                pattern::symmetric_residual(a, x.as_ref(), false, buffers, par);
+                let worst = b_norms
+                    .iter()
+                    .zip(buffers.block(n, k).col_iter().zip(x.as_ref().col_iter()))
+                    .map(|(&bc, (rc, xc))| max_abs1(rc) / (norm_inf * max_abs1(xc) + bc))
+                    .fold(0.0, f64::max);
+                worst > above
+            }
+            Stop::Componentwise => {
+                let worst = pattern::symmetric_residual(a, x.as_ref(), true, buffers, par);
+                let again = worst > f64::EPSILON / 2.0 && 2.0 * worst <= last;
+                last = worst;
+                again
+            }
         };
         if !again {
             return step;
         }
-        last = worst;
+        let mut r = buffers.block(n, k);
         solve(r.as_mut());
-        x += &*r;
+        x += &r;
     }
     MAX_REFINEMENTS
 }
@@ -113,28 +94,19 @@ mod tests {
     use super::*;
     use crate::fe::{bar_model, BoxSpec};
     use crate::pencil::Pencil;
-    use faer::c64;
     use faer::linalg::solvers::Solve;
+    use faer::{c64, Mat, MatRef};
 
     /// The componentwise backward error maxᵢ |b − A x|ᵢ / (|A||x| + |b|)ᵢ of one column.
     fn berr(pencil: &Pencil, vals: &[f64], b: MatRef<'_, f64>, x: MatRef<'_, f64>) -> f64 {
-        let (mut r, mut s) = (Mat::zeros(b.nrows(), 1), Mat::zeros(b.nrows(), 1));
         let entry = |p: usize| vals[p];
-        pattern::symmetric_residual(
-            pattern::Lower {
-                pencil,
-                entry: &entry,
-            },
-            b,
-            x,
-            r.as_mut(),
-            Some(s.as_mut()),
-            &mut pattern::ResidualScratch::default(),
-            Par::Seq,
-        );
-        (0..b.nrows())
-            .filter(|&i| s[(i, 0)] > 0.0)
-            .fold(0.0, |m: f64, i| m.max(r[(i, 0)].abs() / s[(i, 0)]))
+        let mut scratch = pattern::ResidualScratch::default();
+        scratch.block(b.nrows(), b.ncols()).copy_from(b);
+        let lower = pattern::Lower {
+            pencil,
+            entry: &entry,
+        };
+        pattern::symmetric_residual(lower, x, true, &mut scratch, Par::Seq)
     }
 
     /// K − σM of a small bar: its pencil, the lower values and the dense symmetric matrix.
@@ -158,9 +130,10 @@ mod tests {
         (pencil, vals, a)
     }
 
-    /// The blocked residual r = b − A x and s = |A||x| + |b| against a dense product, for
-    /// 1–37 columns (one block, several, a partial last one) sequentially and on two
-    /// threads, with one scratch reused across calls: the same numbers either way.
+    /// The blocked residual r = b − A x and the componentwise backward error
+    /// maxᵢ |r|ᵢ / (|A||x| + |b|)ᵢ against a dense product, for 1–37 columns (one block,
+    /// several, a partial last one) sequentially and on two threads, with one scratch reused
+    /// across calls: the same numbers either way, and the normwise call leaves the same r.
     fn blocked_residual_case<T: Scalar<Real = f64>>(
         vals: &[T],
         pencil: &Pencil,
@@ -189,23 +162,30 @@ mod tests {
             let abs_x = Mat::<f64>::from_fn(n, k, |i, c| x[(i, c)].abs1());
             let abs_b = Mat::<f64>::from_fn(n, k, |i, c| b[(i, c)].abs1());
             let s_dense = &abs_a * &abs_x + &abs_b;
+            let berr_dense = (0..n)
+                .flat_map(|i| (0..k).map(move |c| (i, c)))
+                .filter(|&ic| s_dense[ic] > 0.0)
+                .fold(0.0f64, |m, ic| m.max(r_dense[ic].abs1() / s_dense[ic]));
+            assert!(
+                berr_dense > 0.1,
+                "k = {k}: the case is too easy ({berr_dense:.1e})"
+            );
             let mut results = Vec::new();
             for par in [Par::Seq, Par::rayon(2)] {
-                let (mut r, mut s) = (Mat::<T>::zeros(n, k), Mat::zeros(n, k));
-                let sm = Some(s.as_mut());
-                pattern::symmetric_residual(
-                    lower,
-                    b.as_ref(),
-                    x.as_ref(),
-                    r.as_mut(),
-                    sm,
-                    &mut scratch,
-                    par,
-                );
+                scratch.block(n, k).copy_from(&b);
+                let berr = pattern::symmetric_residual(lower, x.as_ref(), true, &mut scratch, par);
+                let r = scratch.block(n, k).to_owned();
                 let er = (&r - &r_dense).norm_l2() / (&abs_a * &abs_x).norm_l2();
-                let es = (&s - &s_dense).norm_l2() / s_dense.norm_l2();
-                assert!(er < 1e-14 && es < 1e-14, "k = {k}: r {er:.1e}, s {es:.1e}");
-                results.push((r, s));
+                let es = (berr - berr_dense).abs() / berr_dense;
+                assert!(
+                    er < 1e-14 && es < 1e-13,
+                    "k = {k}: r {er:.1e}, berr {es:.1e}"
+                );
+                scratch.block(n, k).copy_from(&b);
+                let none = pattern::symmetric_residual(lower, x.as_ref(), false, &mut scratch, par);
+                let same = scratch.block(n, k) == r;
+                assert!(none == 0.0 && same, "k = {k}: normwise residual differs");
+                results.push((r, berr));
             }
             assert!(
                 results[0] == results[1],
@@ -268,7 +248,7 @@ mod tests {
                     entry: &|p: usize| vals[p],
                 },
                 stop,
-                b.as_ref(),
+                |mut out| out.copy_from(&b),
                 x.as_mut(),
                 |mut r| {
                     let s = inexact.solve(&r);

@@ -74,9 +74,7 @@ pub fn project(body: &Body, scene: &Scene, v: MatRef<'_, f64>) -> Projected {
     let dr = pencil.damping_term(&mr, &kr, || {
         sym(v.transpose() * pencil.mul(Coefficient::Damping, v))
     });
-    let pb = body.elastic_load(&scene.inputs);
-    let pb_re = Mat::from_fn(pb.nrows(), pb.ncols(), |i, j| pb[(i, j)].re);
-    let br = v.transpose() * pb_re;
+    let br = v.transpose() * body.elastic_load(&scene.inputs);
     let outputs = &scene.outputs;
     let cr = Mat::from_fn(outputs.len(), v.ncols(), |o, j| v[(outputs[o], j)]);
     Projected { mr, dr, kr, br, cr }

@@ -40,7 +40,7 @@ impl Indicator {
         let w = p + 3 * n;
         let z = Mat::<f64>::from_fn(n_full, w, |i, j| {
             if j < p {
-                pb[(i, j)].re
+                pb[(i, j)]
             } else if j < p + n {
                 mv[(i, j - p)]
             } else if j < p + 2 * n {
