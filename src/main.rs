@@ -3,7 +3,6 @@
 mod cli;
 
 fn main() {
-    return_large_blocks_to_the_system();
     let cluster = match cluster() {
         Ok(c) => c,
         Err(e) => {
@@ -25,22 +24,6 @@ fn main() {
             }
             std::process::exit(1);
         }
-    }
-}
-
-/// Fixes glibc's mmap threshold at 1 MiB: every allocation from 1 MiB up is its own mapping,
-/// returned to the system when freed. By default the threshold rises to the largest block
-/// freed so far (up to 32 MiB), after which the N-sized vectors and supernode buffers of a
-/// sweep come from the heap and leave it fragmented. On the 10⁶-DoF bar (`sweep --threads 1`,
-/// two frequencies) the peak RSS fell from 4.98 to 4.82 GB and the run took 54 s instead of
-/// 60 s (docs/design.md §8). A library leaves the allocator to its host program; the same
-/// setting is `MALLOC_MMAP_THRESHOLD_=1048576` in the environment.
-fn return_large_blocks_to_the_system() {
-    #[cfg(all(target_os = "linux", target_env = "gnu"))]
-    // SAFETY: mallopt only sets an allocator parameter; it runs before any other thread
-    // exists, and an unsupported parameter is reported by its return value, ignored here.
-    unsafe {
-        libc::mallopt(libc::M_MMAP_THRESHOLD, 1 << 20);
     }
 }
 
