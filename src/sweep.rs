@@ -456,16 +456,19 @@ impl<'a> Solver<'a> {
         }
         let mut factor_s = t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
+        // the probe's right-hand side, once per frequency (a pivoting refactorization reuses it)
+        self.body
+            .pencil()
+            .apply(omega, self.probe.as_ref(), az.as_mut());
         let (mut probe_error, mut refinement_steps) =
-            self.solve_checked(numeric, omega, held.is_some(), rhs, az, par);
+            self.solve_checked(numeric, held.is_some(), rhs, az, par);
         // the complex LDLᵀ pivots statically: when its solves stay inaccurate, the pivoting
         // LBLᵀ gets the frequency
         if !(probe_error <= self.probe_tol) && held.is_none() {
             let t = Instant::now();
             if numeric.factor_with_pivoting(self.body.pencil(), par)? {
                 factor_s += t.elapsed().as_secs_f64();
-                (probe_error, refinement_steps) =
-                    self.solve_checked(numeric, omega, false, rhs, az, par);
+                (probe_error, refinement_steps) = self.solve_checked(numeric, false, rhs, az, par);
             }
         }
         let solve_s = t1.elapsed().as_secs_f64();
@@ -500,22 +503,18 @@ impl<'a> Solver<'a> {
 
     /// Solves load + probe into `rhs` with the current factorization and refines all columns
     /// when the probe shows lost digits (not with the supported K at 0 Hz, whose right-hand
-    /// sides are modified). Returns the probe error and the refinement steps. `az` (N × 1,
-    /// kept by the worker) receives the probe's right-hand side A(iω) z, from which with the
-    /// load the refinement forms its right-hand sides again.
+    /// sides are modified). Returns the probe error and the refinement steps. `az` (N × 1) is
+    /// the probe's right-hand side A(iω) z, from which with the load the refinement forms its
+    /// right-hand sides again.
     fn solve_checked(
         &self,
         numeric: &mut Numeric,
-        omega: f64,
         held: bool,
         rhs: &mut Mat<c64>,
-        az: &mut Mat<c64>,
+        az: &Mat<c64>,
         par: Par,
     ) -> (f64, usize) {
         let p = self.inputs.len();
-        self.body
-            .pencil()
-            .apply(omega, self.probe.as_ref(), az.as_mut());
         let right_hand_sides = |mut out: faer::MatMut<'_, c64>| {
             for (o, l) in out.as_mut().col_iter_mut().zip(self.load.col_iter()) {
                 o.iter_mut()

@@ -10,8 +10,8 @@
 //!   position of every entry in the lower pattern so the values are gathered per frequency.
 //!
 //! Two products on the lower pattern serve the residuals of iterative refinement (`refine`):
-//! [`symmetric_residual`] (b − A x and the componentwise backward error) and [`symmetric_norm_inf`] (‖A‖∞), real or
-//! complex.
+//! [`symmetric_residual`] (b − A x and the componentwise backward error) and
+//! [`symmetric_norm_inf`] (‖A‖∞), real or complex.
 
 use crate::pencil::Pencil;
 use faer::sparse::{SymbolicSparseColMat, SymbolicSparseColMatRef};
