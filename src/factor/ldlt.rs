@@ -1055,12 +1055,7 @@ fn dense_ldlt(mut a: MatMut<'_, c64>, work: &mut [c64], pivots: &mut Pivots, par
     let (wd, rest) = work.split_at_mut((n - h) * h);
     let mut wd_t = MatMut::from_column_major_slice_mut(wd, h, n - h);
     wd_t.copy_from(a21.rb().transpose());
-    for j in 0..h {
-        let inv = a11[(j, j)].inv();
-        for v in a21.rb_mut().col_mut(j).iter_mut() {
-            *v *= inv;
-        }
-    }
+    divide_by_diagonal(a11.rb(), a21.rb_mut());
     triangular::matmul(
         a22.rb_mut(),
         BlockStructure::TriangularLower,
@@ -1083,9 +1078,14 @@ fn factor_panel(panel: MatMut<'_, c64>, work: &mut [c64], pivots: &mut Pivots, p
     dense_ldlt(top.rb_mut(), work, pivots, par);
     let p = par_for(bot.nrows() * ncols * ncols, par);
     solve_right_transposed(top.rb(), bot.rb_mut(), work, p);
-    for j in 0..ncols {
-        let inv = top[(j, j)].inv();
-        for v in bot.rb_mut().col_mut(j).iter_mut() {
+    divide_by_diagonal(top.rb(), bot);
+}
+
+/// X ← X D⁻¹, D the diagonal of the factored block `ld`.
+fn divide_by_diagonal(ld: MatRef<'_, c64>, mut x: MatMut<'_, c64>) {
+    for j in 0..ld.ncols() {
+        let inv = ld[(j, j)].inv();
+        for v in x.rb_mut().col_mut(j).iter_mut() {
             *v *= inv;
         }
     }
