@@ -131,6 +131,10 @@ pub struct FreqStats {
     pub solve_s: f64,
     /// ‖Pᵀ(x − z)‖/‖z‖ of the probe solve (after refinement).
     pub probe_error: f64,
+    /// Componentwise backward error of the probe solve (after refinement),
+    /// maxᵢ |b − A x|ᵢ / (|A||x| + |b|)ᵢ ([`Numeric::backward_error`]): about ε when the
+    /// factorization's solves are backward stable.
+    pub backward_error: f64,
     /// Iterative refinement steps of the solves (0 when the first solve was backward stable).
     pub refinement_steps: usize,
     /// min/max pivot magnitude (LBLᵀ, LDLᵀ), rcond (UMFPACK) or NaN (faer LU).
@@ -138,6 +142,13 @@ pub struct FreqStats {
     /// True when the complex LDLᵀ's static pivoting was not enough and the frequency was
     /// factored again by the pivoting LBLᵀ ([`Numeric::factor_with_pivoting`]).
     pub pivoted: bool,
+}
+
+/// What [`Solver::solve_checked`] measured of one frequency's solves.
+struct Checked {
+    probe_error: f64,
+    backward_error: f64,
+    refinement_steps: usize,
 }
 
 /// The accuracy a [`Solver`]'s factorizations showed over all its runs: reported with a ROM
@@ -148,6 +159,10 @@ pub struct SolveAccuracy {
     pub frequencies: usize,
     /// Largest probe error ([`FreqStats::probe_error`], after refinement).
     pub probe_error_max: f64,
+    /// Largest backward error ([`FreqStats::backward_error`]; 0 in ROMs written before it
+    /// was measured).
+    #[serde(default)]
+    pub backward_error_max: f64,
     /// Frequencies whose solves were refined.
     pub refined: usize,
     /// Frequencies the complex LDLᵀ handed to the pivoting LBLᵀ ([`FreqStats::pivoted`]).
@@ -159,6 +174,7 @@ impl SolveAccuracy {
     pub(crate) fn add(&mut self, s: &FreqStats) {
         self.frequencies += 1;
         self.probe_error_max = self.probe_error_max.max(s.probe_error);
+        self.backward_error_max = self.backward_error_max.max(s.backward_error);
         self.refined += usize::from(s.refinement_steps > 0);
         self.pivoted += usize::from(s.pivoted);
     }
@@ -460,17 +476,21 @@ impl<'a> Solver<'a> {
         self.body
             .pencil()
             .apply(omega, self.probe.as_ref(), az.as_mut());
-        let (mut probe_error, mut refinement_steps) =
-            self.solve_checked(numeric, held.is_some(), rhs, az, par);
+        let mut checked = self.solve_checked(numeric, held.is_some(), rhs, az, par);
         // the complex LDLᵀ pivots statically: when its solves stay inaccurate, the pivoting
         // LBLᵀ gets the frequency
-        if !(probe_error <= self.probe_tol) && held.is_none() {
+        if !(checked.probe_error <= self.probe_tol) && held.is_none() {
             let t = Instant::now();
             if numeric.factor_with_pivoting(self.body.pencil(), par)? {
                 factor_s += t.elapsed().as_secs_f64();
-                (probe_error, refinement_steps) = self.solve_checked(numeric, false, rhs, az, par);
+                checked = self.solve_checked(numeric, false, rhs, az, par);
             }
         }
+        let Checked {
+            probe_error,
+            backward_error,
+            refinement_steps,
+        } = checked;
         let solve_s = t1.elapsed().as_secs_f64();
         if let (Some(rb), Response::Elastic) = (self.body.rigid(), self.response) {
             rb.project_response(rhs.as_mut().subcols_mut(0, p));
@@ -495,17 +515,18 @@ impl<'a> Solver<'a> {
             factor_s,
             solve_s,
             probe_error,
+            backward_error,
             refinement_steps,
             pivot_ratio: numeric.pivot_ratio(),
             pivoted: numeric.pivoted(),
         })
     }
 
-    /// Solves load + probe into `rhs` with the current factorization and refines all columns
-    /// when the probe shows lost digits (not with the supported K at 0 Hz, whose right-hand
-    /// sides are modified). Returns the probe error and the refinement steps. `az` (N × 1) is
-    /// the probe's right-hand side A(iω) z, from which with the load the refinement forms its
-    /// right-hand sides again.
+    /// Solves load + probe into `rhs` with the current factorization, refines all columns
+    /// when the probe shows lost digits (not with the supported K at 0 Hz: its factorization
+    /// is exact up to the held DoFs, which Pᵀ removes) and measures the probe solve's
+    /// backward error. `az` (N × 1) is the probe's right-hand side A(iω) z, from which with
+    /// the load the refinement and the backward error form the right-hand sides again.
     fn solve_checked(
         &self,
         numeric: &mut Numeric,
@@ -513,29 +534,48 @@ impl<'a> Solver<'a> {
         rhs: &mut Mat<c64>,
         az: &Mat<c64>,
         par: Par,
-    ) -> (f64, usize) {
+    ) -> Checked {
         let p = self.inputs.len();
+        // the probe's right-hand side; with the body held, its held rows are 0
+        let probe_rhs = |mut out: faer::MatMut<'_, c64>| {
+            out.copy_from(az);
+            for &d in self.supports.iter().filter(|_| held).flat_map(|(s, _)| s) {
+                out[(d, 0)] = c64::new(0.0, 0.0);
+            }
+        };
         let right_hand_sides = |mut out: faer::MatMut<'_, c64>| {
-            for (o, l) in out.as_mut().col_iter_mut().zip(self.load.col_iter()) {
+            let (mut load, probe) = out.as_mut().split_at_col_mut(p);
+            probe_rhs(probe);
+            for (o, l) in load.as_mut().col_iter_mut().zip(self.load.col_iter()) {
                 o.iter_mut()
                     .zip(l.iter())
                     .for_each(|(o, &l)| *o = c64::new(l, 0.0));
             }
-            out.col_mut(p).copy_from(az.col(0));
+            for &d in self.supports.iter().filter(|_| held).flat_map(|(s, _)| s) {
+                load.as_mut().row_mut(d).fill(c64::new(0.0, 0.0));
+            }
         };
         right_hand_sides(rhs.as_mut());
-        for &d in self.supports.iter().filter(|_| held).flat_map(|(s, _)| s) {
-            for c in 0..=p {
-                rhs[(d, c)] = c64::new(0.0, 0.0);
-            }
-        }
         numeric.solve(rhs.as_mut(), par);
-        let probe_error = self.probe_error(rhs.as_ref().col(p));
+        let mut probe_error = self.probe_error(rhs.as_ref().col(p));
+        let mut refinement_steps = 0;
         if probe_error > REFINE_ABOVE && !held {
-            let steps = numeric.refine(self.body.pencil(), right_hand_sides, rhs.as_mut(), par);
-            return (self.probe_error(rhs.as_ref().col(p)), steps);
+            refinement_steps =
+                numeric.refine(self.body.pencil(), right_hand_sides, rhs.as_mut(), par);
+            probe_error = self.probe_error(rhs.as_ref().col(p));
         }
-        (probe_error, 0)
+        // one column: over all of them the residual's scalar products cost half a solve
+        let backward_error = numeric.backward_error(
+            self.body.pencil(),
+            probe_rhs,
+            rhs.as_ref().subcols(p, 1),
+            par,
+        );
+        Checked {
+            probe_error,
+            backward_error,
+            refinement_steps,
+        }
     }
 
     /// ‖Pᵀ(x − z)‖/‖z‖: the relative error of the probe solve `x` (elastic part on a free body).

@@ -250,9 +250,10 @@ fn print_rom(rom: &Rom) {
         let a = &f.solves;
         if a.frequencies > 0 {
             println!(
-                "solves           {} factorizations, worst probe error {:.1e}{}",
+                "solves           {} factorizations, worst probe error {:.1e}, worst backward error {:.1e}{}",
                 a.frequencies,
                 a.probe_error_max,
+                a.backward_error_max,
                 match a.refined {
                     0 => String::new(),
                     k => format!(", {k} refined"),

@@ -4,7 +4,7 @@ use super::args::{linspace, parse_band, parse_list};
 use super::progress::{rank0_share, with_progress};
 use sparsemor::distributed::Cluster;
 use sparsemor::io::{atomic, model_dir};
-use sparsemor::sweep::{transfer_function, Part, SweepOptions};
+use sparsemor::sweep::{transfer_function, FreqStats, Part, SweepOptions};
 use sparsemor::{Error, Result};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -42,6 +42,10 @@ pub struct SweepArgs {
     /// Output CSV: f_hz,output,input,re,im.
     #[arg(long)]
     out: PathBuf,
+    /// Also write each frequency's solve statistics as CSV: f_hz, factor_s, solve_s,
+    /// probe_error, backward_error, refinement_steps, pivot_ratio, pivoted.
+    #[arg(long)]
+    stats: Option<PathBuf>,
 }
 
 /// The library's messages name the value; say which flag it came from.
@@ -94,6 +98,9 @@ pub fn sweep(a: &SweepArgs, verbose: bool, cluster: Option<Arc<dyn Cluster>>) ->
         transfer_function(&body, &scene, &freqs, part, false, &opts, cb)
     })?;
     write_frf_csv(&a.out, &frf.freqs_hz, &frf.h, &scene.outputs, &scene.inputs)?;
+    if let Some(path) = &a.stats {
+        write_stats_csv(path, &frf.freq_stats)?;
+    }
     eprintln!(
         "{} frequencies in {:.2} s -> {}",
         freqs.len(),
@@ -104,6 +111,7 @@ pub fn sweep(a: &SweepArgs, verbose: bool, cluster: Option<Arc<dyn Cluster>>) ->
         if let (Some(s), Some(sch)) = (&frf.symbolic, &frf.schedule) {
             let fs = &frf.freq_stats;
             let worst = fs.iter().map(|s| s.probe_error).fold(0.0, f64::max);
+            let worst_backward = fs.iter().map(|s| s.backward_error).fold(0.0, f64::max);
             let mean_factor = fs.iter().map(|s| s.factor_s).sum::<f64>() / fs.len().max(1) as f64;
             let (min_factor, max_factor) =
                 fs.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), s| {
@@ -115,7 +123,7 @@ pub fn sweep(a: &SweepArgs, verbose: bool, cluster: Option<Arc<dyn Cluster>>) ->
             let pivoted = fs.iter().filter(|s| s.pivoted).count();
             eprintln!(
                 "backend {} ({}), symbolic {:.3} s, factor nnz {}, {:?}, factor min/mean/max {:.4}/{:.4}/{:.4} s, mean solve {:.4} s, worst probe error {:.1e}, \
-                 refined {refined} of {} frequencies ({steps} steps), {pivoted} handed to the pivoting LBLᵀ",
+                 worst backward error {worst_backward:.1e}, refined {refined} of {} frequencies ({steps} steps), {pivoted} handed to the pivoting LBLᵀ",
                 s.backend,
                 if s.real { "real" } else { "complex" },
                 s.seconds,
@@ -135,6 +143,31 @@ pub fn sweep(a: &SweepArgs, verbose: bool, cluster: Option<Arc<dyn Cluster>>) ->
 
 /// Writes `f_hz,output,input,re,im`, one row per frequency × output × input (DoF indices),
 /// full precision, atomically ([`atomic::write_file`]).
+/// Writes the per-frequency solve statistics of a sweep as CSV (one row per frequency).
+fn write_stats_csv(path: &Path, stats: &[FreqStats]) -> Result<()> {
+    atomic::write_file(path, |w| {
+        writeln!(
+            w,
+            "f_hz,factor_s,solve_s,probe_error,backward_error,refinement_steps,pivot_ratio,pivoted"
+        )?;
+        for s in stats {
+            writeln!(
+                w,
+                "{:?},{:?},{:?},{:?},{:?},{},{:?},{}",
+                s.freq_hz,
+                s.factor_s,
+                s.solve_s,
+                s.probe_error,
+                s.backward_error,
+                s.refinement_steps,
+                s.pivot_ratio,
+                u8::from(s.pivoted)
+            )?;
+        }
+        Ok(())
+    })
+}
+
 pub fn write_frf_csv(
     path: &Path,
     freqs: &[f64],

@@ -220,6 +220,7 @@ fn encode(rank: usize, reply: &Result<Reply>) -> Vec<u8> {
             .f64(s.factor_s)
             .f64(s.solve_s)
             .f64(s.probe_error)
+            .f64(s.backward_error)
             .usize(s.refinement_steps)
             .f64(s.pivot_ratio)
             .u64(u64::from(s.pivoted));
@@ -264,6 +265,7 @@ fn decode(bytes: &[u8]) -> Result<Result<Reply>> {
                 factor_s: r.f64()?,
                 solve_s: r.f64()?,
                 probe_error: r.f64()?,
+                backward_error: r.f64()?,
                 refinement_steps: r.usize()?,
                 pivot_ratio: r.f64()?,
                 pivoted: r.u64()? == 1,

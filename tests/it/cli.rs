@@ -156,12 +156,14 @@ fn generate_info_sweep_matches_the_library_bit_exactly() {
         "2",
         "--out",
         "frf.csv",
+        "--stats",
+        "stats.csv",
     ];
     ok(&work, &args);
     assert_eq!(
         entries(&work),
-        ["frf.csv"],
-        "only the CSV is left (no temporary file)"
+        ["frf.csv", "stats.csv"],
+        "only the CSVs are left (no temporary file)"
     );
     let rows = csv(&work.join("frf.csv"), "f_hz,output,input,re,im");
     assert_eq!(rows.len(), 7 * 9 * 9);
@@ -206,6 +208,21 @@ fn generate_info_sweep_matches_the_library_bit_exactly() {
         &no_progress,
     )
     .expect("library sweep");
+    // The per-frequency statistics: the library's accuracy numbers, bit for bit.
+    let stats = csv(
+        &work.join("stats.csv"),
+        "f_hz,factor_s,solve_s,probe_error,backward_error,refinement_steps,pivot_ratio,pivoted",
+    );
+    assert_eq!(stats.len(), 7);
+    for (r, s) in stats.iter().zip(&frf.freq_stats) {
+        assert_eq!(num(&r[0]), s.freq_hz);
+        assert!(num(&r[1]) > 0.0 && num(&r[2]) > 0.0, "{r:?}");
+        assert_eq!(num(&r[3]).to_bits(), s.probe_error.to_bits(), "{r:?}");
+        assert_eq!(num(&r[4]).to_bits(), s.backward_error.to_bits(), "{r:?}");
+        assert!(s.backward_error > 0.0 && s.backward_error <= 1e-14, "{r:?}");
+        assert_eq!(r[5], s.refinement_steps.to_string());
+        assert_eq!(r[7], u8::from(s.pivoted).to_string());
+    }
     for (k, h) in frf.h.iter().enumerate() {
         for o in 0..9 {
             for i in 0..9 {

@@ -101,7 +101,8 @@ pub fn dense_h(model: &Model, f: f64, inputs: &[usize], outputs: &[usize]) -> Ma
 }
 
 /// Asserts that the sweep's total transfer functions of `model` at `freqs` (with `opts`)
-/// equal dense solves ([`dense_h`]) to `tol` relative.
+/// equal dense solves ([`dense_h`]) to `tol` relative, and that every frequency reports the
+/// backward error of a backward-stable solve (positive, at most 1e-14).
 pub fn assert_sweep_matches_dense(
     model: &Model,
     scene: &Scene,
@@ -114,6 +115,13 @@ pub fn assert_sweep_matches_dense(
     let frf =
         transfer_function(&body, scene, freqs, Part::Total, false, opts, &no_progress).unwrap();
     for (k, &f) in freqs.iter().enumerate() {
+        let berr = frf.freq_stats[k].backward_error;
+        assert!(
+            berr > 0.0 && berr <= 1e-14,
+            "{} ({:?}) at {f} Hz: backward error {berr:.1e}",
+            model.name,
+            opts.backend
+        );
         let e = rel_err(&frf.h[k], &dense_h(model, f, &scene.inputs, &scene.outputs));
         assert!(
             e <= tol,
