@@ -44,7 +44,7 @@ pub use cholesky::{reference_cholesky, symbolic_cholesky};
 pub use inertia::{count_eigenvalues_below, count_eigenvalues_below_with};
 pub use lblt::PivotStats;
 pub use ordering::{symbolic_cholesky_ordered, Order, OrderingChoice};
-pub use refine::MAX_REFINEMENTS;
+pub use refine::{BACKWARD_ERROR_FLOOR, MAX_REFINEMENTS};
 
 pub(crate) use cholesky::Cholesky;
 pub(crate) use inertia::ShiftedLblt;
@@ -559,8 +559,8 @@ impl<'a> Numeric<'a> {
     }
 
     /// Refines a solution `x` of A X = B from [`Self::solve`] with the factored matrix
-    /// itself by LAPACK xGERFS's rule: while the componentwise backward error exceeds ε and
-    /// halves, at most [`MAX_REFINEMENTS`] steps (module `refine`). `b` writes B into the
+    /// itself by LAPACK xGERFS's rule: while the componentwise backward error exceeds 4ε
+    /// ([`BACKWARD_ERROR_FLOOR`]) and halves, at most [`MAX_REFINEMENTS`] steps. `b` writes B into the
     /// N × k block it is given, once per step, so the caller need not keep a copy of B.
     /// Returns the steps taken.
     pub fn refine(
