@@ -523,9 +523,8 @@ impl<'a> Solver<'a> {
     }
 
     /// Solves load + probe into `rhs` with the current factorization, refines all columns
-    /// when the probe shows lost digits (not with the supported K at 0 Hz: its factorization
-    /// is exact up to the held DoFs, which Pᵀ removes) and measures the probe solve's
-    /// backward error. `az` (N × 1) is the probe's right-hand side A(iω) z, from which with
+    /// when the probe shows lost digits (not with the supported K at 0 Hz, as before the
+    /// backward error was measured) and measures the probe solve's backward error. `az` (N × 1) is the probe's right-hand side A(iω) z, from which with
     /// the load the refinement and the backward error form the right-hand sides again.
     fn solve_checked(
         &self,
@@ -536,10 +535,14 @@ impl<'a> Solver<'a> {
         par: Par,
     ) -> Checked {
         let p = self.inputs.len();
-        // the probe's right-hand side; with the body held, its held rows are 0
+        // with the body held, the held rows of every right-hand side are 0
+        let held_dofs: &[usize] = match &self.supports {
+            Some((s, _)) if held => s,
+            _ => &[],
+        };
         let probe_rhs = |mut out: faer::MatMut<'_, c64>| {
             out.copy_from(az);
-            for &d in self.supports.iter().filter(|_| held).flat_map(|(s, _)| s) {
+            for &d in held_dofs {
                 out[(d, 0)] = c64::new(0.0, 0.0);
             }
         };
@@ -551,7 +554,7 @@ impl<'a> Solver<'a> {
                     .zip(l.iter())
                     .for_each(|(o, &l)| *o = c64::new(l, 0.0));
             }
-            for &d in self.supports.iter().filter(|_| held).flat_map(|(s, _)| s) {
+            for &d in held_dofs {
                 load.as_mut().row_mut(d).fill(c64::new(0.0, 0.0));
             }
         };

@@ -141,9 +141,8 @@ pub fn sweep(a: &SweepArgs, verbose: bool, cluster: Option<Arc<dyn Cluster>>) ->
     Ok(())
 }
 
-/// Writes `f_hz,output,input,re,im`, one row per frequency × output × input (DoF indices),
-/// full precision, atomically ([`atomic::write_file`]).
-/// Writes the per-frequency solve statistics of a sweep as CSV (one row per frequency).
+/// Writes the per-frequency solve statistics of a sweep as CSV, one row per frequency, full
+/// precision, atomically ([`atomic::write_file`]).
 fn write_stats_csv(path: &Path, stats: &[FreqStats]) -> Result<()> {
     atomic::write_file(path, |w| {
         writeln!(
@@ -168,6 +167,8 @@ fn write_stats_csv(path: &Path, stats: &[FreqStats]) -> Result<()> {
     })
 }
 
+/// Writes `f_hz,output,input,re,im`, one row per frequency × output × input (DoF indices),
+/// full precision, atomically ([`atomic::write_file`]).
 pub fn write_frf_csv(
     path: &Path,
     freqs: &[f64],

@@ -560,9 +560,9 @@ impl<'a> Numeric<'a> {
 
     /// Refines a solution `x` of A X = B from [`Self::solve`] with the factored matrix
     /// itself by LAPACK xGERFS's rule: while the componentwise backward error exceeds 4ε
-    /// ([`BACKWARD_ERROR_FLOOR`]) and halves, at most [`MAX_REFINEMENTS`] steps. `b` writes B into the
-    /// N × k block it is given, once per step, so the caller need not keep a copy of B.
-    /// Returns the steps taken.
+    /// ([`BACKWARD_ERROR_FLOOR`]) and halves, at most [`MAX_REFINEMENTS`] steps. `b` writes
+    /// B into the N × k block it is given, once per step, so the caller need not keep a copy
+    /// of B. Returns the steps taken.
     pub fn refine(
         &mut self,
         pencil: &Pencil,
