@@ -143,7 +143,7 @@ proptest! {
 
 /// The componentwise backward error maxᵢ,c |b − A x|ᵢc / (|A||x| + |b|)ᵢc of `x`, densely,
 /// magnitudes |re| + |im| as the library's.
-fn dense_backward_error(a: &Mat<c64>, b: &Mat<c64>, x: &Mat<c64>) -> f64 {
+fn dense_componentwise_backward_error(a: &Mat<c64>, b: &Mat<c64>, x: &Mat<c64>) -> f64 {
     let abs1 = |z: c64| z.re.abs() + z.im.abs();
     let r = b - a * x;
     let mut worst = 0.0f64;
@@ -197,7 +197,7 @@ proptest! {
             x[(i, j)] *= 1.0 + delta;
         }
         let measured = num.backward_error(&pencil, |mut out| out.copy_from(&b), x.as_ref(), Par::Seq);
-        let reference = dense_backward_error(&a, &b, &x);
+        let reference = dense_componentwise_backward_error(&a, &b, &x);
         prop_assert!(reference >= 1e-2 * delta, "the perturbation shows: {reference:.1e}");
         prop_assert!((measured - reference).abs() <= 1e-6 * reference, "{measured:.6e} against {reference:.6e}");
     }
@@ -369,7 +369,7 @@ fn two_threads_inside_the_factorization_give_the_one_thread_factor() {
 fn two_threads_on_large_separators_give_the_one_thread_factor() {
     let (model, pencil, omega, b, one, two) = one_and_two_threads([12, 12, 12], false);
     assert_eq!((&one - &two).norm_max(), 0.0);
-    let r = backward_error(&model, &pencil, omega, b.as_ref(), two.as_ref());
+    let r = normwise_backward_error(&model, &pencil, omega, b.as_ref(), two.as_ref());
     assert!(r <= 1e-14, "{r:.1e}");
 }
 
@@ -380,14 +380,14 @@ fn two_threads_on_large_separators_give_the_one_thread_factor() {
 fn two_threads_on_the_halves_of_a_bisected_bar_give_the_one_thread_solution() {
     let (model, pencil, omega, b, one, two) = one_and_two_threads([2, 3, 150], true);
     assert_eq!((&one - &two).norm_max(), 0.0);
-    let r = backward_error(&model, &pencil, omega, b.as_ref(), two.as_ref());
+    let r = normwise_backward_error(&model, &pencil, omega, b.as_ref(), two.as_ref());
     assert!(r <= 1e-14, "{r:.1e}");
 }
 
 /// The normwise backward error ‖b − A x‖∞ / (‖A‖∞ ‖x‖∞) of a solve of A(iω) x = b, with
 /// ‖A‖∞ = ‖A‖₁ (A symmetric) bounded from above by the column sums of |K| and |M| (within a
 /// factor 2 of the exact norm).
-fn backward_error(
+fn normwise_backward_error(
     model: &Model,
     pencil: &Pencil,
     omega: f64,
