@@ -359,14 +359,24 @@ impl<'a> Solver<'a> {
             }
         }
         let schedule = self.schedule(freqs_hz.len());
-        let (workers, par) = match schedule {
-            Schedule::FrequencyParallel { workers } => (workers, Par::Seq),
+        // Frequency-parallel, a worker that runs out of frequencies lends its thread to the
+        // others: each phase of a frequency (factorization, solves, residuals) asks how many
+        // are idle and runs on that many more threads, taken up by rayon's work stealing. The
+        // phases give the same numbers on any thread count, so the results do not change.
+        let idle = AtomicUsize::new(0);
+        let (workers, par): (usize, &(dyn Fn() -> Par + Sync)) = match schedule {
+            Schedule::FrequencyParallel { workers } => {
+                (workers, &|| match idle.load(Ordering::Relaxed) {
+                    0 => Par::Seq,
+                    n => Par::rayon(n + 1),
+                })
+            }
             Schedule::FactorParallel { threads } => (
                 1,
                 if threads > 1 {
-                    Par::rayon(threads)
+                    &move || Par::rayon(threads)
                 } else {
-                    Par::Seq
+                    &|| Par::Seq
                 },
             ),
         };
@@ -394,7 +404,10 @@ impl<'a> Solver<'a> {
             let mut az = Mat::<c64>::zeros(self.body.n(), 1);
             while !stop.load(Ordering::Relaxed) {
                 let k = next.fetch_add(1, Ordering::Relaxed);
-                let Some(&f) = freqs_hz.get(k) else { break };
+                let Some(&f) = freqs_hz.get(k) else {
+                    idle.fetch_add(1, Ordering::Relaxed);
+                    break;
+                };
                 let r = self
                     .solve_one(&mut numeric, f, &mut rhs, &mut az, par)
                     .and_then(|st| {
@@ -451,14 +464,15 @@ impl<'a> Solver<'a> {
         ))
     }
 
-    /// Factors at `f`, solves load + probe into `rhs`, checks the probe, projects.
+    /// Factors at `f`, solves load + probe into `rhs`, checks the probe, projects; each phase
+    /// on the threads `par()` gives when it starts.
     fn solve_one(
         &self,
         numeric: &mut Numeric,
         f: f64,
         rhs: &mut Mat<c64>,
         az: &mut Mat<c64>,
-        par: Par,
+        par: &dyn Fn() -> Par,
     ) -> Result<FreqStats> {
         let omega = 2.0 * std::f64::consts::PI * f;
         let p = self.inputs.len();
@@ -467,8 +481,8 @@ impl<'a> Solver<'a> {
         // held at six support DoFs and let Pᵀ remove the rigid motion (docs/design.md §3.2)
         let held = self.supports.as_ref().filter(|_| f == 0.0);
         match held {
-            Some((s, scale)) => numeric.factor_supported(self.body.pencil(), s, *scale, par)?,
-            None => numeric.factor(self.body.pencil(), omega, par)?,
+            Some((s, scale)) => numeric.factor_supported(self.body.pencil(), s, *scale, par())?,
+            None => numeric.factor(self.body.pencil(), omega, par())?,
         }
         let mut factor_s = t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
@@ -481,7 +495,7 @@ impl<'a> Solver<'a> {
         // LBLᵀ gets the frequency
         if !(checked.probe_error <= self.probe_tol) && held.is_none() {
             let t = Instant::now();
-            if numeric.factor_with_pivoting(self.body.pencil(), par)? {
+            if numeric.factor_with_pivoting(self.body.pencil(), par())? {
                 factor_s += t.elapsed().as_secs_f64();
                 checked = self.solve_checked(numeric, false, rhs, az, par);
             }
@@ -532,7 +546,7 @@ impl<'a> Solver<'a> {
         held: bool,
         rhs: &mut Mat<c64>,
         az: &Mat<c64>,
-        par: Par,
+        par: &dyn Fn() -> Par,
     ) -> Checked {
         let p = self.inputs.len();
         // with the body held, the held rows of every right-hand side are 0
@@ -559,21 +573,26 @@ impl<'a> Solver<'a> {
             }
         };
         right_hand_sides(rhs.as_mut());
-        numeric.solve(rhs.as_mut(), par);
+        numeric.solve(rhs.as_mut(), par());
         let mut probe_error = self.probe_error(rhs.as_ref().col(p));
         let mut refinement_steps = 0;
+        let mut measured = None;
         if probe_error > REFINE_ABOVE && !held {
-            refinement_steps =
-                numeric.refine(self.body.pencil(), right_hand_sides, rhs.as_mut(), par);
+            let done = numeric.refine(self.body.pencil(), right_hand_sides, rhs.as_mut(), par());
+            refinement_steps = done.steps;
+            measured = done.backward_errors.map(|e| e[p]);
             probe_error = self.probe_error(rhs.as_ref().col(p));
         }
-        // one column: over all of them the residual's scalar products cost half a solve
-        let backward_error = numeric.backward_error(
-            self.body.pencil(),
-            probe_rhs,
-            rhs.as_ref().subcols(p, 1),
-            par,
-        );
+        // the refinement's last residual has it; else one column (over all of them the
+        // residual's scalar products cost half a solve)
+        let backward_error = measured.unwrap_or_else(|| {
+            numeric.backward_error(
+                self.body.pencil(),
+                probe_rhs,
+                rhs.as_ref().subcols(p, 1),
+                par(),
+            )
+        });
         Checked {
             probe_error,
             backward_error,

@@ -562,19 +562,19 @@ impl<'a> Numeric<'a> {
     /// itself by LAPACK xGERFS's rule: while the componentwise backward error exceeds 4ε
     /// ([`BACKWARD_ERROR_FLOOR`]) and halves, at most [`MAX_REFINEMENTS`] steps. `b` writes
     /// B into the N × k block it is given, once per step, so the caller need not keep a copy
-    /// of B. Returns the steps taken.
+    /// of B.
     pub fn refine(
         &mut self,
         pencil: &Pencil,
         b: impl Fn(MatMut<'_, c64>),
         x: MatMut<'_, c64>,
         par: Par,
-    ) -> usize {
+    ) -> Refinement {
         debug_assert!(self.factored_at.is_some());
         let factors = active(&mut self.factors, &mut self.pivoting, self.pivoted);
         let omega = self.factored_at.unwrap_or(0.0);
         let values = Values::new(pencil, omega, &self.re, &self.im);
-        refine::refine(
+        let done = refine::refine(
             pattern::Lower {
                 pencil,
                 entry: &|p| values.entry(p),
@@ -585,7 +585,13 @@ impl<'a> Numeric<'a> {
             |r| factors.solve(r, par),
             &mut self.refine_buffers,
             par,
-        )
+        );
+        Refinement {
+            steps: done.steps,
+            backward_errors: done
+                .measured
+                .then(|| self.refine_buffers.column_errors().to_vec()),
+        }
     }
 
     /// The componentwise backward error ω = maxᵢ,c |B − A X|ᵢc / (|A||X| + |B|)ᵢc of a
@@ -616,6 +622,18 @@ impl<'a> Numeric<'a> {
             par,
         )
     }
+}
+
+/// What [`Numeric::refine`] did.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Refinement {
+    /// Steps taken (0 when the solution's backward error was already at the floor).
+    pub steps: usize,
+    /// The componentwise backward error of each column of the refined solution
+    /// ([`Numeric::backward_error`] of that column, bit for bit), from the residual that ended
+    /// the refinement; `None` when it ended at the step limit, where the last solution's
+    /// residual was not formed.
+    pub backward_errors: Option<Vec<f64>>,
 }
 
 /// The factorization of the current frequency: the pivoting fallback when it took the

@@ -139,7 +139,7 @@ pub(super) fn symmetric_residual<T: Scalar, F: Fn(usize) -> T + Sync>(
         .xr
         .chunks_mut(n * width)
         .zip(&mut scratch.blocks[..blocks]);
-    if threads > 1 && blocks > 1 {
+    let worst = if threads > 1 && blocks > 1 {
         use rayon::prelude::*;
         let parts: Vec<_> = parts.collect();
         parts
@@ -149,7 +149,12 @@ pub(super) fn symmetric_residual<T: Scalar, F: Fn(usize) -> T + Sync>(
             .reduce(|| 0.0, f64::max)
     } else {
         parts.enumerate().map(run).fold(0.0, f64::max)
+    };
+    scratch.columns.clear();
+    for b in &scratch.blocks[..blocks] {
+        scratch.columns.extend_from_slice(&b.columns);
     }
+    worst
 }
 
 /// Rows per tile when columns are copied to and from the interleaved layout: the tile's
@@ -210,6 +215,9 @@ pub(super) struct ResidualScratch<T> {
     /// The N × k block, column-major: b in, r out (and the blocks' interleaved x between).
     xr: Vec<T>,
     blocks: Vec<BlockScratch<T>>,
+    /// The componentwise backward error of each column of the last call (0 without
+    /// `componentwise`).
+    columns: Vec<f64>,
 }
 
 impl<T> Default for ResidualScratch<T> {
@@ -217,7 +225,16 @@ impl<T> Default for ResidualScratch<T> {
         ResidualScratch {
             xr: Vec::new(),
             blocks: Vec::new(),
+            columns: Vec::new(),
         }
+    }
+}
+
+impl<T> ResidualScratch<T> {
+    /// The componentwise backward error of each column of the last [`symmetric_residual`]
+    /// (its return value is their maximum).
+    pub(super) fn column_errors(&self) -> &[f64] {
+        &self.columns
     }
 }
 
@@ -233,10 +250,12 @@ impl<T: Scalar> ResidualScratch<T> {
     }
 }
 
-/// The interleaved r and s = |A||x| + |b| of one column block, entry (i, c) at i·w + c.
+/// The interleaved r and s = |A||x| + |b| of one column block, entry (i, c) at i·w + c, and
+/// the block's componentwise backward error per column.
 struct BlockScratch<T> {
     rt: Vec<T>,
     st: Vec<f64>,
+    columns: Vec<f64>,
 }
 
 impl<T> Default for BlockScratch<T> {
@@ -244,6 +263,7 @@ impl<T> Default for BlockScratch<T> {
         BlockScratch {
             rt: Vec::new(),
             st: Vec::new(),
+            columns: Vec::new(),
         }
     }
 }
@@ -253,7 +273,8 @@ impl<T> Default for BlockScratch<T> {
 /// exit. Each pattern entry updates w adjacent values of r (and of s, in the same pass: the
 /// pass is memory-bound, and one pass instead of two cut the solve phase of a refined
 /// frequency of the 10⁶-DoF bar, three residuals of ten columns, from 8.66 to 7.74 s; same
-/// numbers). Returns the block's componentwise backward error (0 without `componentwise`).
+/// numbers). Returns the block's componentwise backward error and keeps each column's in
+/// `ws` (0 without `componentwise`).
 fn residual_block<T: Scalar, F: Fn(usize) -> T>(
     a: Lower<'_, F>,
     x: MatRef<'_, T>,
@@ -262,7 +283,9 @@ fn residual_block<T: Scalar, F: Fn(usize) -> T>(
     ws: &mut BlockScratch<T>,
 ) -> f64 {
     let (n, w) = (x.nrows(), x.ncols());
-    let BlockScratch { rt, st } = ws;
+    let BlockScratch { rt, st, columns } = ws;
+    columns.clear();
+    columns.resize(w, 0.0);
     rt.resize(n * w, T::zero_impl());
     st.resize(if componentwise { n * w } else { 0 }, 0.0);
     let b = MatRef::from_column_major_slice(xr, n, w);
@@ -279,10 +302,14 @@ fn residual_block<T: Scalar, F: Fn(usize) -> T>(
         } else {
             residual_pass::<T, F, true>(a, w, xr, rt, st);
         }
-        rt.iter()
-            .zip(st.iter())
-            .filter(|(_, &s)| s > 0.0)
-            .fold(0.0f64, |m, (r, &s)| m.max(r.abs1() / s))
+        for (r, s) in rt.chunks_exact(w).zip(st.chunks_exact(w)) {
+            for ((e, r), &s) in columns.iter_mut().zip(r).zip(s) {
+                if s > 0.0 {
+                    *e = e.max(r.abs1() / s);
+                }
+            }
+        }
+        columns.iter().fold(0.0f64, |m, &e| m.max(e))
     } else {
         residual_pass::<T, F, false>(a, w, xr, rt, st);
         0.0

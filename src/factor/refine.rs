@@ -51,10 +51,22 @@ pub(super) enum Stop {
 /// worker's factorization, an interior shift) so refinements allocate once, not per solve.
 pub(super) type Buffers<T> = pattern::ResidualScratch<T>;
 
+/// What [`refine`] did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct Refined {
+    /// Steps taken.
+    pub steps: usize,
+    /// True when the refinement ended on a residual of the solution it returns (a stop by
+    /// the rule, not by the step limit): with [`Stop::Componentwise`] the buffers'
+    /// [`pattern::ResidualScratch::column_errors`] are then that solution's componentwise
+    /// backward errors, so a caller need not compute them again.
+    pub measured: bool,
+}
+
 /// Refines the solution `x` of A x = b as the module doc says, for the symmetric A given by
 /// its lower triangle `a`; `b` writes the right-hand sides into the block it is given (once
 /// per step, into the residual's buffer: the caller keeps no N × k copy of b for this);
-/// `solve` applies A⁻¹ in place; `buffers` are reused between calls. Returns the steps taken.
+/// `solve` applies A⁻¹ in place; `buffers` are reused between calls.
 pub(super) fn refine<T: Scalar>(
     a: pattern::Lower<'_, impl Fn(usize) -> T + Sync>,
     stop: Stop,
@@ -63,7 +75,7 @@ pub(super) fn refine<T: Scalar>(
     mut solve: impl FnMut(MatMut<'_, T>),
     buffers: &mut Buffers<T>,
     par: Par,
-) -> usize {
+) -> Refined {
     let (n, k) = (x.nrows(), x.ncols());
     let mut last = f64::INFINITY;
     for step in 0..MAX_REFINEMENTS {
@@ -87,13 +99,19 @@ pub(super) fn refine<T: Scalar>(
             }
         };
         if !again {
-            return step;
+            return Refined {
+                steps: step,
+                measured: true,
+            };
         }
         let mut r = buffers.block(n, k);
         solve(r.as_mut());
         x += &r;
     }
-    MAX_REFINEMENTS
+    Refined {
+        steps: MAX_REFINEMENTS,
+        measured: false,
+    }
 }
 
 fn max_abs1<T: Scalar>(v: faer::ColRef<'_, T>) -> f64 {
@@ -173,10 +191,16 @@ mod tests {
             let abs_x = Mat::<f64>::from_fn(n, k, |i, c| x[(i, c)].abs1());
             let abs_b = Mat::<f64>::from_fn(n, k, |i, c| b[(i, c)].abs1());
             let s_dense = &abs_a * &abs_x + &abs_b;
-            let berr_dense = (0..n)
-                .flat_map(|i| (0..k).map(move |c| (i, c)))
-                .filter(|&ic| s_dense[ic] > 0.0)
-                .fold(0.0f64, |m, ic| m.max(r_dense[ic].abs1() / s_dense[ic]));
+            let column_dense: Vec<f64> = (0..k)
+                .map(|c| {
+                    (0..n)
+                        .filter(|&i| s_dense[(i, c)] > 0.0)
+                        .fold(0.0f64, |m, i| {
+                            m.max(r_dense[(i, c)].abs1() / s_dense[(i, c)])
+                        })
+                })
+                .collect();
+            let berr_dense = column_dense.iter().fold(0.0f64, |m, &e| m.max(e));
             assert!(
                 berr_dense > 0.1,
                 "k = {k}: the case is too easy ({berr_dense:.1e})"
@@ -192,11 +216,21 @@ mod tests {
                     er < 1e-14 && es < 1e-13,
                     "k = {k}: r {er:.1e}, berr {es:.1e}"
                 );
+                let columns = scratch.column_errors();
+                assert_eq!(columns.len(), k);
+                assert_eq!(columns.iter().fold(0.0f64, |m, &e| m.max(e)), berr);
+                for (c, (&e, &d)) in columns.iter().zip(&column_dense).enumerate() {
+                    assert!(
+                        (e - d).abs() <= 1e-13 * d,
+                        "k = {k}, column {c}: {e:.3e} against {d:.3e}"
+                    );
+                }
+                let columns = columns.to_vec();
                 scratch.block(n, k).copy_from(&b);
                 let none = pattern::symmetric_residual(lower, x.as_ref(), false, &mut scratch, par);
                 let same = scratch.block(n, k) == r;
                 assert!(none == 0.0 && same, "k = {k}: normwise residual differs");
-                results.push((r, berr));
+                results.push((r, berr, columns));
             }
             assert!(
                 results[0] == results[1],
@@ -253,7 +287,8 @@ mod tests {
                 b.as_ref().subcols(0, 1),
                 x.as_ref().subcols(0, 1),
             );
-            let steps = refine(
+            let mut buffers = Buffers::default();
+            let Refined { steps, measured } = refine(
                 pattern::Lower {
                     pencil: &pencil,
                     entry: &|p: usize| vals[p],
@@ -265,7 +300,7 @@ mod tests {
                     let s = inexact.solve(&r);
                     r.copy_from(&s);
                 },
-                &mut Buffers::default(),
+                &mut buffers,
                 Par::Seq,
             );
             let after = berr(
@@ -274,6 +309,12 @@ mod tests {
                 b.as_ref().subcols(0, 1),
                 x.as_ref().subcols(0, 1),
             );
+            // the residual that ended the refinement was of the returned x: its column
+            // errors are those of a separate pass, bit for bit
+            if let (Stop::Componentwise, true) = (stop, measured) {
+                assert_eq!(buffers.column_errors()[0], after);
+            }
+            assert_eq!(measured, steps < MAX_REFINEMENTS, "{stop:?}");
             let diff = (&x - &exact).norm_l2() / exact.norm_l2();
             assert!(
                 before > 1e-10,

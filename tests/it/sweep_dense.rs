@@ -85,3 +85,54 @@ fn umfpack_damped_matches_dense() {
 fn umfpack_undamped_matches_dense() {
     check(Damping::None, Backend::Umfpack, 2);
 }
+
+/// A frequency-parallel sweep gives the numbers of a one-thread sweep, bit for bit. A worker
+/// that runs out of frequencies lends its thread to the phases the others start after that
+/// (factorization, solves, residuals), and each phase computes the same numbers on any
+/// thread count. Seven frequencies on two workers, so one of them waits for the other at
+/// the end; a bar whose bisected order splits the factorization and the solves between two
+/// threads (2×3×150 elements, N = 5436).
+#[test]
+fn an_idle_worker_lending_its_thread_changes_no_number() {
+    use sparsemor::body::Body;
+    use sparsemor::fe::{bar_model, BoxSpec};
+    use sparsemor::sweep::{no_progress, transfer_function, Part, Schedule};
+    let spec = BoxSpec {
+        elements: [2, 3, 150],
+        ..BoxSpec::paper_bar()
+    };
+    let model = bar_model(&spec).unwrap();
+    let body = Body::new(&model).unwrap();
+    let scene = random_scene(model.n());
+    let freqs = [10.0, 35.0, 120.0, 400.0, 900.0, 1500.0, 2500.0];
+    let sweep = |threads| {
+        let opts = SweepOptions {
+            threads,
+            ..Default::default()
+        };
+        transfer_function(
+            &body,
+            &scene,
+            &freqs,
+            Part::Elastic,
+            false,
+            &opts,
+            &no_progress,
+        )
+        .unwrap()
+    };
+    let (one, two) = (sweep(1), sweep(2));
+    assert_eq!(
+        two.schedule,
+        Some(Schedule::FrequencyParallel { workers: 2 })
+    );
+    for (k, f) in freqs.iter().enumerate() {
+        assert_eq!(one.h[k], two.h[k], "H at {f} Hz");
+        let (a, b) = (&one.freq_stats[k], &two.freq_stats[k]);
+        assert_eq!(
+            (a.probe_error, a.backward_error, a.refinement_steps),
+            (b.probe_error, b.backward_error, b.refinement_steps),
+            "stats at {f} Hz"
+        );
+    }
+}
