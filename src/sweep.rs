@@ -8,7 +8,8 @@
 //!
 //! Schedule: frequencies are independent. When `workers × bytes_per_factor` fits the memory
 //! budget, `workers = min(threads, frequencies)` threads each own one numeric factorization
-//! and take frequencies from a shared counter (each factorization sequential inside);
+//! and take frequencies from a shared counter (each factorization sequential inside, until a
+//! worker runs out of frequencies: its thread then joins the phases the others start);
 //! otherwise frequencies run one at a time with all threads inside the factorization. The
 //! decision uses the symbolic analysis' size of the factor, known before any numeric work.
 //!
