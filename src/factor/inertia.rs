@@ -149,7 +149,6 @@ impl<'a> ShiftedLblt<'a> {
             |r| factor.solve_in_place(sym, r, Par::Seq),
             &mut self.refine_buffers,
             Par::Seq,
-        )
-        .steps;
+        );
     }
 }

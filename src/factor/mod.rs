@@ -569,12 +569,12 @@ impl<'a> Numeric<'a> {
         b: impl Fn(MatMut<'_, c64>),
         x: MatMut<'_, c64>,
         par: Par,
-    ) -> Refinement {
+    ) -> Refinement<'_> {
         debug_assert!(self.factored_at.is_some());
         let factors = active(&mut self.factors, &mut self.pivoting, self.pivoted);
         let omega = self.factored_at.unwrap_or(0.0);
         let values = Values::new(pencil, omega, &self.re, &self.im);
-        let done = refine::refine(
+        let steps = refine::refine(
             pattern::Lower {
                 pencil,
                 entry: &|p| values.entry(p),
@@ -587,10 +587,8 @@ impl<'a> Numeric<'a> {
             par,
         );
         Refinement {
-            steps: done.steps,
-            backward_errors: done
-                .measured
-                .then(|| self.refine_buffers.column_errors().to_vec()),
+            steps,
+            backward_errors: (steps < MAX_REFINEMENTS).then(|| self.refine_buffers.column_errors()),
         }
     }
 
@@ -625,15 +623,15 @@ impl<'a> Numeric<'a> {
 }
 
 /// What [`Numeric::refine`] did.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Refinement {
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Refinement<'a> {
     /// Steps taken (0 when the solution's backward error was already at the floor).
     pub steps: usize,
     /// The componentwise backward error of each column of the refined solution
     /// ([`Numeric::backward_error`] of that column, bit for bit), from the residual that ended
     /// the refinement; `None` when it ended at the step limit, where the last solution's
     /// residual was not formed.
-    pub backward_errors: Option<Vec<f64>>,
+    pub backward_errors: Option<&'a [f64]>,
 }
 
 /// The factorization of the current frequency: the pivoting fallback when it took the

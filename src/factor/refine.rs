@@ -51,22 +51,13 @@ pub(super) enum Stop {
 /// worker's factorization, an interior shift) so refinements allocate once, not per solve.
 pub(super) type Buffers<T> = pattern::ResidualScratch<T>;
 
-/// What [`refine`] did.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) struct Refined {
-    /// Steps taken.
-    pub steps: usize,
-    /// True when the refinement ended on a residual of the solution it returns (a stop by
-    /// the rule, not by the step limit): with [`Stop::Componentwise`] the buffers'
-    /// [`pattern::ResidualScratch::column_errors`] are then that solution's componentwise
-    /// backward errors, so a caller need not compute them again.
-    pub measured: bool,
-}
-
 /// Refines the solution `x` of A x = b as the module doc says, for the symmetric A given by
 /// its lower triangle `a`; `b` writes the right-hand sides into the block it is given (once
 /// per step, into the residual's buffer: the caller keeps no N × k copy of b for this);
-/// `solve` applies A⁻¹ in place; `buffers` are reused between calls.
+/// `solve` applies A⁻¹ in place; `buffers` are reused between calls. Returns the steps
+/// taken; fewer than [`MAX_REFINEMENTS`] means the refinement ended on a residual of the
+/// solution it returns, so with [`Stop::Componentwise`] the buffers'
+/// [`pattern::ResidualScratch::column_errors`] are that solution's backward errors.
 pub(super) fn refine<T: Scalar>(
     a: pattern::Lower<'_, impl Fn(usize) -> T + Sync>,
     stop: Stop,
@@ -75,7 +66,7 @@ pub(super) fn refine<T: Scalar>(
     mut solve: impl FnMut(MatMut<'_, T>),
     buffers: &mut Buffers<T>,
     par: Par,
-) -> Refined {
+) -> usize {
     let (n, k) = (x.nrows(), x.ncols());
     let mut last = f64::INFINITY;
     for step in 0..MAX_REFINEMENTS {
@@ -99,19 +90,13 @@ pub(super) fn refine<T: Scalar>(
             }
         };
         if !again {
-            return Refined {
-                steps: step,
-                measured: true,
-            };
+            return step;
         }
         let mut r = buffers.block(n, k);
         solve(r.as_mut());
         x += &r;
     }
-    Refined {
-        steps: MAX_REFINEMENTS,
-        measured: false,
-    }
+    MAX_REFINEMENTS
 }
 
 fn max_abs1<T: Scalar>(v: faer::ColRef<'_, T>) -> f64 {
@@ -288,7 +273,7 @@ mod tests {
                 x.as_ref().subcols(0, 1),
             );
             let mut buffers = Buffers::default();
-            let Refined { steps, measured } = refine(
+            let steps = refine(
                 pattern::Lower {
                     pencil: &pencil,
                     entry: &|p: usize| vals[p],
@@ -311,10 +296,9 @@ mod tests {
             );
             // the residual that ended the refinement was of the returned x: its column
             // errors are those of a separate pass, bit for bit
-            if let (Stop::Componentwise, true) = (stop, measured) {
+            if let (Stop::Componentwise, true) = (stop, steps < MAX_REFINEMENTS) {
                 assert_eq!(buffers.column_errors()[0], after);
             }
-            assert_eq!(measured, steps < MAX_REFINEMENTS, "{stop:?}");
             let diff = (&x - &exact).norm_l2() / exact.norm_l2();
             assert!(
                 before > 1e-10,
