@@ -75,23 +75,45 @@ pub(crate) trait Scalar:
     + Copy
     + Send
     + Sync
+    + bytemuck::Pod
     + std::ops::Mul<Output = Self>
     + std::ops::AddAssign
     + std::ops::SubAssign
 {
+    /// Whether the type has an imaginary part: the reals per value of the split rows of
+    /// [`symmetric_residual`] are 1 + `COMPLEX`.
+    const COMPLEX: bool;
     /// |Re a| + |Im a| (LAPACK's CABS1: within √2 of |a|, without a square root).
     fn abs1(self) -> f64;
+    /// (Re a, Im a).
+    fn parts(self) -> (f64, f64);
+    /// The value with these parts (the imaginary one ignored when real).
+    fn from_parts(re: f64, im: f64) -> Self;
 }
 
 impl Scalar for f64 {
+    const COMPLEX: bool = false;
     fn abs1(self) -> f64 {
         self.abs()
+    }
+    fn parts(self) -> (f64, f64) {
+        (self, 0.0)
+    }
+    fn from_parts(re: f64, _: f64) -> Self {
+        re
     }
 }
 
 impl Scalar for faer::c64 {
+    const COMPLEX: bool = true;
     fn abs1(self) -> f64 {
         self.re.abs() + self.im.abs()
+    }
+    fn parts(self) -> (f64, f64) {
+        (self.re, self.im)
+    }
+    fn from_parts(re: f64, im: f64) -> Self {
+        faer::c64::new(re, im)
     }
 }
 
@@ -103,16 +125,16 @@ impl Scalar for faer::c64 {
 /// (this runs after every solve of the eigensolver's interior shifts, whose refinement stops
 /// by a normwise error).
 ///
-/// The columns go in blocks of up to [`RESIDUAL_BLOCK`], interleaved row by row, so one pass
-/// over the pattern serves a whole block: the pass is memory-bound (measured on the 10⁶-DoF
-/// bar, ten right-hand sides column by column: 1.3 s per residual, which made the sweep's
-/// refinement cost twice the factorization). Blocks run in parallel under `par`. Every entry
-/// of r is computed by the same operations in the same order as column by column.
+/// The columns go in blocks of up to [`RESIDUAL_BLOCK`], row by row ([`split`]), so one pass
+/// over the pattern serves a whole block (measured on the 10⁶-DoF bar, ten right-hand sides
+/// column by column: 1.3 s per residual, which made the sweep's refinement cost twice the
+/// factorization). Blocks run in parallel under `par`. Every entry of r is computed by the
+/// same operations in the same order as column by column in complex arithmetic.
 ///
-/// Memory: a block's columns of the N × k block hold b, then the interleaved x, then r, so
-/// beside it the residual needs only the interleaved r and |A||x| + |b| of each block (N × k
-/// values and N × k magnitudes in all); no copy of b and no column-major denominator (on the
-/// 10⁶-DoF bar's sweep, ten columns: 0.48 GB less than a block each for b, r, s, x and |x|).
+/// Memory: a block's columns of the N × k block hold b, then the split x, then r, so beside
+/// it the residual needs only the split r and |A||x| + |b| of each block (N × k values and
+/// N × k magnitudes in all); no copy of b and no column-major denominator (on the 10⁶-DoF
+/// bar's sweep, ten columns: 0.48 GB less than a block each for b, r, s, x and |x|).
 pub(super) fn symmetric_residual<T: Scalar, F: Fn(usize) -> T + Sync>(
     a: Lower<'_, F>,
     x: MatRef<'_, T>,
@@ -131,7 +153,7 @@ pub(super) fn symmetric_residual<T: Scalar, F: Fn(usize) -> T + Sync>(
     if scratch.blocks.len() < blocks {
         scratch.blocks.resize_with(blocks, BlockScratch::default);
     }
-    let run = |(bi, (xr, ws)): (usize, (&mut [T], &mut BlockScratch<T>))| {
+    let run = |(bi, (xr, ws)): (usize, (&mut [T], &mut BlockScratch))| {
         let (c0, w) = (bi * width, width.min(k - bi * width));
         residual_block(a, x.subcols(c0, w), xr, componentwise, ws)
     };
@@ -157,37 +179,57 @@ pub(super) fn symmetric_residual<T: Scalar, F: Fn(usize) -> T + Sync>(
     worst
 }
 
-/// Rows per tile when columns are copied to and from the interleaved layout: the tile's
-/// rows stay in cache while each column streams through it (column by column over all
-/// rows, every column re-read the whole interleaved buffer: 4.6 s of the 10⁶-DoF bar's
-/// 20-frequency sweep went to the copy back alone).
+/// Rows per tile when columns are copied to and from the split rows: the tile's rows stay
+/// in cache while each column streams through it (column by column over all rows, every
+/// column re-read the whole row-major buffer: 4.6 s of the 10⁶-DoF bar's 20-frequency sweep
+/// went to the copy back alone).
 const TILE: usize = 512;
 
-/// The entries of `m` mapped by `f` into `v` (of length n·w), row by row: entry (i, c) at
-/// i·w + c.
-fn interleave<T: Copy, U: Copy>(m: MatRef<'_, T>, v: &mut [U], f: impl Fn(T) -> U) {
-    let (n, w) = (m.nrows(), m.ncols());
+/// Calls `f(i, c)` for every entry of an n × w block, tile by tile of [`TILE`] rows and
+/// column by column inside a tile (the order of the copies between column-major and
+/// row-major layouts).
+fn by_tiles(n: usize, w: usize, mut f: impl FnMut(usize, usize)) {
     for i0 in (0..n).step_by(TILE) {
-        let i1 = (i0 + TILE).min(n);
-        for (c, col) in m.col_iter().enumerate() {
-            for i in i0..i1 {
-                v[i * w + c] = f(col[i]);
+        for c in 0..w {
+            for i in i0..(i0 + TILE).min(n) {
+                f(i, c);
             }
         }
     }
 }
 
-/// The inverse of [`interleave`] (without a map): entry i·w + c of `v` into `m[(i, c)]`.
-fn deinterleave<U: Copy>(v: &[U], mut m: MatMut<'_, U>) {
-    let (n, w) = (m.nrows(), m.ncols());
-    for i0 in (0..n).step_by(TILE) {
-        let i1 = (i0 + TILE).min(n);
-        for c in 0..w {
-            for i in i0..i1 {
-                m[(i, c)] = v[i * w + c];
-            }
-        }
+/// Reals per row of a w-column block in the split layout: w, or 2w when complex.
+fn row_len<T: Scalar>(w: usize) -> usize {
+    if T::COMPLEX {
+        2 * w
+    } else {
+        w
     }
+}
+
+/// The entries of `m` (n × w) into split rows: row i at i·q ([`row_len`]) holds the w real
+/// parts, then (when complex) the w imaginary parts, so the products below run over the
+/// columns in real arithmetic, which the compiler vectorizes.
+fn split<T: Scalar>(m: MatRef<'_, T>, v: &mut [f64]) {
+    let (n, w) = (m.nrows(), m.ncols());
+    let q = row_len::<T>(w);
+    by_tiles(n, w, |i, c| {
+        let (re, im) = m[(i, c)].parts();
+        v[i * q + c] = re;
+        if T::COMPLEX {
+            v[i * q + w + c] = im;
+        }
+    });
+}
+
+/// The inverse of [`split`].
+fn unsplit<T: Scalar>(v: &[f64], mut m: MatMut<'_, T>) {
+    let (n, w) = (m.nrows(), m.ncols());
+    let q = row_len::<T>(w);
+    by_tiles(n, w, |i, c| {
+        let im = if T::COMPLEX { v[i * q + w + c] } else { 0.0 };
+        m[(i, c)] = T::from_parts(v[i * q + c], im);
+    });
 }
 
 /// The symmetric matrix whose lower triangle has the entries `entry(p)` on the pencil's
@@ -212,9 +254,9 @@ pub(super) const RESIDUAL_BLOCK: usize = 16;
 /// a sweep's refinements then allocate once per worker, not per frequency (fresh pages of
 /// this size cost as much as the products here).
 pub(super) struct ResidualScratch<T> {
-    /// The N × k block, column-major: b in, r out (and the blocks' interleaved x between).
+    /// The N × k block, column-major: b in, r out (and the blocks' split x between).
     xr: Vec<T>,
-    blocks: Vec<BlockScratch<T>>,
+    blocks: Vec<BlockScratch>,
     /// The componentwise backward error of each column of the last call (0 without
     /// `componentwise`).
     columns: Vec<f64>,
@@ -250,126 +292,203 @@ impl<T: Scalar> ResidualScratch<T> {
     }
 }
 
-/// The interleaved r and s = |A||x| + |b| of one column block, entry (i, c) at i·w + c, and
-/// the block's componentwise backward error per column.
-struct BlockScratch<T> {
-    rt: Vec<T>,
+/// The split r and the row-major s = |A||x| + |b| of one column block (entry (i, c) of s
+/// at i·w + c), and the block's componentwise backward error per column.
+#[derive(Default)]
+struct BlockScratch {
+    rt: Vec<f64>,
     st: Vec<f64>,
     columns: Vec<f64>,
 }
 
-impl<T> Default for BlockScratch<T> {
-    fn default() -> Self {
-        BlockScratch {
-            rt: Vec::new(),
-            st: Vec::new(),
-            columns: Vec::new(),
-        }
-    }
-}
-
 /// [`symmetric_residual`] of one block of w ≤ [`RESIDUAL_BLOCK`] columns: `xr` holds the
-/// block's columns of b on entry (column-major), the interleaved x during the pass and r on
-/// exit. Each pattern entry updates w adjacent values of r (and of s, in the same pass: the
-/// pass is memory-bound, and one pass instead of two cut the solve phase of a refined
-/// frequency of the 10⁶-DoF bar, three residuals of ten columns, from 8.66 to 7.74 s; same
-/// numbers). Returns the block's componentwise backward error and keeps each column's in
-/// `ws` (0 without `componentwise`).
+/// block's columns of b on entry (column-major), the split x during the pass and r on exit.
+/// Each pattern entry updates the w adjacent values of r (and of s, in the same pass: one
+/// pass instead of two cut the solve phase of a refined frequency of the 10⁶-DoF bar, three
+/// residuals of ten columns, from 8.66 to 7.74 s; same numbers). Returns the block's
+/// componentwise backward error and keeps each column's in `ws` (0 without
+/// `componentwise`).
 fn residual_block<T: Scalar, F: Fn(usize) -> T>(
     a: Lower<'_, F>,
     x: MatRef<'_, T>,
     xr: &mut [T],
     componentwise: bool,
-    ws: &mut BlockScratch<T>,
+    ws: &mut BlockScratch,
 ) -> f64 {
     let (n, w) = (x.nrows(), x.ncols());
+    let q = row_len::<T>(w);
     let BlockScratch { rt, st, columns } = ws;
     columns.clear();
     columns.resize(w, 0.0);
-    rt.resize(n * w, T::zero_impl());
+    rt.resize(n * q, 0.0);
     st.resize(if componentwise { n * w } else { 0 }, 0.0);
     let b = MatRef::from_column_major_slice(xr, n, w);
-    interleave(b, rt, |v| v);
+    split(b, rt);
     if componentwise {
-        interleave(b, st, T::abs1);
+        by_tiles(n, w, |i, c| st[i * w + c] = b[(i, c)].abs1());
     }
-    interleave(x, xr, |v| v);
+    let xt: &mut [f64] = bytemuck::cast_slice_mut(xr);
+    split(x, xt);
     let worst = if componentwise {
-        // one column, the sweep's backward error of every probe solve: with w a constant the
-        // loops over the columns vanish (10⁵-DoF bar: 0.035 → 0.024 s per frequency)
-        if w == 1 {
-            residual_pass::<T, F, true>(a, 1, xr, rt, st);
-        } else {
-            residual_pass::<T, F, true>(a, w, xr, rt, st);
-        }
-        for (r, s) in rt.chunks_exact(w).zip(st.chunks_exact(w)) {
-            for ((e, r), &s) in columns.iter_mut().zip(r).zip(s) {
+        vectorized(Pass::<T, F, true>::new(a, w, xt, rt, st));
+        for (r, s) in rt.chunks_exact(q).zip(st.chunks_exact(w)) {
+            for (c, (e, &s)) in columns.iter_mut().zip(s).enumerate() {
                 if s > 0.0 {
-                    *e = e.max(r.abs1() / s);
+                    let im = if T::COMPLEX { r[w + c] } else { 0.0 };
+                    *e = e.max(T::from_parts(r[c], im).abs1() / s);
                 }
             }
         }
         columns.iter().fold(0.0f64, |m, &e| m.max(e))
     } else {
-        residual_pass::<T, F, false>(a, w, xr, rt, st);
+        vectorized(Pass::<T, F, false>::new(a, w, xt, rt, st));
         0.0
     };
-    deinterleave(rt, MatMut::from_column_major_slice_mut(xr, n, w));
+    unsplit(rt, MatMut::from_column_major_slice_mut(xr, n, w));
     worst
 }
 
-/// The pass of [`residual_block`] over the pattern: r ← r − A x and, when `S`,
-/// s ← s + |A||x| (r, s holding b and |b| on entry; |x| is taken from x as it is read).
+/// [`residual_pass`] with its arguments, for [`vectorized`] (a closure would not be inlined
+/// into the AVX2 function, and the pass would run at baseline speed).
+struct Pass<'a, 'b, T, F, const S: bool> {
+    a: Lower<'a, F>,
+    w: usize,
+    xt: &'b [f64],
+    rt: &'b mut [f64],
+    st: &'b mut [f64],
+    scalar: std::marker::PhantomData<T>,
+}
+
+impl<'a, 'b, T, F, const S: bool> Pass<'a, 'b, T, F, S> {
+    fn new(a: Lower<'a, F>, w: usize, xt: &'b [f64], rt: &'b mut [f64], st: &'b mut [f64]) -> Self {
+        let scalar = std::marker::PhantomData;
+        Pass {
+            a,
+            w,
+            xt,
+            rt,
+            st,
+            scalar,
+        }
+    }
+}
+
+impl<T: Scalar, F: Fn(usize) -> T, const S: bool> pulp::NullaryFnOnce for Pass<'_, '_, T, F, S> {
+    type Output = ();
+    #[inline(always)]
+    fn call(self) {
+        let Pass {
+            a, w, xt, rt, st, ..
+        } = self;
+        // one column, the sweep's backward error of every probe solve: with w a constant the
+        // loops over the columns vanish (10⁵-DoF bar: 0.035 → 0.024 s per frequency)
+        if w == 1 {
+            residual_pass::<T, F, S>(a, 1, xt, rt, st)
+        } else {
+            residual_pass::<T, F, S>(a, w, xt, rt, st)
+        }
+    }
+}
+
+/// Runs `pass` compiled for AVX2 when the processor has it (pulp's runtime dispatch, as
+/// faer's kernels do; the default build targets baseline x86-64), else as it is: the pass
+/// then runs four reals per instruction instead of two (on the 10⁶-DoF bar, ten columns, a
+/// componentwise residual took 0.98 s instead of 1.12 s). No FMA is formed without
+/// fast-math, so the numbers are the same either way.
+fn vectorized<P: pulp::NullaryFnOnce<Output = ()>>(pass: P) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(simd) = pulp::x86::V3::try_new() {
+        return simd.vectorize(pass);
+    }
+    pass.call()
+}
+
+/// The pass of [`residual_block`] over the pattern, on split rows: r ← r − A x and, when
+/// `S`, s ← s + |A||x| (r, s holding b and |b| on entry; |x| is taken from x as it is read).
+/// Every value is formed by the operations of the complex product in the same order as
+/// column by column in complex arithmetic, so the numbers are those of that product.
 #[inline(always)]
 fn residual_pass<T: Scalar, F: Fn(usize) -> T, const S: bool>(
     a: Lower<'_, F>,
     w: usize,
-    xt: &[T],
-    rt: &mut [T],
+    xt: &[f64],
+    rt: &mut [f64],
     st: &mut [f64],
 ) {
     let (cp, ri, entry) = (a.pencil.col_ptr(), a.pencil.row_idx(), a.entry);
-    let zero = T::zero_impl();
-    let mut acc = [zero; RESIDUAL_BLOCK];
+    let q = row_len::<T>(w);
+    let mut acc = [0.0f64; 2 * RESIDUAL_BLOCK];
     let mut acc_s = [0.0f64; RESIDUAL_BLOCK];
     for j in 0..cp.len() - 1 {
-        let xj = &xt[j * w..(j + 1) * w];
-        acc[..w].fill(zero);
+        let xj = &xt[j * q..(j + 1) * q];
+        acc[..q].fill(0.0);
         if S {
             acc_s[..w].fill(0.0);
         }
         for p in cp[j]..cp[j + 1] {
             let (i, v) = (ri[p], entry(p));
-            let r_i = &mut rt[i * w..(i + 1) * w];
-            for c in 0..w {
-                r_i[c] -= v * xj[c];
-            }
-            let xi = &xt[i * w..(i + 1) * w];
+            let (vr, vi) = v.parts();
+            multiply_add::<T, true>(vr, vi, xj, &mut rt[i * q..(i + 1) * q]);
+            let xi = &xt[i * q..(i + 1) * q];
             if i != j {
-                for c in 0..w {
-                    acc[c] += v * xi[c];
-                }
+                multiply_add::<T, false>(vr, vi, xi, &mut acc[..q]);
             }
             if S {
                 let v = v.abs1();
-                let s_i = &mut st[i * w..(i + 1) * w];
-                for c in 0..w {
-                    s_i[c] += v * xj[c].abs1();
-                }
+                magnitude_add::<T>(v, xj, &mut st[i * w..(i + 1) * w]);
                 if i != j {
-                    for c in 0..w {
-                        acc_s[c] += v * xi[c].abs1();
-                    }
+                    magnitude_add::<T>(v, xi, &mut acc_s[..w]);
                 }
             }
         }
-        for c in 0..w {
-            rt[j * w + c] -= acc[c];
+        for (r, a) in rt[j * q..(j + 1) * q].iter_mut().zip(&acc[..q]) {
+            *r -= a;
         }
         if S {
-            for c in 0..w {
-                st[j * w + c] += acc_s[c];
+            for (s, a) in st[j * w..(j + 1) * w].iter_mut().zip(&acc_s[..w]) {
+                *s += a;
             }
+        }
+    }
+}
+
+/// y − v x (`SUB`) or y + v x into `y`, for the split rows x, y and v = vr + i·vi: the
+/// complex product as (vr·xr − vi·xi) + i·(vr·xi + vi·xr), real when `T` is.
+#[inline(always)]
+fn multiply_add<T: Scalar, const SUB: bool>(vr: f64, vi: f64, x: &[f64], y: &mut [f64]) {
+    let add = |y: &mut f64, p: f64| {
+        if SUB {
+            *y -= p
+        } else {
+            *y += p
+        }
+    };
+    if T::COMPLEX {
+        let w = x.len() / 2;
+        let (xr, xi) = x.split_at(w);
+        let (yr, yi) = y.split_at_mut(w);
+        for (((yr, yi), &xr), &xi) in yr.iter_mut().zip(yi).zip(xr).zip(xi) {
+            add(yr, vr * xr - vi * xi);
+            add(yi, vr * xi + vi * xr);
+        }
+    } else {
+        for (y, &x) in y.iter_mut().zip(x) {
+            add(y, vr * x);
+        }
+    }
+}
+
+/// s + v·|x| into `s` for the split row x, |x| by [`Scalar::abs1`].
+#[inline(always)]
+fn magnitude_add<T: Scalar>(v: f64, x: &[f64], s: &mut [f64]) {
+    if T::COMPLEX {
+        let (xr, xi) = x.split_at(s.len());
+        for ((s, xr), xi) in s.iter_mut().zip(xr).zip(xi) {
+            *s += v * (xr.abs() + xi.abs());
+        }
+    } else {
+        for (s, x) in s.iter_mut().zip(x) {
+            *s += v * x.abs();
         }
     }
 }
