@@ -393,8 +393,9 @@ impl<T: Scalar, F: Fn(usize) -> T, const S: bool> pulp::NullaryFnOnce for Pass<'
 /// Runs `pass` compiled for AVX2 when the processor has it (pulp's runtime dispatch, as
 /// faer's kernels do; the default build targets baseline x86-64), else as it is: the pass
 /// then runs four reals per instruction instead of two (on the 10⁶-DoF bar, ten columns, a
-/// componentwise residual took 0.98 s instead of 1.12 s). No FMA is formed without
-/// fast-math, so the numbers are the same either way.
+/// componentwise residual took 0.97 s instead of 1.11 s on split rows at baseline, and
+/// 1.23–1.31 s on complex records before). No FMA is formed without fast-math, so the
+/// numbers are the same either way.
 fn vectorized<P: pulp::NullaryFnOnce<Output = ()>>(pass: P) {
     #[cfg(target_arch = "x86_64")]
     if let Some(simd) = pulp::x86::V3::try_new() {
