@@ -12,13 +12,13 @@
 //! analysis of the pencil's N×N lower pattern. It is shared: the LBLᵀ backend factors the real pencil on it and expands its
 //! order pairwise for the 2N form, and the inertia count factors K − σM on it.
 
-use super::{pattern, try_vec, workspace};
+use super::backend::{try_vec, workspace};
+use super::pattern;
 use crate::pencil::Pencil;
 use crate::{Error, Result};
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltError;
-use faer::sparse::linalg::cholesky::{CholeskySymbolicParams, LltRef, SymbolicCholesky};
-use faer::sparse::linalg::SupernodalThreshold;
+use faer::sparse::linalg::cholesky::{LltRef, SymbolicCholesky};
 use faer::sparse::SparseColMatRef;
 use faer::{Conj, MatMut, Par, Side};
 use std::sync::Arc;
@@ -33,15 +33,6 @@ use std::time::Instant;
 /// [`Error::Factor`] when the analysis fails (allocation, index overflow).
 pub fn symbolic_cholesky(pencil: &Pencil) -> Result<SymbolicCholesky<usize>> {
     super::ordering::symbolic_cholesky_ordered(pencil).map(|(sym, _)| sym)
-}
-
-/// The symbolic parameters of every factorization on faer's Cholesky machinery: always
-/// supernodal (the intranode LBLᵀ needs supernodes for its 2×2 pivots).
-pub(super) fn supernodal_params() -> CholeskySymbolicParams<'static> {
-    CholeskySymbolicParams {
-        supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
-        ..Default::default()
-    }
 }
 
 /// A numeric Cholesky factor of K − σM on a [`symbolic_cholesky`] of the pencil: allocate

@@ -9,10 +9,11 @@
 //! factor is the shift-invert operator of a spectrum slice whose shift lies inside the
 //! spectrum (where K − σM is indefinite and has no Cholesky factor).
 
+use super::backend::try_vec;
 use super::cholesky::symbolic_cholesky;
 use super::lblt::Factor;
+use super::pattern;
 use super::refine::{refine, Buffers, Stop};
-use super::{pattern, try_vec};
 use crate::pencil::Pencil;
 use crate::{Error, Result};
 use faer::sparse::linalg::cholesky::SymbolicCholesky;

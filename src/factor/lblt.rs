@@ -16,10 +16,12 @@
 //! The pivots of B also give the inertia of A ([`Factor::pivots`], Sylvester's law), which
 //! the eigenvalue count of [`super::inertia`] reads.
 
-use super::cholesky::supernodal_params;
-use super::{
-    pattern, require_pivots, solve_split, try_vec, workspace, Factorization, Footprint, Values,
+use super::backend::{
+    require_pivots, solve_split, try_vec, workspace, Analysed, Backend, Factorization, Footprint,
+    SymbolicFactorization, Values,
 };
+use super::ordering::supernodal_params;
+use super::pattern;
 use crate::pencil::Pencil;
 use crate::{Error, Result};
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
@@ -90,16 +92,32 @@ impl Symbolic {
         };
         Ok((symbolic, Footprint { factor_nnz, bytes }))
     }
+}
 
-    /// Allocates one numeric factorization.
-    pub(super) fn numeric(&self) -> Result<Numeric<'_>> {
+/// The LBLᵀ analysis of the pencil on `sym_n`, the ordered symbolic Cholesky of its N×N
+/// pattern (the registry's entry, `factor::analyse`).
+pub(super) fn analyse(
+    pencil: &Pencil,
+    sym_n: Arc<SymbolicCholesky<usize>>,
+    max_rhs: usize,
+) -> Result<Analysed> {
+    let (symbolic, footprint) = Symbolic::new(pencil, sym_n, max_rhs)?;
+    Ok((Box::new(symbolic), footprint))
+}
+
+impl SymbolicFactorization for Symbolic {
+    fn backend(&self) -> Backend {
+        Backend::FaerLblt
+    }
+
+    fn numeric(&self) -> Result<Box<dyn Factorization + '_>> {
         // the real path solves Re and Im of a complex block side by side
         let rhs = if self.pattern2.is_some() {
             self.max_rhs
         } else {
             2 * self.max_rhs
         };
-        Ok(Numeric {
+        Ok(Box::new(Numeric {
             symbolic: self,
             factor: Factor::new(&self.sym, rhs)?,
             vals2: match &self.pattern2 {
@@ -107,7 +125,7 @@ impl Symbolic {
                 None => Vec::new(),
             },
             pivot_ratio: f64::NAN,
-        })
+        }))
     }
 }
 

@@ -40,7 +40,12 @@
 //! the paper bar, and perturbing those made refinement diverge. Tested against dense complex
 //! solves, zero-diagonal and near-resonance cases included (tests `factor_ldlt`).
 
-use super::{require_pivots, try_vec, Factorization, Footprint, Values};
+use super::backend::{
+    require_pivots, try_vec, Analysed, Backend, Factorization, Footprint, SymbolicFactorization,
+    Values,
+};
+use super::lblt;
+use super::ordering::supernode_tree;
 use crate::pencil::Pencil;
 use crate::{Error, Result};
 use faer::linalg::matmul::matmul;
@@ -218,37 +223,30 @@ impl Split {
     }
 }
 
-/// True when `sym` has the supernodal structure this factorization works on: faer builds
-/// it for every pattern with an off-diagonal entry (`supernodal_params`), not for a diagonal
-/// one.
-pub(super) fn supports(sym: &SymbolicCholesky<usize>) -> bool {
-    matches!(sym.raw(), SymbolicCholeskyRaw::Supernodal(_))
+/// The LDLᵀ analysis of the damped pencil on `sym_n`, the ordered symbolic Cholesky of its
+/// N×N pattern (the registry's entry, `factor::analyse`). A pattern without off-diagonal
+/// entries has no supernodes (faer builds them for every other pattern,
+/// `supernodal_params`): the LBLᵀ takes it.
+pub(super) fn analyse(
+    pencil: &Pencil,
+    sym_n: Arc<SymbolicCholesky<usize>>,
+    max_rhs: usize,
+) -> Result<Analysed> {
+    if !matches!(sym_n.raw(), SymbolicCholeskyRaw::Supernodal(_)) {
+        return lblt::analyse(pencil, sym_n, max_rhs);
+    }
+    let (symbolic, footprint) = Symbolic::new(pencil, sym_n, max_rhs)?;
+    Ok((Box::new(symbolic), footprint))
 }
 
-/// The supernodal part of `sym` ([`supports`] is checked before a [`Symbolic`] is built).
+/// The supernodal part of `sym` ([`analyse`] checks it before a [`Symbolic`] is built).
 fn supernodal(sym: &SymbolicCholesky<usize>) -> &SymbolicSupernodalCholesky<usize> {
     match sym.raw() {
         SymbolicCholeskyRaw::Supernodal(s) => s,
         SymbolicCholeskyRaw::Simplicial(_) => {
-            unreachable!("Analysis checks ldlt::supports before building the LDLᵀ")
+            unreachable!("analyse checks the structure before building the LDLᵀ")
         }
     }
-}
-
-/// The supernodal elimination tree of `s`: the supernode owning each column, and each
-/// supernode's parent (the owner of the first row below it; `None` for a root).
-pub(super) fn supernode_tree(
-    s: &SymbolicSupernodalCholesky<usize>,
-) -> (Vec<usize>, Vec<Option<usize>>) {
-    let (begin, end) = (s.supernode_begin(), s.supernode_end());
-    let mut owner = vec![0usize; s.nrows()];
-    for sn in 0..s.n_supernodes() {
-        owner[begin[sn]..end[sn]].fill(sn);
-    }
-    let parent = (0..s.n_supernodes())
-        .map(|sn| pattern(s, sn).first().map(|&r| owner[r]))
-        .collect();
-    (owner, parent)
 }
 
 /// Rows of supernode `s`'s pattern (below its diagonal block).
@@ -259,7 +257,7 @@ fn pattern(s: &SymbolicSupernodalCholesky<usize>, sn: usize) -> &[usize] {
 impl Symbolic {
     /// The analysis of the damped pencil on `sym_n`, the ordered symbolic Cholesky of its
     /// N×N pattern.
-    pub(super) fn new(
+    fn new(
         pencil: &Pencil,
         sym_n: Arc<SymbolicCholesky<usize>>,
         max_rhs: usize,
@@ -356,11 +354,6 @@ impl Symbolic {
         Ok((symbolic, Footprint { factor_nnz, bytes }))
     }
 
-    /// The ordered symbolic Cholesky it works on (the pivoting fallback's ordering).
-    pub(super) fn cholesky(&self) -> Arc<SymbolicCholesky<usize>> {
-        self.sym.clone()
-    }
-
     /// The work buffers of one thread of the factorization.
     fn scratch(&self) -> Result<Scratch> {
         Ok(Scratch {
@@ -369,12 +362,22 @@ impl Symbolic {
             local: vec![usize::MAX; self.sym.nrows()],
         })
     }
+}
 
-    /// Allocates one numeric factorization.
-    pub(super) fn numeric(&self) -> Result<Numeric<'_>> {
+impl SymbolicFactorization for Symbolic {
+    fn backend(&self) -> Backend {
+        Backend::Ldlt
+    }
+
+    /// The ordered symbolic Cholesky it works on: the pivoting fallback's ordering.
+    fn pivoting_structure(&self) -> Option<Arc<SymbolicCholesky<usize>>> {
+        Some(self.sym.clone())
+    }
+
+    fn numeric(&self) -> Result<Box<dyn Factorization + '_>> {
         let n = self.sym.nrows();
         let rhs = self.max_rhs + 1;
-        Ok(Numeric {
+        Ok(Box::new(Numeric {
             symbolic: self,
             l: try_vec(supernodal(&self.sym).len_val())?,
             d_inv: try_vec(n)?,
@@ -387,7 +390,7 @@ impl Symbolic {
             }),
             pivot_ratio: f64::NAN,
             perturbed: 0,
-        })
+        }))
     }
 }
 

@@ -6,7 +6,11 @@
 //! explodes on 3-D pencils at 10⁵ (docs/design.md §3.1), so [`super::Backend::Auto`] uses it only
 //! up to [`super::LU_MAX_N`].
 
-use super::{pattern, solve_split, try_vec, workspace, Factorization, Footprint, Values};
+use super::backend::{
+    solve_split, try_vec, workspace, Analysed, Backend, Factorization, Footprint,
+    SymbolicFactorization, Values,
+};
+use super::pattern;
 use crate::pencil::Pencil;
 use crate::{Error, Result};
 use faer::dyn_stack::{MemBuffer, MemStack};
@@ -28,9 +32,16 @@ pub(super) struct Symbolic {
     max_rhs: usize,
 }
 
+/// Orders and analyses the full pattern of the pencil (the registry's entry,
+/// `factor::analyse`).
+pub(super) fn analyse(pencil: &Pencil, max_rhs: usize) -> Result<Analysed> {
+    let (symbolic, footprint) = Symbolic::new(pencil, max_rhs)?;
+    Ok((Box::new(symbolic), footprint))
+}
+
 impl Symbolic {
     /// Orders and analyses the full pattern of the pencil.
-    pub(super) fn new(pencil: &Pencil, max_rhs: usize) -> Result<(Self, Footprint)> {
+    fn new(pencil: &Pencil, max_rhs: usize) -> Result<(Self, Footprint)> {
         let (pattern, src) = pattern::full(pencil);
         let sym = factorize_symbolic_lu(pattern.as_ref(), LuSymbolicParams::default())
             .map_err(|e| Error::Factor(format!("symbolic LU: {e:?}")))?;
@@ -45,9 +56,14 @@ impl Symbolic {
         };
         Ok((symbolic, footprint))
     }
+}
 
-    /// Allocates one numeric factorization.
-    pub(super) fn numeric(&self) -> Result<Numeric<'_>> {
+impl SymbolicFactorization for Symbolic {
+    fn backend(&self) -> Backend {
+        Backend::FaerLu
+    }
+
+    fn numeric(&self) -> Result<Box<dyn Factorization + '_>> {
         let (sym, nnz) = (&self.sym, self.src.len());
         let (lu, req) = if self.real {
             // the real path solves Re and Im of a complex block side by side
@@ -64,11 +80,11 @@ impl Symbolic {
                 req,
             )
         };
-        Ok(Numeric {
+        Ok(Box::new(Numeric {
             symbolic: self,
             lu,
             stack: workspace(req)?,
-        })
+        }))
     }
 }
 

@@ -22,13 +22,14 @@
 //! reference, [`reference_cholesky`]), `inertia` (exact eigenvalue counts,
 //! [`count_eigenvalues_below`]) and `pattern` (the patterns the backends read).
 //!
-//! Adding a backend: one file with a symbolic type (`new`, `numeric`) and a numeric type
-//! implementing the private `Factorization` trait, plus its arm of the private `Symbolic`
-//! enum (built in [`Analysis::new`], asked for numerics in [`Analysis::numeric`]) and its
-//! [`Backend`] name.
+//! Adding a backend: one file whose `analyse` returns its analysis (a type implementing
+//! the private `SymbolicFactorization` trait of `backend`, whose numeric type implements
+//! `Factorization`), plus its [`Backend`] variant with its names (`backend`) and its line in
+//! the registry [`analyse`].
 //!
 //! Accuracy is not assumed: the sweep verifies every factorization with a probe solve.
 
+mod backend;
 mod cholesky;
 mod inertia;
 mod lblt;
@@ -40,6 +41,7 @@ mod refine;
 #[cfg(feature = "umfpack")]
 pub mod umfpack;
 
+pub use backend::{Backend, LU_MAX_N};
 pub use cholesky::{reference_cholesky, symbolic_cholesky};
 pub use inertia::{count_eigenvalues_below, count_eigenvalues_below_with};
 pub use lblt::PivotStats;
@@ -51,79 +53,32 @@ pub(crate) use inertia::ShiftedLblt;
 
 use crate::pencil::Pencil;
 use crate::{Error, Result};
-use faer::dyn_stack::{MemBuffer, StackReq};
+use backend::{try_vec, Analysed, Factorization, SymbolicFactorization, SymbolicN, Values};
 use faer::sparse::linalg::cholesky::SymbolicCholesky;
-use faer::sparse::SymbolicSparseColMatRef;
-use faer::{c64, Mat, MatMut, Par};
+use faer::{c64, MatMut, Par};
 use std::sync::Arc;
 use std::time::Instant;
 
-/// Largest N for which [`Backend::Auto`] picks faer LU for an undamped (real) pencil.
-/// Measured (`sparsemor bench sweep`, README): on the real bar pencil faer LU sweeps faster
-/// than the real LBLᵀ at N = 1656 and 12 060 (its solve is 2× cheaper); at 10⁵ DoF LU's
-/// COLAMD fill explodes on 3-D pencils (docs/design.md §3.1), so above this size Auto uses
-/// LBLᵀ. Damped pencils always take the complex LDLᵀ, which factors faster than both at
-/// every size measured.
-pub const LU_MAX_N: usize = 15_000;
-
-/// Which sparse factorization to use.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Backend {
-    /// The measured rule of [`Backend::resolved`]: complex LDLᵀ when damped; faer LU up to
-    /// [`LU_MAX_N`] and faer LBLᵀ above when undamped.
-    Auto,
-    /// Complex-symmetric supernodal LDLᵀ with static pivoting (damped pencils; an undamped
-    /// pencil takes the real N×N LBLᵀ).
-    Ldlt,
-    /// faer supernodal LBLᵀ (real N×N undamped, interleaved real 2N×2N damped).
-    FaerLblt,
-    /// faer sparse LU (COLAMD), real or complex.
-    FaerLu,
-    /// UMFPACK (SuiteSparse), real or complex; needs the `umfpack` feature.
-    Umfpack,
-}
-
-impl std::str::FromStr for Backend {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self> {
-        match s {
-            "auto" => Ok(Backend::Auto),
-            "lblt" | "faer-lblt" => Ok(Backend::FaerLblt),
-            "ldlt" => Ok(Backend::Ldlt),
-            "lu" | "faer-lu" => Ok(Backend::FaerLu),
-            "umfpack" => Ok(Backend::Umfpack),
-            _ => Err(Error::InvalidSetting(format!(
-                "backend '{s}': choose auto, ldlt, faer-lblt, faer-lu or umfpack"
-            ))),
-        }
-    }
-}
-
-impl Backend {
-    /// The backend a factorization of an N-DoF pencil uses, `real` when it is undamped
-    /// (D = 0): [`Backend::Auto`] becomes the complex LDLᵀ when damped, faer LU up to
-    /// [`LU_MAX_N`] and faer LBLᵀ above when real; [`Backend::Ldlt`] of a real pencil is the
-    /// real LBLᵀ (the real path has no complex arithmetic to save); the others stay. The one
-    /// place that decides (the analysis and `sparsemor info` both ask it).
-    pub fn resolved(self, n: usize, real: bool) -> Backend {
-        match self {
-            Backend::Auto if !real => Backend::Ldlt,
-            Backend::Auto if n <= LU_MAX_N => Backend::FaerLu,
-            Backend::Auto | Backend::Ldlt if real => Backend::FaerLblt,
-            b => b,
-        }
-    }
-}
-
-impl std::fmt::Display for Backend {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            Backend::Auto => "auto",
-            Backend::FaerLblt => "faer-lblt",
-            Backend::Ldlt => "ldlt",
-            Backend::FaerLu => "faer-lu",
-            Backend::Umfpack => "umfpack",
-        })
+/// The registry: the analysis of each backend (after [`Backend::resolved`]).
+fn analyse(
+    backend: Backend,
+    pencil: &Pencil,
+    symbolic_n: SymbolicN<'_>,
+    max_rhs: usize,
+) -> Result<Analysed> {
+    match backend {
+        Backend::Ldlt => ldlt::analyse(pencil, symbolic_n()?, max_rhs),
+        Backend::FaerLblt => lblt::analyse(pencil, symbolic_n()?, max_rhs),
+        Backend::FaerLu => lu::analyse(pencil, max_rhs),
+        #[cfg(feature = "umfpack")]
+        Backend::Umfpack => umfpack::analyse(pencil),
+        #[cfg(not(feature = "umfpack"))]
+        Backend::Umfpack => Err(Error::InvalidSetting(
+            "backend umfpack: this build has no UMFPACK; rebuild with `--features umfpack` \
+             (needs libsuitesparse-dev)"
+                .into(),
+        )),
+        Backend::Auto => unreachable!("resolved before the registry is asked"),
     }
 }
 
@@ -143,40 +98,9 @@ pub struct SymbolicStats {
     pub bytes_per_factor: usize,
 }
 
-/// The backend's symbolic analysis; each numeric factorization borrows it.
-// One value per analysis: the size difference between variants costs nothing.
-#[allow(clippy::large_enum_variant)]
-enum Symbolic {
-    Lblt(lblt::Symbolic),
-    Ldlt(ldlt::Symbolic),
-    Lu(lu::Symbolic),
-    #[cfg(feature = "umfpack")]
-    Umfpack(umfpack::Symbolic),
-}
-
-/// What a backend's analysis predicts for one numeric factorization.
-struct Footprint {
-    /// Stored entries of the factor (0 if known only after the numeric phase).
-    factor_nnz: usize,
-    /// Bytes of one numeric factorization incl. workspace.
-    bytes: usize,
-}
-
-impl Footprint {
-    /// An LU of the full pattern (`nnz` entries), whose fill is known only after the numeric
-    /// phase: estimated at 4× the pattern's scalars.
-    fn full_pattern(real: bool, nnz: usize) -> Self {
-        let scalar = if real { 8 } else { 16 };
-        Footprint {
-            factor_nnz: 0,
-            bytes: scalar * nnz * 4,
-        }
-    }
-}
-
 /// The once-per-model part of the factorization: ordering and symbolic analysis.
 pub struct Analysis {
-    symbolic: Symbolic,
+    symbolic: Box<dyn SymbolicFactorization>,
     /// The LDLᵀ's pivoting fallback (the 2N LBLᵀ), analysed on first use.
     pivoting: std::sync::OnceLock<lblt::Symbolic>,
     max_rhs: usize,
@@ -213,41 +137,13 @@ impl Analysis {
         let start = Instant::now();
         let n = pencil.n();
         let real = pencil.is_real();
-        let mut backend = backend.resolved(n, real);
-        let (symbolic, footprint) = match backend {
-            Backend::FaerLblt => {
-                let (s, f) = lblt::Symbolic::new(pencil, symbolic_n()?, max_rhs)?;
-                (Symbolic::Lblt(s), f)
-            }
-            Backend::Ldlt => {
-                let sym = symbolic_n()?;
-                if ldlt::supports(&sym) {
-                    let (s, f) = ldlt::Symbolic::new(pencil, sym, max_rhs)?;
-                    (Symbolic::Ldlt(s), f)
-                } else {
-                    // a pattern without off-diagonal entries has no supernodes
-                    backend = Backend::FaerLblt;
-                    let (s, f) = lblt::Symbolic::new(pencil, sym, max_rhs)?;
-                    (Symbolic::Lblt(s), f)
-                }
-            }
-            Backend::FaerLu => {
-                let (s, f) = lu::Symbolic::new(pencil, max_rhs)?;
-                (Symbolic::Lu(s), f)
-            }
-            #[cfg(feature = "umfpack")]
-            Backend::Umfpack => {
-                let (s, f) = umfpack::Symbolic::new(pencil)?;
-                (Symbolic::Umfpack(s), f)
-            }
-            #[cfg(not(feature = "umfpack"))]
-            Backend::Umfpack => return Err(Error::InvalidSetting(
-                "backend umfpack: this build has no UMFPACK; rebuild with `--features umfpack` \
-                     (needs libsuitesparse-dev)"
-                    .into(),
-            )),
-            Backend::Auto => unreachable!("resolved above"),
-        };
+        let (symbolic, footprint) = analyse(
+            backend.resolved(n, real),
+            pencil,
+            Box::new(symbolic_n),
+            max_rhs,
+        )?;
+        let backend = symbolic.backend();
         Ok(Analysis {
             symbolic,
             pivoting: std::sync::OnceLock::new(),
@@ -279,13 +175,7 @@ impl Analysis {
     /// # Errors
     /// [`Error::Factor`] when the workspace cannot be allocated.
     pub fn numeric(&self, pencil: &Pencil) -> Result<Numeric<'_>> {
-        let factors: Box<dyn Factorization + '_> = match &self.symbolic {
-            Symbolic::Lblt(s) => Box::new(s.numeric()?),
-            Symbolic::Ldlt(s) => Box::new(s.numeric()?),
-            Symbolic::Lu(s) => Box::new(s.numeric()?),
-            #[cfg(feature = "umfpack")]
-            Symbolic::Umfpack(s) => Box::new(s.numeric()?),
-        };
+        let factors = self.symbolic.numeric()?;
         let mut numeric = Numeric {
             analysis: self,
             factors,
@@ -306,71 +196,15 @@ impl Analysis {
     /// The pivoting factorization the LDLᵀ falls back to (the 2N LBLᵀ on its ordering),
     /// analysed on the first call; `None` for the other backends, which pivot themselves.
     fn pivoting(&self, pencil: &Pencil) -> Result<Option<&lblt::Symbolic>> {
-        let Symbolic::Ldlt(s) = &self.symbolic else {
+        let Some(structure) = self.symbolic.pivoting_structure() else {
             return Ok(None);
         };
         if self.pivoting.get().is_none() {
-            let (fallback, _) = lblt::Symbolic::new(pencil, s.cholesky(), self.max_rhs)?;
+            let (fallback, _) = lblt::Symbolic::new(pencil, structure, self.max_rhs)?;
             // another thread may have set it meanwhile: either value is the same analysis
             let _ = self.pivoting.set(fallback);
         }
         Ok(self.pivoting.get())
-    }
-}
-
-/// A(iω) on the pencil's lower pattern: what every backend factors. The backends that
-/// read arrays get `re`/`im` gathered; the complex LDLᵀ reads each entry once while it
-/// assembles and computes it from the pencil ([`Values::entry`]), which saves two arrays of
-/// the pencil's size per factorization (0.65 GB on the 10⁶-DoF bar).
-struct Values<'a> {
-    pattern: SymbolicSparseColMatRef<'a, usize>,
-    pencil: &'a Pencil,
-    omega: f64,
-    /// The values gathered, or empty when not (`im` also empty on the real path, D = 0).
-    re: &'a [f64],
-    im: &'a [f64],
-}
-
-impl<'a> Values<'a> {
-    /// The values at ω: `re`/`im` when gathered (else empty), the pencil otherwise.
-    fn new(pencil: &'a Pencil, omega: f64, re: &'a [f64], im: &'a [f64]) -> Self {
-        Values {
-            pattern: pattern::lower(pencil),
-            pencil,
-            omega,
-            re,
-            im,
-        }
-    }
-
-    /// Entry p: gathered when there are arrays (the supported K is only there), else from
-    /// the pencil.
-    #[inline]
-    fn entry(&self, p: usize) -> c64 {
-        if self.re.is_empty() {
-            self.pencil.value(self.omega, p)
-        } else {
-            lower_entry(self.re, self.im, p)
-        }
-    }
-}
-
-/// One backend's numeric factorization, bound to the symbolic analysis it was allocated
-/// for (so it cannot be used with another).
-trait Factorization: Send {
-    /// Factors A(iω); `freq_hz` names the frequency in a singularity error.
-    fn factor(&mut self, a: &Values<'_>, freq_hz: f64, par: Par) -> Result<()>;
-    /// Solves A(iω) X = B in place with the last factorization.
-    fn solve(&mut self, rhs: MatMut<'_, c64>, par: Par);
-    /// min |pivot| / max |pivot| of the last factorization, as the backend reports it.
-    fn pivot_ratio(&self) -> f64;
-    /// Pivots the last factorization replaced by a static perturbation (LDLᵀ only).
-    fn perturbed(&self) -> usize {
-        0
-    }
-    /// Whether the backend reads the values as arrays ([`Values`]); only the LDLᵀ does not.
-    fn reads_arrays(&self) -> bool {
-        true
     }
 }
 
@@ -464,7 +298,7 @@ impl<'a> Numeric<'a> {
         if self.pivoted {
             return Ok(false);
         }
-        if !matches!(self.analysis.symbolic, Symbolic::Ldlt(_)) {
+        if self.analysis.symbolic.pivoting_structure().is_none() {
             return Ok(false);
         }
         // the 2N factor holds about twice the LDLᵀ's bytes: not tried unless it fits in half
@@ -479,7 +313,7 @@ impl<'a> Numeric<'a> {
             return Ok(false);
         };
         if self.pivoting.is_none() {
-            self.pivoting = Some(Box::new(symbolic.numeric()?));
+            self.pivoting = Some(SymbolicFactorization::numeric(symbolic)?);
         }
         // the LBLᵀ reads arrays: gathered now unless they are (the supported K never gets
         // here: it is factored with the LDLᵀ's static pivots or not at all)
@@ -646,59 +480,4 @@ fn active<'s, 'a>(
         Some(p) if pivoted => p.as_mut(),
         _ => factors.as_mut(),
     }
-}
-
-/// Entry p of the factored matrix on the pencil's lower pattern (`im` empty: real).
-fn lower_entry(re: &[f64], im: &[f64], p: usize) -> c64 {
-    c64::new(re[p], im.get(p).copied().unwrap_or(0.0))
-}
-
-/// Solves a complex block with a real factorization: [Re B | Im B] (N × 2k) in one solve.
-fn solve_split(mut rhs: MatMut<'_, c64>, solve: impl FnOnce(MatMut<'_, f64>)) {
-    let (n, k) = (rhs.nrows(), rhs.ncols());
-    let mut u = Mat::<f64>::from_fn(n, 2 * k, |r, c| {
-        if c < k {
-            rhs[(r, c)].re
-        } else {
-            rhs[(r, c - k)].im
-        }
-    });
-    solve(u.as_mut());
-    for c in 0..k {
-        for i in 0..n {
-            rhs[(i, c)] = c64::new(u[(i, c)], u[(i, c + k)]);
-        }
-    }
-}
-
-/// [`Error::Singular`] at `freq_hz` saying `detail` unless the pivot ratio of a factorization
-/// is positive (a zero or non-finite pivot gives 0 or NaN).
-fn require_pivots(ratio: f64, freq_hz: f64, detail: &str) -> Result<()> {
-    if ratio > 0.0 {
-        Ok(())
-    } else {
-        Err(Error::Singular {
-            freq_hz,
-            detail: detail.into(),
-        })
-    }
-}
-
-/// A zeroed vector of `len` entries, or [`Error::Factor`] if it cannot be allocated.
-fn try_vec<T: Clone + Default>(len: usize) -> Result<Vec<T>> {
-    let mut v = Vec::new();
-    v.try_reserve_exact(len)
-        .map_err(|_| Error::Factor(format!("cannot allocate {len} factor entries")))?;
-    v.resize(len, T::default());
-    Ok(v)
-}
-
-/// The workspace `req`, or [`Error::Factor`] if it cannot be allocated.
-fn workspace(req: StackReq) -> Result<MemBuffer> {
-    MemBuffer::try_new(req).map_err(|_| {
-        Error::Factor(format!(
-            "cannot allocate {} bytes of factorization workspace",
-            req.size_bytes()
-        ))
-    })
 }

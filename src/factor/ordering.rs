@@ -8,13 +8,14 @@
 //! chunky 3-D body (the 32³ cube) MKL PARDISO's METIS order left 2.3× fewer entries in its
 //! factor than AMD, and the flops follow.
 
-use super::cholesky::supernodal_params;
 use super::pattern;
 use crate::pencil::Pencil;
 use crate::{Error, Result};
+use faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky;
 use faer::sparse::linalg::cholesky::{
-    factorize_symbolic_cholesky, SymbolicCholesky, SymmetricOrdering,
+    factorize_symbolic_cholesky, CholeskySymbolicParams, SymbolicCholesky, SymmetricOrdering,
 };
+use faer::sparse::linalg::SupernodalThreshold;
 use faer::Side;
 
 /// The orderings the analysis compares.
@@ -192,7 +193,7 @@ fn postorder(sym: &SymbolicCholesky<usize>, fwd: &[usize]) -> (Vec<usize>, Vec<u
     };
     let ns = s.n_supernodes();
     let (begin, end) = (s.supernode_begin(), s.supernode_end());
-    let (_, parent) = super::ldlt::supernode_tree(s);
+    let (_, parent) = supernode_tree(s);
     let mut children: Vec<Vec<usize>> = vec![Vec::new(); ns];
     let mut roots = Vec::new();
     for (sn, p) in parent.into_iter().enumerate() {
@@ -417,6 +418,31 @@ fn bisected(graph: &Graph) -> Option<(Vec<usize>, Vec<usize>)> {
     fwd.extend(queue.iter().filter(|&&v| level[v] == sep));
     let inv = inverse(&fwd);
     Some((fwd, inv))
+}
+
+/// The symbolic parameters of every factorization on faer's Cholesky machinery: always
+/// supernodal (the intranode LBLᵀ needs supernodes for its 2×2 pivots).
+pub(super) fn supernodal_params() -> CholeskySymbolicParams<'static> {
+    CholeskySymbolicParams {
+        supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+        ..Default::default()
+    }
+}
+
+/// The supernodal elimination tree of `s`: the supernode owning each column, and each
+/// supernode's parent (the owner of the first row below it; `None` for a root).
+pub(super) fn supernode_tree(
+    s: &SymbolicSupernodalCholesky<usize>,
+) -> (Vec<usize>, Vec<Option<usize>>) {
+    let (begin, end) = (s.supernode_begin(), s.supernode_end());
+    let mut owner = vec![0usize; s.nrows()];
+    for sn in 0..s.n_supernodes() {
+        owner[begin[sn]..end[sn]].fill(sn);
+    }
+    let parent = (0..s.n_supernodes())
+        .map(|sn| s.supernode(sn).pattern().first().map(|&r| owner[r]))
+        .collect();
+    (owner, parent)
 }
 
 #[cfg(test)]
