@@ -7,10 +7,11 @@ use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use sparsemor::body::Body;
 use sparsemor::factor::{reference_cholesky, Analysis, Backend};
 use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
+use sparsemor::frf::{transfer_function, Part};
 use sparsemor::model::{Damping, Model};
 use sparsemor::pencil::Pencil;
 use sparsemor::scene::Scene;
-use sparsemor::sweep::{no_progress, transfer_function, Part, SweepOptions};
+use sparsemor::sweep::{no_progress, SweepOptions};
 
 const SIZES: [[usize; 3]; 2] = [[2, 3, 45], [3, 4, 200]];
 

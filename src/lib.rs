@@ -11,7 +11,7 @@
 //! | validate | [`model::Model::new`] | §1, §4 |
 //! | prepare once | [`body::Body::new`]: pencil ([`pencil`]), rigid part ([`rigid`]), symbolic analysis | §2, §3.1, §3.2 |
 //! | factor A(iω) | [`factor::Analysis`], [`factor::Numeric`] (faer LBLᵀ / LU, UMFPACK) | §3.1 |
-//! | sweep frequencies | [`sweep::transfer_function`], [`sweep::Solver`] | §3.1 |
+//! | sweep frequencies | [`frf::transfer_function`], [`sweep::Solver`] | §3.1 |
 //! | streamed least squares | [`lsq::StreamedQr`] | §3.3 |
 //! | line-fitting | [`reduce::linefit::reduce`] with [`reduce::linefit::References`] (explicit, count, tolerance: the adaptive loop) | §3.3–§3.5 |
 //! | eigenpairs | [`eigen::eigenpairs`] (shift-invert Krylov–Schur; ARPACK feature) | §3.6 |
@@ -61,6 +61,7 @@ pub mod eigen;
 pub mod error;
 pub mod factor;
 pub mod fe;
+pub mod frf;
 pub mod io;
 pub mod lsq;
 pub mod memory;
@@ -72,6 +73,7 @@ pub mod reduce;
 pub mod report;
 pub mod rigid;
 pub mod scene;
+pub(crate) mod snapshots;
 pub mod sparse;
 pub mod sweep;
 pub mod units;

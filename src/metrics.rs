@@ -2,7 +2,7 @@
 //! ε(f) = ‖H(iω) − Hr(iω)‖_F / ‖H(iω)‖_F (eq. 23) on a grid, in two variants, and the ROM's
 //! eigenfrequencies.
 //!
-//! - elastic: H1 (by inertia relief, [`crate::sweep::Part::Elastic`]) vs the ROM;
+//! - elastic: H1 (by inertia relief, [`crate::frf::Part::Elastic`]) vs the ROM;
 //! - total: H = H0 + H1 vs H0 + ROM, i.e. ‖H1 − Hr‖ / ‖H0 + H1‖. H is formed as H0 + H1
 //!   (exact for Rayleigh damping, docs/design.md §3.2) rather than by a second sweep: it is more
 //!   accurate at low frequency and costs nothing extra. On a constrained body both coincide.
@@ -11,9 +11,10 @@
 
 use crate::body::Body;
 use crate::eigen::Modes;
+use crate::frf::{transfer_function, Part};
 use crate::reduce::Rom;
 use crate::scene::Scene;
-use crate::sweep::{transfer_function, Part, ProgressFn, SweepOptions};
+use crate::sweep::{ProgressFn, SweepOptions};
 use crate::units::lambda_to_hz;
 use crate::{Error, Result};
 use faer::{c64, Mat, MatRef};

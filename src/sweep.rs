@@ -4,7 +4,7 @@
 //! symbolic analysis, rigid modes, the (projected) load — once. [`Solver::run`] then factors
 //! A(iω_k) for each frequency, solves for the p load columns and hands the full-state
 //! response X_k (N×p) to a caller-supplied step that folds it into a per-worker state (the
-//! streamed QR of line-fitting, or the transfer function of [`transfer_function`]).
+//! streamed QR of a row split, or the response at chosen rows: `crate::frf`).
 //!
 //! Schedule: frequencies are independent. When `workers × bytes_per_factor` fits the memory
 //! budget, `workers = min(threads, frequencies)` threads each own one numeric factorization
@@ -30,7 +30,6 @@
 use crate::body::Body;
 use crate::factor::{Analysis, Backend, Numeric, SymbolicStats};
 use crate::rigid::RigidBody;
-use crate::scene::Scene;
 use crate::{Error, Result};
 use faer::{c64, Mat, MatRef, Par};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -611,146 +610,12 @@ impl<'a> Solver<'a> {
     }
 }
 
-/// Which part of the transfer function [`transfer_function`] returns.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Part {
-    /// H = C A⁻¹ B (eq. 14), by direct solves.
-    Total,
-    /// H1 = C Pᵀ A⁻¹ P B (eq. 17 without cancellation); equals H on a constrained body.
-    Elastic,
-    /// H0 (eq. 16); needs a free body with nodes.
-    Rigid,
-}
-
-impl std::str::FromStr for Part {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self> {
-        match s {
-            "total" => Ok(Part::Total),
-            "elastic" => Ok(Part::Elastic),
-            "rigid" => Ok(Part::Rigid),
-            _ => Err(Error::InvalidSetting(format!(
-                "part '{s}': choose total, elastic or rigid"
-            ))),
-        }
-    }
-}
-
-/// A transfer function on a frequency list, with what it cost.
-#[derive(Clone, Debug)]
-pub struct Frf {
-    /// Frequencies (Hz).
-    pub freqs_hz: Vec<f64>,
-    /// H(iω_k): outputs × inputs, one per frequency.
-    pub h: Vec<Mat<c64>>,
-    /// Full-state responses X_k (N × inputs) when requested.
-    pub snapshots: Option<Vec<Mat<c64>>>,
-    /// Symbolic analysis (None for the rigid part, which needs no factorization).
-    pub symbolic: Option<SymbolicStats>,
-    /// Schedule used.
-    pub schedule: Option<Schedule>,
-    /// Per-frequency stats.
-    pub freq_stats: Vec<FreqStats>,
-    /// Wall time of the whole computation (s).
-    pub seconds: f64,
-}
-
 /// The refusal of the total response at 0 Hz on a free body.
-fn zero_hz_total() -> Error {
+pub(crate) fn zero_hz_total() -> Error {
     Error::InvalidSetting(
         "frequency 0 Hz on a free body: the total response H(0) is infinite (the rigid part \
          grows like 1/ω²); the elastic part is finite at 0 Hz (part elastic), or use \
          frequencies > 0 (e.g. a band starting at 1 Hz)"
             .into(),
     )
-}
-
-/// H(iω) (or H1, H0) = C X at `freqs_hz` for the scene's inputs and outputs (its band is not
-/// used: the frequencies are given).
-///
-/// # Errors
-/// As [`Solver::new`] and [`Solver::run`]; `Part::Rigid` on a model without rigid part.
-pub fn transfer_function(
-    body: &Body,
-    scene: &Scene,
-    freqs_hz: &[f64],
-    part: Part,
-    keep_snapshots: bool,
-    opts: &SweepOptions,
-    progress: ProgressFn<'_>,
-) -> Result<Frf> {
-    let start = Instant::now();
-    let (inputs, outputs) = (&scene.inputs[..], &scene.outputs[..]);
-    crate::scene::check_dofs(outputs, body.n(), "outputs")?;
-    if part == Part::Rigid {
-        crate::scene::check_dofs(inputs, body.n(), "inputs")?;
-        let rb = body.rigid().ok_or_else(|| {
-            Error::InvalidSetting(
-                "part rigid: the model has no rigid part (no nodes, or K V0 != 0: a constrained body)".into(),
-            )
-        })?;
-        let h = freqs_hz
-            .iter()
-            .map(|&f| rb.h0(2.0 * std::f64::consts::PI * f, inputs, outputs))
-            .collect();
-        return Ok(Frf {
-            freqs_hz: freqs_hz.to_vec(),
-            h,
-            snapshots: None,
-            symbolic: None,
-            schedule: None,
-            freq_stats: Vec::new(),
-            seconds: start.elapsed().as_secs_f64(),
-        });
-    }
-    // A free body without damping or with Rayleigh damping splits exactly into its rigid and
-    // elastic parts (docs/design.md §3.2), so its total H is computed as H0 + H1: a direct
-    // solve of A(iω) returns the rigid part, which the probe does not check, inaccurately at
-    // low frequency (relative error 1.9 at 1e-6·f1 on a coarse bar, tests/it/extremes.rs).
-    let split = part == Part::Total
-        && !keep_snapshots
-        && !body.pencil().has_damping_matrix()
-        && body.rigid().is_some();
-    if split && freqs_hz.contains(&0.0) {
-        return Err(zero_hz_total());
-    }
-    let response = if part == Part::Elastic || split {
-        Response::Elastic
-    } else {
-        Response::Total
-    };
-    let mut engine = crate::distributed::Engine::new(body, opts);
-    let (xs, freq_stats) = engine.respond(
-        response,
-        inputs,
-        outputs,
-        freqs_hz,
-        keep_snapshots,
-        progress,
-    )?;
-    let h0 = |f: f64| match (split, body.rigid()) {
-        (true, Some(rb)) => Some(rb.h0(2.0 * std::f64::consts::PI * f, inputs, outputs)),
-        _ => None,
-    };
-    let (mut h, snapshots) = if keep_snapshots {
-        let h = xs.iter().map(|x| rows_of(outputs, x.as_ref())).collect();
-        (h, Some(xs))
-    } else {
-        (xs, None)
-    };
-    for (h, &f) in h.iter_mut().zip(freqs_hz) {
-        if let Some(h0) = h0(f) {
-            *h += h0;
-        }
-    }
-    let (symbolic, schedule) = engine.local_stats(response, inputs, freqs_hz.len()).unzip();
-    Ok(Frf {
-        freqs_hz: freqs_hz.to_vec(),
-        h,
-        snapshots,
-        symbolic,
-        schedule,
-        freq_stats,
-        seconds: start.elapsed().as_secs_f64(),
-    })
 }

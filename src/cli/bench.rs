@@ -14,10 +14,11 @@ use faer::{c64, Mat};
 use sparsemor::body::Body;
 use sparsemor::factor::{reference_cholesky, Analysis, Backend};
 use sparsemor::fe::{paper_scene, BoxSpec};
+use sparsemor::frf::{transfer_function, Part};
 use sparsemor::model::{Damping, Model};
 use sparsemor::pencil::Pencil;
 use sparsemor::scene::Scene;
-use sparsemor::sweep::{no_progress, transfer_function, Part, SweepOptions};
+use sparsemor::sweep::{no_progress, SweepOptions};
 use sparsemor::{memory, Error, Result};
 use std::time::Instant;
 

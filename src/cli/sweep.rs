@@ -3,8 +3,9 @@
 use super::args::{linspace, parse_band, parse_list};
 use super::progress::{rank0_share, with_progress};
 use sparsemor::distributed::Cluster;
+use sparsemor::frf::{transfer_function, Part};
 use sparsemor::io::{atomic, model_dir};
-use sparsemor::sweep::{transfer_function, FreqStats, Part, SweepOptions};
+use sparsemor::sweep::{FreqStats, SweepOptions};
 use sparsemor::{Error, Result};
 use std::io::Write;
 use std::path::{Path, PathBuf};

@@ -1,14 +1,15 @@
-//! The frequency engine behind line-fitting, the transfer functions and the sampling loop's
-//! verification: one set of calls, carried out in this process or over the ranks of a
-//! [`Cluster`](super::Cluster) (docs/design.md §9).
+//! The frequency engine: solves A(iω)X = B at a list of frequencies and hands each block to
+//! a consumer known to every rank — absorbed into the streamed QR of a row split
+//! ([`crate::lsq::Split`], §3.3), or returned as X at chosen rows — in this process or over the
+//! ranks of a [`Cluster`] (docs/design.md §9). Line-fitting, the transfer functions and the
+//! sampling loop's verification all call it; it knows none of them.
 
+use super::cluster::Cluster;
 use super::protocol::{gather, Command, Keep, Reply};
-use super::Cluster;
 use crate::body::Body;
 use crate::factor::SymbolicStats;
-use crate::lsq::StreamedQr;
-use crate::reduce::linefit::fit::{Partition, Worker};
-use crate::reduce::linefit::snapshots::SnapshotStore;
+use crate::lsq::{Split, SplitState, StreamedQr};
+use crate::snapshots::SnapshotStore;
 use crate::sweep::{
     rows_of, FreqStats, ProgressFn, Response, Schedule, SolveAccuracy, Solver, SweepOptions,
 };
@@ -23,7 +24,7 @@ pub(crate) struct Engine<'a> {
     opts: SweepOptions,
     /// This rank's solvers, one per (response, inputs), built on first use.
     solvers: Vec<(Response, Vec<usize>, Solver<'a>)>,
-    /// This rank's kept snapshots (line-fitting with interface growth).
+    /// This rank's kept responses (for absorbing them again into another split).
     store: Option<SnapshotStore>,
     /// Every frequency solved through this engine, on every rank.
     accuracy: SolveAccuracy,
@@ -155,11 +156,11 @@ impl<'a> Engine<'a> {
         Ok(reply.sorted())
     }
 
-    /// Solves the elastic response at `freqs` and absorbs it into the streamed QR of `part`
-    /// (eq. 22); keeps the snapshots on their rank when `keep` says so.
+    /// Solves the elastic response at `freqs` and absorbs it into the streamed QR of `split`
+    /// (eq. 22); keeps the responses on their rank when `keep` says so.
     pub fn absorb(
         &mut self,
-        part: &Partition,
+        split: &Split,
         inputs: &[usize],
         outputs: &[usize],
         freqs: &[f64],
@@ -169,26 +170,26 @@ impl<'a> Engine<'a> {
         let cmd = Command::Absorb {
             inputs: inputs.to_vec(),
             outputs: outputs.to_vec(),
-            interface: part.interface.clone(),
+            interface: split.interface.clone(),
             freqs: freqs.to_vec(),
             keep,
         };
         let r = self.execute(cmd, progress)?;
         Ok(Absorbed {
-            qr: r.qr.unwrap_or_else(|| part.empty_qr()),
+            qr: r.qr.unwrap_or_else(|| split.empty_qr()),
             h: r.x.into_iter().map(|t| t.1).collect(),
             absorb_s: r.absorb_s,
         })
     }
 
-    /// The streamed QR of every kept snapshot for the grown interface of `part`.
-    pub fn regrow(&mut self, part: &Partition, inputs: usize) -> Result<StreamedQr> {
+    /// The streamed QR of every kept response for `split`.
+    pub fn regrow(&mut self, split: &Split, inputs: usize) -> Result<StreamedQr> {
         let cmd = Command::Regrow {
             inputs,
-            interface: part.interface.clone(),
+            interface: split.interface.clone(),
         };
         let r = self.execute(cmd, &crate::sweep::no_progress)?;
-        Ok(r.qr.unwrap_or_else(|| part.empty_qr()))
+        Ok(r.qr.unwrap_or_else(|| split.empty_qr()))
     }
 
     /// The next interface DoF by Q-DEIM over the kept snapshots (one process only: the
@@ -271,20 +272,20 @@ impl<'a> Engine<'a> {
                 if mine.is_empty() {
                     return Ok(Reply::default());
                 }
-                let part = Partition::from_interface(self.body.n(), interface.clone());
+                let split = Split::from_interface(self.body.n(), interface.clone());
                 let keep_x = *keep != Keep::No;
                 if keep_x && self.store.is_none() {
                     self.store = Some(SnapshotStore::new(*keep == Keep::Spill)?);
                 }
                 let p = inputs.len();
                 // X at the outputs, or all of X when the snapshots are kept
-                type State = (Worker, Vec<(usize, Mat<c64>)>);
+                type State = (SplitState, Vec<(usize, Mat<c64>)>);
                 let solver = self.solver(Response::Elastic, inputs)?;
                 let (states, stats) = solver.run(
                     &mine,
-                    || (part.worker(p), Vec::new()),
+                    || (split.state(p), Vec::new()),
                     |s: &mut State, snap| {
-                        part.absorb(&mut s.0, snap.x)?;
+                        split.absorb(&mut s.0, snap.x)?;
                         let x = if keep_x {
                             snap.x.to_owned()
                         } else {
@@ -295,11 +296,11 @@ impl<'a> Engine<'a> {
                     },
                     progress,
                 )?;
-                let (workers, xs): (Vec<Worker>, Vec<_>) = states.into_iter().unzip();
+                let (workers, xs): (Vec<SplitState>, Vec<_>) = states.into_iter().unzip();
                 let mut xs: Vec<(usize, Mat<c64>)> = xs.into_iter().flatten().collect();
                 xs.sort_by_key(|t| t.0);
                 let absorb_s = workers.iter().map(|w| w.absorb_s).sum();
-                let qr = Some(part.merge(workers, None)?);
+                let qr = Some(Split::merge(workers)?);
                 let x = match self.store.as_mut().filter(|_| keep_x) {
                     Some(store) => {
                         let h = xs
@@ -319,10 +320,10 @@ impl<'a> Engine<'a> {
                 })
             }
             Command::Regrow { inputs, interface } => {
-                let part = Partition::from_interface(self.body.n(), interface.clone());
-                let mut w = part.worker(*inputs);
+                let split = Split::from_interface(self.body.n(), interface.clone());
+                let mut w = split.state(*inputs);
                 if let Some(store) = self.store.as_mut() {
-                    store.for_each(|x| part.absorb(&mut w, x))?;
+                    store.for_each(|x| split.absorb(&mut w, x))?;
                 }
                 Ok(Reply {
                     absorb_s: w.absorb_s,

@@ -1,9 +1,9 @@
 //! Where the frequencies are solved: in this process, or over the ranks of an MPI job
 //! (docs/design.md §9).
 //!
-//! Frequencies are independent and the streamed-QR states of line-fitting merge as a TSQR
-//! tree (§3.3), so a run spreads its frequencies over the ranks. Rank 0 runs the library call
-//! (the fit, the sampling loop's decisions, the projection, the output); the other ranks
+//! Frequencies are independent and streamed-QR states merge as a TSQR tree (§3.3), so a run
+//! spreads its frequencies over the ranks. Rank 0 runs the library call (line-fitting's fit,
+//! its sampling loop's decisions, the projection, the output); the other ranks
 //! [`serve`]: each frequency call of rank 0's engine (`Engine`) is one command (`protocol.rs`)
 //! that every rank carries out on its share — rank r takes the frequencies k ≡ r (mod ranks) —
 //! and the answers combine up a binary tree to rank 0 (`gather`):
@@ -28,12 +28,14 @@
 //! The transport is the small [`Cluster`] trait: MPI with cargo feature `mpi` (`mpi.rs`), or
 //! anything else that can broadcast and send bytes (the tests use threads).
 
+mod cluster;
 mod engine;
 #[cfg(feature = "mpi")]
 pub mod mpi;
 pub(crate) mod protocol;
 mod wire;
 
+pub use cluster::Cluster;
 pub(crate) use engine::Engine;
 pub(crate) use protocol::Keep;
 
@@ -41,24 +43,6 @@ use crate::body::Body;
 use crate::sweep::SweepOptions;
 use crate::{Error, Result};
 use protocol::Command;
-
-/// The ranks of a distributed run: who this process is and how it talks to the others.
-/// Every method is collective in the MPI sense where it says so: all ranks call it in the same
-/// order.
-pub trait Cluster: Send + Sync + std::fmt::Debug {
-    /// This process's rank, 0..size.
-    fn rank(&self) -> usize;
-    /// Number of ranks.
-    fn size(&self) -> usize;
-    /// Number of ranks on this rank's machine (they share its memory).
-    fn node_size(&self) -> usize;
-    /// Rank 0's `bytes`, on every rank (collective; the other ranks' `bytes` are ignored).
-    fn broadcast(&self, bytes: Vec<u8>) -> Vec<u8>;
-    /// Sends `bytes` to rank `to` (matched by a [`Cluster::receive`] there).
-    fn send(&self, to: usize, bytes: Vec<u8>);
-    /// The next message from rank `from`.
-    fn receive(&self, from: usize) -> Vec<u8>;
-}
 
 /// The other ranks' side of a run (rank ≥ 1): carries out rank 0's commands on this rank's
 /// share of the frequencies until rank 0 stops the run, and returns the exit code rank 0 gave.

@@ -1,14 +1,14 @@
 //! What rank 0 asks the other ranks to do, what they answer, and how the answers of all ranks
 //! combine up a binary tree to rank 0 (docs/design.md §9).
 
+use super::cluster::Cluster;
 use super::wire::{Reader, Writer};
-use super::Cluster;
 use crate::lsq::StreamedQr;
 use crate::sweep::{FreqStats, Response};
 use crate::{Error, Result};
 use faer::{c64, Mat};
 
-/// What to keep of the snapshots a rank absorbs (for refitting after interface growth).
+/// What to keep of the responses a rank absorbs (for absorbing them again into another split).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Keep {
     /// Nothing.
@@ -22,8 +22,9 @@ pub(crate) enum Keep {
 /// One unit of work. Rank r takes the frequencies k ≡ r (mod ranks).
 #[derive(Clone, Debug)]
 pub(crate) enum Command {
-    /// Solve the elastic response at `freqs`, absorb it into a streamed QR for the interface
-    /// (line-fitting, §3.3), answer the QR and X at `outputs`.
+    /// Solve the elastic response at `freqs`, absorb each block into a streamed QR of the
+    /// row split that keeps `interface` (§3.3, [`crate::lsq::Split`]), answer the merged QR
+    /// and X at `outputs`.
     Absorb {
         inputs: Vec<usize>,
         outputs: Vec<usize>,
@@ -31,7 +32,7 @@ pub(crate) enum Command {
         freqs: Vec<f64>,
         keep: Keep,
     },
-    /// Absorb the kept snapshots into a fresh QR for a grown interface.
+    /// Absorb the kept responses into a fresh QR of the split that keeps `interface`.
     Regrow {
         inputs: usize,
         interface: Vec<usize>,

@@ -42,6 +42,10 @@
 //! * [`StreamedQr::finish`] — column equilibration, SVD of the small `R·S`, rank decision,
 //!   truncated-SVD solve, per-column fit residuals.
 
+mod split;
+
+pub use split::{Split, SplitState};
+
 use crate::error::{Error, Result};
 use faer::linalg::matmul::matmul;
 use faer::prelude::{Reborrow, ReborrowMut};

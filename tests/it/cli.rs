@@ -2,8 +2,9 @@
 //! outputs they write and the errors they give for bad settings (exit code, stderr, nothing
 //! left behind).
 
+use sparsemor::frf::{transfer_function, Part};
 use sparsemor::io::model_dir;
-use sparsemor::sweep::{no_progress, transfer_function, Part, SweepOptions};
+use sparsemor::sweep::{no_progress, SweepOptions};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::OnceLock;

@@ -116,7 +116,8 @@ pub fn assert_sweep_matches_dense(
     opts: &sparsemor::sweep::SweepOptions,
     tol: f64,
 ) {
-    use sparsemor::sweep::{no_progress, transfer_function, Part};
+    use sparsemor::frf::{transfer_function, Part};
+    use sparsemor::sweep::no_progress;
     let body = sparsemor::body::Body::new(model).unwrap();
     let frf =
         transfer_function(&body, scene, freqs, Part::Total, false, opts, &no_progress).unwrap();

@@ -9,13 +9,14 @@ use proptest::prelude::*;
 use sparsemor::body::Body;
 use sparsemor::distributed::{serve, stop, Cluster};
 use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
+use sparsemor::frf::{transfer_function, Part};
 use sparsemor::model::{Damping, Model};
 use sparsemor::reduce::linefit::{
     self, Growth, Interface, LineFitOptions, References, SamplingOptions,
 };
 use sparsemor::reduce::Rom;
 use sparsemor::scene::Scene;
-use sparsemor::sweep::{no_progress, transfer_function, Part, SweepOptions};
+use sparsemor::sweep::{no_progress, SweepOptions};
 use sparsemor::Error;
 use std::sync::mpsc::{channel, Receiver, Sender};
 use std::sync::{Arc, Mutex};

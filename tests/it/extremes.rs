@@ -11,13 +11,14 @@ use crate::common::*;
 use faer::{c64, Mat};
 use sparsemor::body::Body;
 use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
+use sparsemor::frf::{transfer_function, Part};
 use sparsemor::io::model_dir;
 use sparsemor::model::{Damping, Model};
 use sparsemor::reduce::linefit::{self, Interface, LineFitOptions, References, SamplingOptions};
 use sparsemor::reduce::Rom;
 use sparsemor::rigid::rigid_modes;
 use sparsemor::scene::Scene;
-use sparsemor::sweep::{no_progress, transfer_function, Part, SweepOptions};
+use sparsemor::sweep::{no_progress, SweepOptions};
 use sparsemor::Error;
 use std::f64::consts::PI;
 

@@ -4,11 +4,12 @@
 use crate::common::{dense_h, random_model, random_scene, rel_err, sparse};
 use faer::Mat;
 use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
+use sparsemor::frf::{transfer_function, Part};
 use sparsemor::io::{atomic, model_dir};
 use sparsemor::model::{Damping, Model};
 use sparsemor::scene::Scene;
 use sparsemor::sparse::Csc;
-use sparsemor::sweep::{no_progress, transfer_function, Part, SweepOptions};
+use sparsemor::sweep::{no_progress, SweepOptions};
 use sparsemor::Error;
 use std::path::{Path, PathBuf};
 

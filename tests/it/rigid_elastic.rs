@@ -6,9 +6,10 @@ use crate::common::*;
 use faer::{c64, Mat};
 use sparsemor::body::Body;
 use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
+use sparsemor::frf::{transfer_function, Frf, Part};
 use sparsemor::model::{Damping, Model};
 use sparsemor::scene::Scene;
-use sparsemor::sweep::{no_progress, transfer_function, Frf, Part, SweepOptions};
+use sparsemor::sweep::{no_progress, SweepOptions};
 use sparsemor::Error;
 
 fn tf(
@@ -56,7 +57,7 @@ fn elastic_equals_total_minus_rigid_mid_band_and_survives_low_frequency() {
                 "H1 = H - H0 at {f} Hz"
             );
         } else {
-            // H is now itself H0 + H1 (sweep::transfer_function), so the subtraction loses
+            // H is now itself H0 + H1 (frf::transfer_function), so the subtraction loses
             // only the digits of the cancellation |H0|/|H1| ≈ 1e10 (a direct solve of H was
             // off by 1e10); still visibly worse than the projection
             assert!(

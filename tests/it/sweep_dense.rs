@@ -96,7 +96,8 @@ fn umfpack_undamped_matches_dense() {
 fn an_idle_worker_lending_its_thread_changes_no_number() {
     use sparsemor::body::Body;
     use sparsemor::fe::{bar_model, BoxSpec};
-    use sparsemor::sweep::{no_progress, transfer_function, Part, Schedule};
+    use sparsemor::frf::{transfer_function, Part};
+    use sparsemor::sweep::{no_progress, Schedule};
     let spec = BoxSpec {
         elements: [2, 3, 150],
         ..BoxSpec::paper_bar()

@@ -187,7 +187,7 @@ impl<'a> Loop<'a> {
             .map(|k| band[0] + (band[1] - band[0]) * k as f64 / (nc - 1) as f64)
             .collect();
         let absorbed = engine.absorb(
-            &part,
+            &part.split,
             &scene.inputs,
             &scene.outputs,
             &sampled,
@@ -273,7 +273,7 @@ impl<'a> Loop<'a> {
             return Ok(Next::Stop(Outcome::Budget));
         }
         let absorbed = self.engine.absorb(
-            &self.part,
+            &self.part.split,
             &self.scene.inputs,
             &self.scene.outputs,
             &picks,
@@ -379,10 +379,12 @@ impl<'a> Loop<'a> {
         }
         let d = match self.sampling.growth {
             Growth::Residual => self.rom.fit().map(|f| f.residual_argmax_dof).unwrap_or(0),
-            Growth::QDeim => self.engine.qdeim_next(&self.part.interface)?,
+            Growth::QDeim => self.engine.qdeim_next(&self.part.split.interface)?,
         };
         self.part = self.part.grown(self.body, self.scene, d)?;
-        self.qr = self.engine.regrow(&self.part, self.scene.inputs.len())?;
+        self.qr = self
+            .engine
+            .regrow(&self.part.split, self.scene.inputs.len())?;
         let factorizations = self
             .last_used
             .max(self.steps.last().map(|s| s.factorizations).unwrap_or(0));

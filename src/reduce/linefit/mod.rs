@@ -23,7 +23,6 @@ pub mod indicator;
 mod options;
 mod placement;
 pub(crate) mod report;
-pub(crate) mod snapshots;
 
 pub use indicator::Indicator;
 pub use options::{Growth, Interface, LineFitOptions, References, SamplingOptions};
@@ -106,7 +105,7 @@ fn fixed(
     let t_sweep = Instant::now();
     let mut engine = Engine::new(body, &opts.sweep);
     let absorbed = engine.absorb(
-        &part,
+        &part.split,
         &scene.inputs,
         &scene.outputs,
         freqs,

@@ -91,7 +91,7 @@ pub enum Growth {
     Residual,
     /// Q-DEIM continued from the interface: the DoF whose row of the snapshots' left
     /// singular vectors adds the most to the span of the interface rows (see
-    /// `linefit/snapshots.rs`).
+    /// `src/snapshots.rs`).
     QDeim,
 }
 
