@@ -4,11 +4,11 @@
 //! - the pencil A(s) = s²M + sD + K on its union pattern (§3.1, [`Pencil`]);
 //! - the rigid part of a free body: V0, M0 and the inertia-relief projector P (§3.2,
 //!   [`RigidBody`]), detected once;
-//! - the ordered (AMD or nested dissection) symbolic Cholesky of the pencil's N×N pattern,
-//!   computed on first use.
-//!   The real LBLᵀ sweep (D = 0), the interleaved 2N LBLᵀ sweep (its order is this one,
-//!   expanded pairwise), the shift-invert Cholesky of K − σM and the inertia count all factor
-//!   matrices with this pattern, so one analysis serves them all.
+//! - the ordered (AMD, level-set bisection or nested dissection) symbolic Cholesky of the
+//!   pencil's N×N pattern, computed on first use.
+//!   The complex LDLᵀ sweep, the real LBLᵀ sweep (D = 0), the interleaved 2N LBLᵀ sweep (its
+//!   order is this one, expanded pairwise), the shift-invert Cholesky of K − σM and the
+//!   inertia count all factor matrices with this pattern, so one analysis serves them all.
 //!
 //! A [`Body`] holds the model's matrices once, as the pencil's lower triangles (every later
 //! product with M, K or D is [`Pencil::mul`]), with the model's name, node coordinates and DoFs

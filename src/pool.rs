@@ -4,8 +4,8 @@
 //! exactly this size, else in a pool built for the call whose threads are joined before the
 //! call returns. Nothing outlives the call: no idle thread in a C caller's process, and no
 //! thread-local buffer either — faer's dense kernels reserve a page pool of twice the L3 cache
-//! per thread (960 MiB of address space on this project's 480 MiB-L3 machine), which a pool
-//! dropped without a join leaves alive until its threads happen to exit.
+//! per thread (960 MiB of address space with a 480 MiB L3), which a pool dropped without a
+//! join leaves alive until its threads happen to exit.
 
 use crate::{Error, Result};
 use std::sync::Mutex;

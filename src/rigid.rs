@@ -88,9 +88,8 @@ impl RigidBody {
     /// [`Error::InvalidModel`] when M0 = V0ᵀMV0 is not positive definite.
     ///
     /// K V0 is tested first: a constrained body needs no M0, which is singular when the nodes
-    /// are one point or lie on a line (found by the extremes table, `tests/it/extremes.rs`:
-    /// a constrained single node and a chain of node pairs were refused as "not positive
-    /// definite").
+    /// are one point or lie on a line (a constrained single node, a chain of node pairs:
+    /// `tests/it/extremes.rs`).
     pub fn detect(
         pencil: &Pencil,
         nodes: &[[f64; 3]],

@@ -1,6 +1,6 @@
 //! Solved responses X (N × p) kept by the frequency engine for a later pass — line-fitting's
-//! sampling loop refits from them after its interface grows (docs/design.md §3.5, step 5): in
-//! memory, or spilled to a temporary file and streamed back.
+//! sampling loop refits from them after its interface grows (docs/design.md §3.5, steps 6–7):
+//! in memory, or spilled to a temporary file and streamed back.
 //!
 //! Q-DEIM growth ([`SnapshotStore::qdeim_next`]) never forms the N × 2pz snapshot matrix
 //! S = [Re X_1, Im X_1, …] (nor its N × r left singular vectors): it streams S in row blocks,

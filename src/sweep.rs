@@ -19,13 +19,14 @@
 //! reported as numerically singular ([`Error::Singular`]). On a free body only the elastic
 //! part is checked: the rigid part of a solve at low frequency is ill-conditioned by nature
 //! and removed by Pᵀ (or is dominated by the analytic H0). A probe error above 1e-10 means
-//! digits were lost — the LBLᵀ pivots inside supernodes only, and A(iω) of a large model near
-//! a lightly damped resonance is ill-conditioned — and all columns are then refined with the
-//! exact A(iω) ([`Numeric::refine`]) before the check; [`FreqStats::refinement_steps`]
-//! reports the steps. Measured on the 10⁶-DoF bar at 5 Hz (β = 1e-5): the point-load
-//! responses' first correction was 1.2e-4 relative while the probe showed 2.6e-6 — the probe
-//! is a lower bound of the loads' error, so refining on its signal matters — and after two
-//! steps both stood at ~1e-6, the conditioning floor of double precision there.
+//! digits were lost — the LDLᵀ pivots statically and the LBLᵀ inside supernodes only, and
+//! A(iω) of a large model near a lightly damped resonance is ill-conditioned — and all columns
+//! are then refined with the exact A(iω) ([`Numeric::refine`]) before the check;
+//! [`FreqStats::refinement_steps`] reports the steps. The probe's error is a lower bound of
+//! the loads' error, so refining on its signal matters: on the 10⁶-DoF bar at 5 Hz
+//! (β = 1e-5) the point-load responses' first correction is 1.2e-4 relative where the probe
+//! shows 2.6e-6, and refinement brings both to the conditioning floor of double precision
+//! there (docs/design.md §3.1).
 
 use crate::body::Body;
 use crate::factor::{Analysis, Backend, Numeric, SymbolicStats};
@@ -159,8 +160,8 @@ pub struct SolveAccuracy {
     pub frequencies: usize,
     /// Largest probe error ([`FreqStats::probe_error`], after refinement).
     pub probe_error_max: f64,
-    /// Largest backward error ([`FreqStats::backward_error`]; 0 in ROMs written before it
-    /// was measured).
+    /// Largest backward error ([`FreqStats::backward_error`]; 0 when read from a ROM file
+    /// that does not record it).
     #[serde(default)]
     pub backward_error_max: f64,
     /// Frequencies whose solves were refined.
@@ -536,10 +537,10 @@ impl<'a> Solver<'a> {
         })
     }
 
-    /// Solves load + probe into `rhs` with the current factorization, refines all columns
-    /// when the probe shows lost digits (not with the supported K at 0 Hz, as before the
-    /// backward error was measured) and measures the probe solve's backward error. `az` (N × 1) is the probe's right-hand side A(iω) z, from which with
-    /// the load the refinement and the backward error form the right-hand sides again.
+    /// Solves load + probe into `rhs` with the current factorization, refines all columns when
+    /// the probe shows lost digits (not with the supported K at 0 Hz) and measures the probe
+    /// solve's backward error. `az` (N × 1) is the probe's right-hand side A(iω) z, from which
+    /// with the load the refinement and the backward error form the right-hand sides again.
     fn solve_checked(
         &self,
         numeric: &mut Numeric,

@@ -1,4 +1,5 @@
-//! The [`Cluster`] of an MPI job (cargo feature `mpi`): rsmpi over the system's MPI library.
+//! The [`Cluster`] of an MPI job (cargo feature `mpi`): rsmpi over the system's MPI library
+//! (docs/design.md §9; running it: docs/mpi.md).
 //!
 //! MPI is initialized with `MPI_THREAD_SERIALIZED` and every call goes through one mutex, so
 //! the communicator may be shared by the threads of a rank (only the thread that runs the

@@ -18,11 +18,11 @@ use faer::{c64, Mat, MatMut, Par};
 use std::sync::Arc;
 
 /// Largest N for which [`Backend::Auto`] picks faer LU for an undamped (real) pencil.
-/// Measured (`sparsemor bench sweep`, README): on the real bar pencil faer LU sweeps faster
-/// than the real LBLᵀ at N = 1656 and 12 060 (its solve is 2× cheaper); at 10⁵ DoF LU's
+/// On the bars of `sparsemor bench sweep` faer LU is as fast as the LBLᵀ at N = 1656 and
+/// sweeps 1.5× faster at N = 12 060, where its solve is about 2× cheaper; at 10⁵ DoF LU's
 /// COLAMD fill explodes on 3-D pencils (docs/design.md §3.1), so above this size Auto uses
-/// LBLᵀ. Damped pencils always take the complex LDLᵀ, which factors faster than both at
-/// every size measured.
+/// LBLᵀ. Damped pencils always take the complex LDLᵀ, which factors faster than both at every
+/// size of the bench (docs/performance.md, "Factorization against MKL PARDISO").
 pub const LU_MAX_N: usize = 15_000;
 
 /// Which sparse factorization to use.
@@ -140,7 +140,7 @@ pub(super) type SymbolicN<'a> = Box<dyn FnOnce() -> Result<Arc<SymbolicCholesky<
 /// A(iω) on the pencil's lower pattern: what every backend factors. The backends that
 /// read arrays get `re`/`im` gathered; the complex LDLᵀ reads each entry once while it
 /// assembles and computes it from the pencil ([`Values::entry`]), which saves two arrays of
-/// the pencil's size per factorization (0.65 GB on the 10⁶-DoF bar).
+/// the pencil's size per factorization (0.65 GB on the 10⁶-DoF bar, docs/design.md §3.1).
 pub(super) struct Values<'a> {
     pub(super) pattern: SymbolicSparseColMatRef<'a, usize>,
     pub(super) pencil: &'a Pencil,

@@ -1,4 +1,5 @@
-//! Real sparse Cholesky LLᵀ of the shifted pencil K − σM (faer, supernodal, AMD ordering).
+//! Real sparse Cholesky LLᵀ of the shifted pencil K − σM (faer, supernodal, on the pencil's
+//! fill-reducing order).
 //!
 //! For σ below the spectrum of K φ = λ M φ (σ < 0 with M positive definite and K positive
 //! semi-definite), K − σM is symmetric positive definite, even for a free body, so it has a
@@ -8,9 +9,10 @@
 //! - the benches' reference "real Cholesky on the same pattern" ([`reference_cholesky`]),
 //!   the arithmetic floor the complex factorizations of A(iω) are compared with.
 //!
-//! [`symbolic_cholesky`] is the ordered (AMD or nested dissection, `ordering`) symbolic
-//! analysis of the pencil's N×N lower pattern. It is shared: the LBLᵀ backend factors the real pencil on it and expands its
-//! order pairwise for the 2N form, and the inertia count factors K − σM on it.
+//! [`symbolic_cholesky`] is the ordered (AMD, level-set bisection or nested dissection,
+//! `ordering`) symbolic analysis of the pencil's N×N lower pattern. It is shared: the LBLᵀ
+//! backend factors the real pencil on it and expands its order pairwise for the 2N form, and
+//! the inertia count factors K − σM on it.
 
 use super::backend::{try_vec, workspace};
 use super::pattern;
@@ -24,10 +26,11 @@ use faer::{Conj, MatMut, Par, Side};
 use std::sync::Arc;
 use std::time::Instant;
 
-/// Symbolic Cholesky of the pencil's pattern on its fill-reducing ordering (AMD, or METIS's
-/// nested dissection when the `metis` feature is on and it leaves fewer entries:
-/// [`super::symbolic_cholesky_ordered`]): the reference "real Cholesky on the same pattern" of
-/// the benches, the structure of the complex LDLᵀ and the ordering the 2N form expands.
+/// Symbolic Cholesky of the pencil's pattern on its fill-reducing ordering (AMD, a level-set
+/// bisection, or METIS's nested dissection with the `metis` feature, as
+/// [`super::symbolic_cholesky_ordered`] chooses): the reference "real Cholesky on the same
+/// pattern" of the benches, the structure of the complex LDLᵀ and the ordering the 2N form
+/// expands.
 ///
 /// # Errors
 /// [`Error::Factor`] when the analysis fails (allocation, index overflow).

@@ -50,7 +50,7 @@ pub fn count_eigenvalues_below_with(
 ///
 /// The pivots are chosen inside each supernode only (faer's intranode Bunch–Kaufman), so an
 /// interior shift can meet a supernode whose diagonal block is nearly singular and the factor
-/// grows: a solve's backward error then reaches 1e-13…1e-12 instead of ε. Solves are therefore
+/// grows: a solve's backward error then reaches 1e-13…7e-12 instead of ε. Solves are therefore
 /// checked and refined (fixed-precision iterative refinement, as PARDISO does after its
 /// perturbed pivots): x ← x + A⁻¹(b − A x) while the normwise backward error
 /// ‖b − A x‖∞ / (‖A‖∞ ‖x‖∞ + ‖b‖∞) of a column exceeds [`REFINE_ABOVE`], at most
@@ -70,12 +70,11 @@ pub(crate) struct ShiftedLblt<'a> {
     refine_buffers: Box<Buffers<f64>>,
 }
 
-/// Normwise backward error of a solve above which it is refined. Measured on the 14³ cube
-/// (N = 10125, 900 solves at 8 interior shifts), unrefined solves land at 1e-16…5e-14 (median
-/// 2e-15) where the factor is sound, at 1e-13…7e-12 where it grew (6³ cube, one shift of six).
-/// The Krylov–Schur iteration resolves Ritz residuals to 1e-14 relative, and an operator
-/// applied with a larger backward error stalls it above that (measured: Ritz residuals stuck
-/// at 1e-13 for 60 restarts), so solves are refined above 1e-14.
+/// Normwise backward error of a solve above which it is refined: the Krylov–Schur iteration
+/// resolves Ritz residuals to 1e-14 relative, and an operator applied with a larger backward
+/// error stalls it above that (Ritz residuals stay at ~1e-13). Unrefined solves land at
+/// 1e-16…5e-14 where the factor is sound and at 1e-13…7e-12 where it grew (docs/design.md
+/// §3.6).
 const REFINE_ABOVE: f64 = 1e-14;
 
 impl<'a> ShiftedLblt<'a> {

@@ -11,7 +11,7 @@
 //!   DoF interleaved (every 2×2 block [[a_r, a_i], [a_i, −a_r]] is a scaled reflection, well
 //!   conditioned whenever the complex entry is non-zero). The order of the N×N pattern
 //!   is expanded pairwise, so pairs stay in one supernode (where 2×2 pivots can form) and
-//!   the fill is exactly 4× that of the real factor on the same order.
+//!   the fill is exactly 4× that of the real factor on the same order (docs/design.md §3.1).
 //!
 //! The pivots of B also give the inertia of A ([`Factor::pivots`], Sylvester's law), which
 //! the eigenvalue count of [`super::inertia`] reads.

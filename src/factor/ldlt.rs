@@ -1,33 +1,32 @@
-//! Complex-symmetric supernodal LDLᵀ of a damped A(iω) = K − ω²M + iωD (docs/design.md §3.1 (b)).
+//! Complex-symmetric supernodal LDLᵀ of a damped A(iω) = K − ω²M + iωD (docs/design.md §3.1).
 //!
 //! P A Pᵀ = L D Lᵀ with the transpose, never the adjoint: A is complex *symmetric*
 //! (Aᵀ = A, Aᴴ ≠ A), L unit lower triangular in c64 and D diagonal in c64. The structure is
-//! the ordered (AMD or nested dissection) supernodal symbolic Cholesky of the pencil's N×N
-//! pattern ([`super::symbolic_cholesky`]), shared with the real path and the eigensolver, so the
-//! factor has the fill of a real Cholesky in complex numbers: half the bytes of the
-//! interleaved 2N×2N LBLᵀ form and a quarter of its entries.
+//! the ordered (AMD, level-set bisection or nested dissection) supernodal symbolic Cholesky of
+//! the pencil's N×N pattern ([`super::symbolic_cholesky`]), shared with the real path and the
+//! eigensolver, so the factor has the fill of a real Cholesky in complex numbers: half the
+//! bytes of the interleaved 2N×2N LBLᵀ form and a quarter of its entries.
 //!
-//! **Left-looking supernodal factorization.** For each supernode s (columns c₀..c₁, rows
-//! below them `pattern(s)`), its panel [L_top; L_bot] is assembled from A, then every
-//! descendant d whose pattern meets c₀..c₁ subtracts L_d,rows · D_d · L_d,colsᵀ (a dense
-//! product, scattered through a row map; of its square block on c₀..c₁ only the lower
-//! triangle is computed, which cut the 32³ cube's factor from 19.4 to 14.9 s), then the
+//! **Left-looking supernodal factorization.** For each supernode s (columns c₀..c₁, rows below
+//! them `pattern(s)`), its panel [L_top; L_bot] is assembled from A, then every descendant d
+//! whose pattern meets c₀..c₁ subtracts L_d,rows · D_d · L_d,colsᵀ (a dense product, scattered
+//! through a row map; of its square block on c₀..c₁ only the lower triangle is computed: a
+//! full square product makes the 32³ cube's factor 1.3× slower, docs/design.md §3.1), then the
 //! diagonal block is factored by a recursive blocked dense LDLᵀ and L_bot ← L_bot L_top⁻ᵀ D⁻¹
 //! (triangular solve). Every flop outside the smallest diagonal blocks is a faer GEMM or
 //! triangular solve on c64.
 //!
-//! **Threads inside one factorization** (the sweep's factor-parallel schedule): the
-//! supernodes are in postorder, so every subtree of the elimination tree is a contiguous
-//! range of supernodes and of L's values. [`Split`] finds two groups of independent subtrees
-//! of comparable work; each group is factored on its own thread, then the supernodes above
-//! them with the threads inside the large dense products (≥ 2²¹ multiply-adds) and in the
-//! scatter of large updates (two halves of the target columns; 32³ cube, two threads: 7.95 →
-//! 7.63 s, the one-thread factor 14.9 → 14.5 s with the scatter's loop split in two). Each
+//! **Threads inside one factorization** (the sweep's factor-parallel schedule): the supernodes
+//! are in postorder, so every subtree of the elimination tree is a contiguous range of
+//! supernodes and of L's values. [`Split`] finds two groups of independent subtrees of
+//! comparable work; each group is factored on its own thread, then the supernodes above them
+//! with the threads inside the large dense products (≥ 2²¹ multiply-adds) and in the scatter
+//! of large updates (two halves of the target columns, which write disjoint columns). Each
 //! supernode is computed the same way in either case, so the factor does not depend on the
 //! thread count. The solves run the two groups independently too (see
-//! [`Numeric::solve_block`]); on a bar with the level-set bisection
-//! ([`super::ordering`]) the groups are its two halves: 10⁵ bar, factor 1.82× and solves
-//! 1.71× faster on two threads.
+//! [`Numeric::solve_block`]); on a bar with the level-set bisection ([`super::ordering`]) the
+//! groups are its two halves (the speed-ups of two threads on the 10⁵ bar are in
+//! docs/design.md §3.1).
 //!
 //! **Pivoting: static, with a pivoting fallback** (docs/design.md §3.1). The order is fixed by
 //! the symbolic analysis. A numerically zero pivot, |d| < ε·max|aᵢⱼ|, is replaced and counted
@@ -37,7 +36,7 @@
 //! Where a solve stays inaccurate after refinement, `factor::Numeric::factor_with_pivoting`
 //! hands the frequency to the pivoting LBLᵀ of the 2N form. τ is ε first, not √ε: the last
 //! pivots of a free body at low frequency are legitimately ~ω²m, ~1e-9 of max|aᵢⱼ| at 1 Hz on
-//! the paper bar, and perturbing those made refinement diverge. Tested against dense complex
+//! the paper bar, and perturbing those makes refinement diverge. Tested against dense complex
 //! solves, zero-diagonal and near-resonance cases included (tests `factor_ldlt`).
 
 use super::backend::{
@@ -66,8 +65,8 @@ const UNBLOCKED: usize = 32;
 const UNBLOCKED_SOLVE: usize = 8;
 
 /// Dense products of fewer multiply-adds than this run on one thread even when the
-/// factorization has several: splitting them costs more than it saves (measured on the 10⁵
-/// bar: threads inside every product made the factor 1.24× slower).
+/// factorization has several: splitting them costs more than it saves (threads inside every
+/// product make the 10⁵ bar's factor 1.24× slower, docs/design.md §3.1).
 const PAR_MIN_WORK: usize = 1 << 21;
 
 /// `par` for a dense operation of `work` multiply-adds, else sequential.

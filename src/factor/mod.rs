@@ -17,10 +17,11 @@
 //!   §3.1), so [`Backend::Auto`] uses it only up to [`LU_MAX_N`].
 //! - `umfpack` — **UMFPACK** (cargo feature `umfpack`), real or complex LU.
 //!
-//! Beside them: `ordering` (AMD or METIS nested dissection, whichever fills less,
-//! [`symbolic_cholesky_ordered`]), `cholesky` (the real LLᵀ of K − σM of the eigensolver and the benches'
-//! reference, [`reference_cholesky`]), `inertia` (exact eigenvalue counts,
-//! [`count_eigenvalues_below`]) and `pattern` (the patterns the backends read).
+//! Beside them: `ordering` (AMD, a level-set bisection or METIS nested dissection, whichever
+//! fills least, the bisection within 5 %, [`symbolic_cholesky_ordered`]), `cholesky` (the real
+//! LLᵀ of K − σM of the eigensolver and the benches' reference, [`reference_cholesky`]),
+//! `inertia` (exact eigenvalue counts, [`count_eigenvalues_below`]) and `pattern` (the
+//! patterns the backends read).
 //!
 //! Adding a backend: one file whose `analyse` returns its analysis (a type implementing
 //! the private `SymbolicFactorization` trait of `backend`, whose numeric type implements
@@ -302,8 +303,8 @@ impl<'a> Numeric<'a> {
             return Ok(false);
         }
         // the 2N factor holds about twice the LDLᵀ's bytes: not tried unless it fits in half
-        // of the memory available now (on the 10⁶-DoF bar two sweep workers allocating it
-        // together were killed for lack of memory)
+        // of the memory available now, since two sweep workers may allocate it at once (on the
+        // 10⁶-DoF bar two 2N factors beside the workers' LDLᵀ factors do not fit in 24 GB)
         let need = 2 * self.analysis.stats.bytes_per_factor;
         if self.pivoting.is_none() && crate::memory::available_bytes().is_some_and(|a| need > a / 2)
         {

@@ -1,12 +1,14 @@
-//! The fill-reducing ordering of the pencil's pattern (docs/design.md §3.1): AMD always, and
-//! with cargo feature `metis` also METIS's nested dissection, keeping the one whose symbolic
-//! Cholesky has fewer entries.
+//! The fill-reducing ordering of the pencil's pattern (docs/design.md §3.1): AMD always, a
+//! level-set bisection from [`MIN_BISECTED`] unknowns, and with cargo feature `metis` also
+//! METIS's nested dissection, keeping the one whose symbolic Cholesky has the fewest entries
+//! (the bisection also when it has at most 5 % more: its two halves give one factorization
+//! two threads).
 //!
 //! Every sparse symmetric factorization of the crate (the complex LDLᵀ, the LBLᵀ forms, the
 //! eigensolver's Cholesky and inertia counts) works on the one symbolic analysis chosen here.
-//! Measured (README, `bench sweep`): on slender bars AMD and nested dissection are close; on a
-//! chunky 3-D body (the 32³ cube) MKL PARDISO's METIS order left 2.3× fewer entries in its
-//! factor than AMD, and the flops follow.
+//! Slender bars keep the bisection; a chunky 3-D body (the 32³ cube) takes nested dissection,
+//! with half of AMD's factor entries, and the flops follow (docs/performance.md, "Ordering
+//! matters").
 
 use super::pattern;
 use crate::pencil::Pencil;
@@ -183,7 +185,7 @@ fn analyse(
 /// of a supernode: the owner of the first row below it), each keeping its columns in order;
 /// returned with its inverse. A postorder is a topological order, so the exact fill is
 /// unchanged; faer's relaxed amalgamation of small supernodes may differ slightly (the 32³
-/// cube: 119.5 M entries before, 120.4 M after).
+/// cube: 119.5 M entries on METIS's order as given, 120.4 M in postorder).
 fn postorder(sym: &SymbolicCholesky<usize>, fwd: &[usize]) -> (Vec<usize>, Vec<usize>) {
     use faer::sparse::linalg::cholesky::SymbolicCholeskyRaw;
     let n = fwd.len();
@@ -244,9 +246,9 @@ fn nested_dissection(graph: &Graph) -> Option<(Vec<usize>, Vec<usize>)> {
     let (mut perm, mut iperm) = (vec![0 as idx_t; n], vec![0 as idx_t; n]);
     // METIS seeds GKlib's random generator, whose state is a process global
     // (GKlib/random.c: `static uint64_t mt[NN]`), at every call: concurrent calls interleave
-    // their draws and return orderings that differ from run to run (seen as a sweep that was
-    // not bit-identical between two in-process ranks). One call at a time keeps each ordering a
-    // function of its graph alone.
+    // their draws and return orderings that differ from run to run (two in-process ranks would
+    // then sweep with different orders). One call at a time keeps each ordering a function of
+    // its graph alone.
     static METIS: std::sync::Mutex<()> = std::sync::Mutex::new(());
     let _one_at_a_time = METIS.lock().unwrap_or_else(|p| p.into_inner());
     // SAFETY: `options` has METIS_NOPTIONS entries, as METIS_SetDefaultOptions requires.

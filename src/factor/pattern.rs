@@ -1,4 +1,5 @@
-//! Sparsity patterns the backends factor, all derived from the pencil's N×N lower pattern.
+//! Sparsity patterns the backends factor, all derived from the pencil's N×N lower pattern
+//! (docs/design.md §3.1).
 //!
 //! The pencil A(iω) = K − ω²M + iωD is symmetric and stored by its lower triangle
 //! (row ≥ column, rows sorted). The backends read it in three forms:
@@ -126,15 +127,15 @@ impl Scalar for faer::c64 {
 /// by a normwise error).
 ///
 /// The columns go in blocks of up to [`RESIDUAL_BLOCK`], row by row ([`split`]), so one pass
-/// over the pattern serves a whole block (measured on the 10⁶-DoF bar, ten right-hand sides
-/// column by column: 1.3 s per residual, which made the sweep's refinement cost twice the
-/// factorization). Blocks run in parallel under `par`. Every entry of r is computed by the
-/// same operations in the same order as column by column in complex arithmetic.
+/// over the pattern serves a whole block instead of one pass per column (docs/design.md §3.1).
+/// Blocks run in parallel under `par`. Every entry of r is computed by the same operations in
+/// the same order as column by column in complex arithmetic.
 ///
 /// Memory: a block's columns of the N × k block hold b, then the split x, then r, so beside
 /// it the residual needs only the split r and |A||x| + |b| of each block (N × k values and
 /// N × k magnitudes in all); no copy of b and no column-major denominator (on the 10⁶-DoF
-/// bar's sweep, ten columns: 0.48 GB less than a block each for b, r, s, x and |x|).
+/// bar's sweep, ten columns: 0.40 GB, against 0.88 GB with a block each for b, r, s, x and
+/// |x|; docs/design.md §3.1).
 pub(super) fn symmetric_residual<T: Scalar, F: Fn(usize) -> T + Sync>(
     a: Lower<'_, F>,
     x: MatRef<'_, T>,
@@ -181,8 +182,8 @@ pub(super) fn symmetric_residual<T: Scalar, F: Fn(usize) -> T + Sync>(
 
 /// Rows per tile when columns are copied to and from the split rows: the tile's rows stay
 /// in cache while each column streams through it (column by column over all rows, every
-/// column re-read the whole row-major buffer: 4.6 s of the 10⁶-DoF bar's 20-frequency sweep
-/// went to the copy back alone).
+/// column re-reads the whole row-major buffer, and the copy back alone takes 4.6 s of the
+/// 10⁶-DoF bar's 20-frequency sweep; docs/design.md §3.1).
 const TILE: usize = 512;
 
 /// Calls `f(i, c)` for every entry of an n × w block, tile by tile of [`TILE`] rows and
@@ -303,9 +304,8 @@ struct BlockScratch {
 
 /// [`symmetric_residual`] of one block of w ≤ [`RESIDUAL_BLOCK`] columns: `xr` holds the
 /// block's columns of b on entry (column-major), the split x during the pass and r on exit.
-/// Each pattern entry updates the w adjacent values of r (and of s, in the same pass: one
-/// pass instead of two cut the solve phase of a refined frequency of the 10⁶-DoF bar, three
-/// residuals of ten columns, from 8.66 to 7.74 s; same numbers). Returns the block's
+/// Each pattern entry updates the w adjacent values of r (and of s, in the same pass, so the
+/// pattern and x are read once; the numbers are those of two passes). Returns the block's
 /// componentwise backward error and keeps each column's in `ws` (0 without
 /// `componentwise`).
 fn residual_block<T: Scalar, F: Fn(usize) -> T>(
@@ -381,7 +381,7 @@ impl<T: Scalar, F: Fn(usize) -> T, const S: bool> pulp::NullaryFnOnce for Pass<'
             a, w, xt, rt, st, ..
         } = self;
         // one column, the sweep's backward error of every probe solve: with w a constant the
-        // loops over the columns vanish (10⁵-DoF bar: 0.035 → 0.024 s per frequency)
+        // loops over the columns vanish (its cost per frequency: docs/design.md §3.1)
         if w == 1 {
             residual_pass::<T, F, S>(a, 1, xt, rt, st)
         } else {
@@ -392,9 +392,8 @@ impl<T: Scalar, F: Fn(usize) -> T, const S: bool> pulp::NullaryFnOnce for Pass<'
 
 /// Runs `pass` compiled for AVX2 when the processor has it (pulp's runtime dispatch, as
 /// faer's kernels do; the default build targets baseline x86-64), else as it is: the pass
-/// then runs four reals per instruction instead of two (on the 10⁶-DoF bar, ten columns, a
-/// componentwise residual took 0.97 s instead of 1.11 s on split rows at baseline, and
-/// 1.23–1.31 s on complex records before). No FMA is formed without fast-math, so the
+/// then runs four reals per instruction instead of two (the 10⁶-DoF bar's timings with and
+/// without AVX2 are in docs/design.md §3.1). No FMA is formed without fast-math, so the
 /// numbers are the same either way.
 fn vectorized<P: pulp::NullaryFnOnce<Output = ()>>(pass: P) {
     #[cfg(target_arch = "x86_64")]

@@ -18,12 +18,12 @@ pub const MAX_REFINEMENTS: usize = 3;
 
 /// The componentwise backward error at which refinement stops: 4ε. xGERFS stops at ε/2 or
 /// when a step does not halve the error, but the error of a refined sparse solve settles at
-/// 3–7e-16 (2–3ε; the residual's own rounding), so that rule always paid one more solve and
-/// one more residual to find no halving. Measured on the 10⁶-DoF bar (β = 1e-5, ten columns):
-/// at 5, 20 and 300 Hz the first step took the error from 1.2–1.7e-15 to 5.8–7.4e-16 and the
-/// probe error from 5.5e-7, 1.9e-6, 1.9e-10 to 6.1e-7, 7.6e-7, 1.7e-10; the second step left
-/// the backward error where it was and the probe errors at 1.1e-6, 1.7e-6, 3.1e-10 (noise at
-/// the conditioning floor, no better), for 3.5 s of the frequency's 11.3 s of solves.
+/// 3–7e-16 (2–3ε; the residual's own rounding), so that rule would take one more solve and
+/// one more residual every time to find no halving. On the 10⁶-DoF bar (β = 1e-5, ten
+/// columns; 5, 20 and 300 Hz) such a second step leaves the backward error where it is and
+/// moves the probe errors only within the noise of the conditioning floor (at 5 and 20 Hz to
+/// 1.1–1.7e-6, above the default probe tolerance), for about a third of the frequency's solve
+/// time (docs/design.md §3.1).
 pub const BACKWARD_ERROR_FLOOR: f64 = 4.0 * f64::EPSILON;
 
 /// When to take another refinement step; "worst" is the largest backward error over the
@@ -41,9 +41,9 @@ pub(super) enum Stop {
     /// LAPACK xGERFS's rule with a floor: while the componentwise backward error
     /// maxᵢ |b − A x|ᵢ / (|A||x| + |b|)ᵢ exceeds [`BACKWARD_ERROR_FLOOR`] and halved in the
     /// last step. The componentwise error sees what the normwise one hides on smooth
-    /// solutions: on the 10⁶-DoF bar at 5 Hz (β = 1e-5) unrefined point-load responses had
-    /// normwise 3e-16, componentwise 1–3e-15 and a forward error of 1.2e-4 that refinement
-    /// cut to the conditioning floor, ~1e-6.
+    /// solutions: on the 10⁶-DoF bar at 5 Hz (β = 1e-5) unrefined point-load responses have
+    /// normwise 3e-16, componentwise 1–3e-15 and a forward error of 1.2e-4, which refinement
+    /// cuts to the conditioning floor, ~1e-6 (docs/design.md §3.1).
     Componentwise,
 }
 
@@ -342,7 +342,7 @@ mod tests {
                 "{stop:?}: {steps} steps"
             );
             // the componentwise rule runs to ~ε; the normwise one stops once ‖r‖∞ is below
-            // 1e-14 relative, which left the componentwise error at 1.9e-15 here
+            // 1e-14 relative, which leaves the componentwise error at 1.9e-15 here
             let bound = match stop {
                 Stop::Componentwise => 1e-15,
                 Stop::Normwise { .. } => 1e-14,
@@ -354,7 +354,7 @@ mod tests {
             println!("{stop:?}: {steps} steps, backward error {before:.1e} -> {after:.1e}, vs dense {diff_before:.1e} -> {diff:.1e}");
             // both cut the distance to the dense solve by four orders at least; the
             // componentwise rule, which runs on, reaches the floor cond(A)·ε (1.8e-11 here;
-            // the normwise one stopped at 5.2e-10)
+            // the normwise one stops at 5.2e-10)
             let floor = match stop {
                 Stop::Componentwise => 1e-10,
                 Stop::Normwise { .. } => f64::INFINITY,

@@ -109,8 +109,8 @@ pub enum Provenance {
 pub struct Rom {
     /// How it was built.
     pub provenance: Provenance,
-    /// N of the full model it was built from (0 when unknown: a ROM directory written before
-    /// this was recorded).
+    /// N of the full model it was built from (0 when unknown: a ROM directory that does not
+    /// record it).
     pub full_n: usize,
     /// Reduced mass (n×n, symmetric).
     pub mr: Mat<f64>,

@@ -11,8 +11,8 @@
 //! (Mr = Tᵀ(U_cᵀMU_c)T, …; r×r work). Mathematically this is VᵀMV, VᵀKV; numerically,
 //! forming K V directly lets the rounding error of the sparse product (≈ ε·λ_max) reach the
 //! ROM eigenvalues amplified by cond(U_cr): on the paper bar (c = r = 9 on its I/O DoFs,
-//! cond 6.8e4) the ROM eigenfrequencies were off by up to 1.7e-7 that way, 2.6e-8 now — the
-//! limit of storing Mr, Kr in double precision for that U_cr.
+//! cond 6.8e4) the ROM eigenfrequencies err by up to 1.7e-7 that way and by 2.6e-8 in two
+//! steps, the limit of storing Mr, Kr in double precision for that U_cr (docs/design.md §3.6).
 //!
 //! Entry point: [`reduce`].
 

@@ -766,8 +766,8 @@ impl Symbolic {
     fn new(pencil: &Pencil) -> Result<(Self, Footprint)> {
         let (pattern, src) = pattern::full(pencil);
         let real = pencil.is_real();
-        // METIS: measured 6× fewer flops and 2.4× less fill than UMFPACK's default AMD on a
-        // 10⁵-DoF 3-D pattern (143 s vs 861 s per real factorization)
+        // METIS: 6× fewer flops and 2.4× less fill than UMFPACK's default AMD on a 10⁵-DoF
+        // 3-D pattern, 143 s against 861 s per real factorization (docs/design.md §3.1)
         let sym = UmfpackSymbolic::with_ordering(
             pencil.n(),
             pattern.col_ptr(),

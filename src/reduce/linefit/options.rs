@@ -113,9 +113,9 @@ pub struct SamplingOptions {
     pub verify_points: Option<usize>,
     /// Candidate grid size of the indicator.
     pub candidates: usize,
-    /// Interface growth rule. Default: the largest fit residual — measured on the paper bar
-    /// for tol = 1e-3 it needs order 17 and 21 factorizations where Q-DEIM needs 18 and 22
-    /// (both reach the tolerance; see the README), and it needs no SVD of the snapshots.
+    /// Interface growth rule. Default: the largest fit residual, which reaches tol = 1e-3 on
+    /// the paper bar at order 17 with 22 factorizations where Q-DEIM needs order 18 and 23
+    /// (docs/performance.md, "Speed and accuracy"), and needs no SVD of the snapshots.
     pub growth: Growth,
     /// Memory for kept snapshots (bytes); `None` = a quarter of the available memory.
     pub snapshot_memory: Option<usize>,
@@ -141,9 +141,9 @@ impl SamplingOptions {
 impl SamplingOptions {
     /// The default cap of the order for an initial order n0, N DoFs, `threads` workers and
     /// `memory` bytes available: min(max(3·n0, 40), N/2, M/(32·threads·N)) — three times the
-    /// initial order (at least 40: the paper bar reaches 1e-4 at order 22 from 14), never more
-    /// than half the DoFs, and the workers' streamed-QR states (n·N doubles each) within a
-    /// quarter of the memory. Never below n0.
+    /// initial order (at least 40: the paper bar reaches tol 1e-4 at order 21–22 from 14,
+    /// docs/performance.md), never more than half the DoFs, and the workers' streamed-QR
+    /// states (n·N doubles each) within a quarter of the memory. Never below n0.
     pub fn auto_max_order(n0: usize, n: usize, threads: usize, memory: usize) -> usize {
         let by_memory = memory / (32 * threads.max(1) * n.max(1));
         (3 * n0).max(40).min(n / 2).min(by_memory).max(n0)
