@@ -53,7 +53,7 @@ pub(crate) use cholesky::Cholesky;
 pub(crate) use inertia::ShiftedLblt;
 
 use crate::pencil::Pencil;
-use crate::{Error, Result};
+use crate::Result;
 use backend::{try_vec, Analysed, Factorization, SymbolicFactorization, SymbolicN, Values};
 use faer::sparse::linalg::cholesky::SymbolicCholesky;
 use faer::{c64, MatMut, Par};
@@ -74,7 +74,7 @@ fn analyse(
         #[cfg(feature = "umfpack")]
         Backend::Umfpack => umfpack::analyse(pencil),
         #[cfg(not(feature = "umfpack"))]
-        Backend::Umfpack => Err(Error::InvalidSetting(
+        Backend::Umfpack => Err(crate::Error::InvalidSetting(
             "backend umfpack: this build has no UMFPACK; rebuild with `--features umfpack` \
              (needs libsuitesparse-dev)"
                 .into(),
