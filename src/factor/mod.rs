@@ -115,8 +115,8 @@ impl Analysis {
     /// of right-hand sides solved at once (sizes the solve workspace).
     ///
     /// # Errors
-    /// [`Error::Factor`] when the analysis fails (allocation, index overflow), or
-    /// [`Error::InvalidSetting`] for `umfpack` without the feature.
+    /// [`Error::Factor`](crate::Error::Factor) when the analysis fails (allocation, index overflow), or
+    /// [`Error::InvalidSetting`](crate::Error::InvalidSetting) for `umfpack` without the feature.
     pub fn new(pencil: &Pencil, backend: Backend, max_rhs: usize) -> Result<Self> {
         Self::with_symbolic(pencil, backend, max_rhs, || {
             Ok(Arc::new(symbolic_cholesky(pencil)?))
@@ -174,7 +174,7 @@ impl Analysis {
     /// Allocates the buffers of one numeric factorization (one per concurrent frequency).
     ///
     /// # Errors
-    /// [`Error::Factor`] when the workspace cannot be allocated.
+    /// [`Error::Factor`](crate::Error::Factor) when the workspace cannot be allocated.
     pub fn numeric(&self, pencil: &Pencil) -> Result<Numeric<'_>> {
         let factors = self.symbolic.numeric()?;
         let mut numeric = Numeric {
@@ -236,7 +236,7 @@ impl<'a> Numeric<'a> {
     /// [`Self::refine`], and where that is not enough [`Self::factor_with_pivoting`].
     ///
     /// # Errors
-    /// [`Error::Singular`] when a pivot breaks down exactly, [`Error::Factor`] on backend
+    /// [`Error::Singular`](crate::Error::Singular) when a pivot breaks down exactly, [`Error::Factor`](crate::Error::Factor) on backend
     /// failure.
     pub fn factor(&mut self, pencil: &Pencil, omega: f64, par: Par) -> Result<()> {
         self.factored_at = None;
