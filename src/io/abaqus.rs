@@ -24,10 +24,8 @@
 //! in parallel (`io::import::par_lines`), the deck line by line
 //! ([`crate::io::import::for_each_line`]); errors name the file and the line.
 
-use crate::io::import::{
-    first_fields, for_each_line, par_lines, parse_f64, parse_u64, tokens, uniform_nodes, Direction,
-    Dof, Format, Imported, NodeTable,
-};
+use crate::io::import::{uniform_nodes, Direction, Dof, Format, Imported, NodeTable};
+use crate::io::text::{fields, first_fields, for_each_line, par_lines, parse_f64, parse_u64};
 use crate::sparse::Triplets;
 use crate::{Error, Result};
 use std::collections::HashMap;
@@ -88,7 +86,7 @@ fn read_matrix(path: &Path, keys: &mut Keys) -> Result<(Layout, Triplets)> {
     let mut layout = None;
     let mut t = Triplets::default();
     let parse = |line: usize, bytes: &[u8]| -> Result<Option<Entry>> {
-        let (tok, count) = first_fields::<5>(tokens(bytes));
+        let (tok, count) = first_fields::<5>(fields(bytes));
         if count == 0 || bytes.starts_with(b"**") {
             return Ok(None);
         }
@@ -202,7 +200,7 @@ pub fn read_deck(path: &Path) -> Result<Deck> {
         if keyword != "node" {
             return Ok(());
         }
-        let f: Vec<&[u8]> = tokens(text.as_bytes()).collect();
+        let f: Vec<&[u8]> = fields(text.as_bytes()).collect();
         if !(3..=4).contains(&f.len()) {
             return Err(Error::parse(
                 path,

@@ -587,7 +587,7 @@ pub fn read_apdl_math(
 /// An exported K or M, Matrix Market or Harwell–Boeing (told by its header): the matrix, who
 /// wrote it (the `% Creator:` comment; the Harwell–Boeing title and key) and the format's name.
 fn exported_matrix(path: &Path) -> Result<(crate::sparse::Csc, String, &'static str)> {
-    if crate::io::harwell_boeing::looks_like(&crate::io::import::head(path)?) {
+    if crate::io::harwell_boeing::looks_like(&crate::io::head(path)?) {
         let (h, a) = crate::io::harwell_boeing::read_with_header(path)?;
         let who = [h.title.as_str(), h.key.as_str()]
             .iter()
@@ -608,7 +608,7 @@ fn exported_matrix(path: &Path) -> Result<(crate::sparse::Csc, String, &'static 
 
 /// The `% Creator:` comment of a Matrix Market header, or `unknown creator`.
 fn creator(path: &Path) -> Result<String> {
-    let head = crate::io::import::head(path)?;
+    let head = crate::io::head(path)?;
     Ok(String::from_utf8_lossy(&head)
         .lines()
         .take_while(|l| l.starts_with('%'))

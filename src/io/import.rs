@@ -39,13 +39,13 @@
 //! constrained DoFs that were removed. [`Imported::into_model`] validates it as a
 //! [`Model`].
 
+use crate::io::text::{first_fields, par_lines, parse_u64, show};
 use crate::io::{abaqus, ansys, nastran};
 use crate::model::{Damping, Model, ValidationReport};
 use crate::scene::Scene;
 use crate::sparse::Csc;
 use crate::{Error, Result};
 use std::fmt;
-use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
@@ -469,19 +469,9 @@ fn stiffness_and_mass(files: &[&(Kind, Option<Role>, PathBuf)]) -> Result<(PathB
     ))
 }
 
-/// The first 4 KiB of a file (all of a shorter one).
-pub(crate) fn head(path: &Path) -> Result<Vec<u8>> {
-    super::check_regular(path)?;
-    let mut head = Vec::with_capacity(4096);
-    std::fs::File::open(path)
-        .and_then(|f| f.take(4096).read_to_end(&mut head))
-        .map_err(|e| Error::io(path, e))?;
-    Ok(head)
-}
-
 /// Tells what a file is from its first 4 KiB.
 fn sniff(path: &Path) -> Result<Kind> {
-    let head = head(path)?;
+    let head = crate::io::head(path)?;
     if head.len() >= 4 {
         let w = [head[0], head[1], head[2], head[3]];
         if u32::from_le_bytes(w) == 100 || u32::from_be_bytes(w) == 100 {
@@ -536,211 +526,6 @@ fn sniff(path: &Path) -> Result<Kind> {
          file, an Abaqus matrix or input deck, a Nastran OP4 file, a DoF map or a node coordinate \
          table",
     ))
-}
-
-/// Calls `f(line_number, line)` for every line of a text file (1-based numbers, `\r\n` and
-/// `\n` endings, the line without its ending), reading 1 MiB blocks: the file is never held
-/// whole in memory.
-///
-/// # Errors
-/// [`Error::Io`], or the first error `f` returns.
-pub fn for_each_line(path: &Path, mut f: impl FnMut(usize, &[u8]) -> Result<()>) -> Result<()> {
-    let mut file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
-    let mut buf = vec![0u8; 1 << 20];
-    let (mut start, mut end, mut line) = (0usize, 0usize, 0usize);
-    let trim = |l: &[u8]| -> usize { l.len() - usize::from(l.last() == Some(&b'\r')) };
-    loop {
-        if start > 0 {
-            buf.copy_within(start..end, 0);
-            end -= start;
-            start = 0;
-        }
-        if end == buf.len() {
-            buf.resize(2 * buf.len(), 0);
-        }
-        let got = file.read(&mut buf[end..]).map_err(|e| Error::io(path, e))?;
-        if got == 0 {
-            if end > start {
-                let l = &buf[start..end];
-                f(line + 1, &l[..trim(l)])?;
-            }
-            return Ok(());
-        }
-        end += got;
-        let mut pos = start;
-        for nl in memchr::memchr_iter(b'\n', &buf[start..end]) {
-            let l = &buf[pos..start + nl];
-            pos = start + nl + 1;
-            line += 1;
-            f(line, &l[..trim(l)])?;
-        }
-        start = pos;
-    }
-}
-
-/// Bytes of text [`par_lines`] parses per block (the file is read block by block).
-const PAR_BLOCK: usize = 32 << 20;
-
-/// Parses every line of a text file on the rayon pool and hands the results to `consume` in
-/// file order: `parse(line_number, line)` (1-based, the line without `\r\n`/`\n`) runs in
-/// parallel and may skip a line (`None`); `consume(line_number, item)` runs on the calling
-/// thread. The file is read in blocks of [`PAR_BLOCK`] bytes (never whole); each block is cut at
-/// line ends into pieces ([`crate::io::split_at_lines`]), the pieces' first line numbers
-/// come from their newline counts, and the pieces are parsed in parallel. For a file of one
-/// block or less the buffer is the file's size.
-///
-/// # Errors
-/// [`Error::Io`], or the first error in file order that `parse` or `consume` returns (within a
-/// piece, a `parse` error comes before the `consume` errors of that piece's earlier lines).
-pub(crate) fn par_lines<T: Send>(
-    path: &Path,
-    parse: impl Fn(usize, &[u8]) -> Result<Option<T>> + Sync,
-    consume: impl FnMut(usize, T) -> Result<()>,
-) -> Result<()> {
-    par_lines_in_blocks(path, PAR_BLOCK, parse, consume)
-}
-
-/// [`par_lines`] with blocks of `block` bytes.
-fn par_lines_in_blocks<T: Send>(
-    path: &Path,
-    block: usize,
-    parse: impl Fn(usize, &[u8]) -> Result<Option<T>> + Sync,
-    mut consume: impl FnMut(usize, T) -> Result<()>,
-) -> Result<()> {
-    use rayon::prelude::*;
-    let mut file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
-    let size = file.metadata().map_err(|e| Error::io(path, e))?.len();
-    let mut buf = vec![0u8; usize::try_from(size).unwrap_or(block).clamp(1, block)];
-    let (mut end, mut line, mut eof) = (0usize, 0usize, false);
-    let pieces = 4 * rayon::current_num_threads();
-    while !eof {
-        while end < buf.len() {
-            let got = file.read(&mut buf[end..]).map_err(|e| Error::io(path, e))?;
-            if got == 0 {
-                eof = true;
-                break;
-            }
-            end += got;
-        }
-        // the complete lines of this block; a line longer than the buffer grows it
-        let complete = if eof {
-            end
-        } else {
-            match memchr::memrchr(b'\n', &buf[..end]) {
-                Some(i) => i + 1,
-                None => {
-                    buf.resize(2 * buf.len(), 0);
-                    continue;
-                }
-            }
-        };
-        let text = &buf[..complete];
-        let ranges = crate::io::split_at_lines(text, pieces);
-        let firsts: Vec<usize> = ranges
-            .iter()
-            .scan(line, |l, r| {
-                let first = *l;
-                *l += memchr::memchr_iter(b'\n', &text[r.clone()]).count();
-                Some(first)
-            })
-            .collect();
-        let parsed: Vec<Result<Vec<(usize, T)>>> = ranges
-            .par_iter()
-            .zip(firsts.par_iter())
-            .map(|(r, &first)| {
-                let mut out = Vec::new();
-                let piece = &text[r.clone()];
-                let piece = piece.strip_suffix(b"\n").unwrap_or(piece);
-                if r.is_empty() {
-                    return Ok(out);
-                }
-                for (k, l) in piece.split(|&b| b == b'\n').enumerate() {
-                    let l = l.strip_suffix(b"\r").unwrap_or(l);
-                    if let Some(item) = parse(first + k + 1, l)? {
-                        out.push((first + k + 1, item));
-                    }
-                }
-                Ok(out)
-            })
-            .collect();
-        for piece in parsed {
-            for (l, item) in piece? {
-                consume(l, item)?;
-            }
-        }
-        line += memchr::memchr_iter(b'\n', text).count();
-        buf.copy_within(complete..end, 0);
-        end -= complete;
-    }
-    Ok(())
-}
-
-/// The first `K` fields of a line and how many it has, without allocating (this runs per line).
-pub(crate) fn first_fields<'a, const K: usize>(
-    fields: impl Iterator<Item = &'a [u8]>,
-) -> ([&'a [u8]; K], usize) {
-    let mut f: [&[u8]; K] = [&[]; K];
-    let mut count = 0;
-    for x in fields {
-        if count < K {
-            f[count] = x;
-        }
-        count += 1;
-    }
-    (f, count)
-}
-
-/// Splits a text line into tokens at spaces, tabs and commas.
-pub(crate) fn tokens(line: &[u8]) -> impl Iterator<Item = &[u8]> {
-    line.split(|&b| b == b' ' || b == b'\t' || b == b',')
-        .filter(|t| !t.is_empty())
-}
-
-/// A finite `f64` token; `what` names it in the error.
-pub(crate) fn parse_f64(tok: &[u8], path: &Path, line: usize, what: &str) -> Result<f64> {
-    match fast_float2::parse::<f64, _>(tok) {
-        Ok(v) if v.is_finite() => Ok(v),
-        Ok(_) => Err(Error::parse(
-            path,
-            line,
-            format!("{what} '{}' is not finite", show(tok)),
-        )),
-        Err(_) => Err(Error::parse(
-            path,
-            line,
-            format!("{what} '{}' is not a number", show(tok)),
-        )),
-    }
-}
-
-/// A positive integer token (an index or a node number); `what` names it in the error.
-pub(crate) fn parse_u64(tok: &[u8], path: &Path, line: usize, what: &str) -> Result<u64> {
-    let digits = tok.strip_prefix(b"+").unwrap_or(tok);
-    // 19 digits always fit in a u64.
-    let ok = !digits.is_empty() && digits.len() <= 19 && digits.iter().all(u8::is_ascii_digit);
-    let v = digits.iter().fold(0u64, |v, &b| {
-        v.wrapping_mul(10)
-            .wrapping_add(u64::from(b.wrapping_sub(b'0')))
-    });
-    if ok && v > 0 {
-        Ok(v)
-    } else {
-        Err(Error::parse(
-            path,
-            line,
-            format!("{what} '{}' is not a positive whole number", show(tok)),
-        ))
-    }
-}
-
-/// A token for an error message (at most 40 characters).
-pub(crate) fn show(tok: &[u8]) -> String {
-    let s = String::from_utf8_lossy(tok);
-    if s.chars().count() > 40 {
-        format!("{}…", s.chars().take(40).collect::<String>())
-    } else {
-        s.into_owned()
-    }
 }
 
 /// A node coordinate table: node number and coordinates per row, plus what its header says
@@ -934,56 +719,6 @@ pub(crate) fn uniform_nodes(
 mod tests {
     use super::*;
 
-    /// Every line, with its number, in file order, for blocks from smaller than a line to
-    /// larger than the file, with `\r\n` endings, empty lines and no final newline.
-    #[test]
-    fn par_lines_sees_every_line_once_in_order_with_its_number() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("t.txt");
-        let mut text = String::new();
-        let mut want = Vec::new();
-        for i in 0..500usize {
-            let l = match i % 7 {
-                0 => String::new(),
-                3 => "x".repeat(40 + i % 13),
-                _ => format!("{i} {}", i * i),
-            };
-            text.push_str(&l);
-            text.push_str(if i % 5 == 0 { "\r\n" } else { "\n" });
-            want.push((i + 1, l));
-        }
-        text.push_str("last");
-        want.push((501, "last".to_string()));
-        std::fs::write(&path, &text).unwrap();
-        for block in [1, 5, 64, 1000, 1 << 20] {
-            let mut got = Vec::new();
-            par_lines_in_blocks(
-                &path,
-                block,
-                |n, l| Ok(Some((n, String::from_utf8(l.to_vec()).unwrap()))),
-                |n, (m, l)| {
-                    assert_eq!(n, m);
-                    got.push((n, l));
-                    Ok(())
-                },
-            )
-            .unwrap();
-            assert_eq!(got, want, "block {block}");
-            // the first error in file order wins
-            let err = par_lines_in_blocks(
-                &path,
-                block,
-                |n, _| match n % 97 {
-                    0 => Err(Error::parse(&path, n, "bad")),
-                    _ => Ok(Some(())),
-                },
-                |_, ()| Ok(()),
-            )
-            .unwrap_err();
-            assert!(matches!(err, Error::Parse { line: 97, .. }), "{err:?}");
-        }
-    }
-
     #[test]
     fn dof_names_round_trip() {
         for d in Direction::ALL {
@@ -1008,15 +743,5 @@ mod tests {
         assert_eq!(p("1.000,5"), None);
         assert_eq!(p("1,2,3"), None);
         assert_eq!(p("inf"), None);
-    }
-
-    #[test]
-    fn integers() {
-        let p = Path::new("t");
-        assert_eq!(parse_u64(b"17", p, 1, "n").unwrap(), 17);
-        assert_eq!(parse_u64(b"+3", p, 1, "n").unwrap(), 3);
-        for bad in [&b"0"[..], b"-1", b"1.5", b"", b"99999999999999999999999"] {
-            assert!(parse_u64(bad, p, 1, "n").is_err(), "{bad:?}");
-        }
     }
 }
