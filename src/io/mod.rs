@@ -1,17 +1,14 @@
-//! File formats (docs/design.md §4): Matrix Market, Harwell–Boeing, the model directory, the ROM
-//! directory, the importers of FE codes' files ([`import`]: ANSYS, Abaqus, Nastran OP4); and the
-//! atomic writes all writers (and the CLI's outputs) go through.
+//! File formats (docs/design.md §4): Matrix Market, the model directory, the ROM directory, the
+//! importers of FE codes' files ([`import`]: ANSYS, Abaqus, Nastran OP4, Harwell–Boeing); the
+//! text toolkit their text readers share (`text`: lines, tokens, numbers, parallel line
+//! parsing); and the atomic writes all writers (and the CLI's outputs) go through.
 
-pub mod abaqus;
-pub mod ansys;
 pub mod atomic;
 mod binary;
 pub mod exudyn;
-pub mod harwell_boeing;
 pub mod import;
 pub mod matrix_market;
 pub mod model_dir;
-pub mod nastran;
 pub mod npz;
 pub mod rom_dir;
 mod text;

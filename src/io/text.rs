@@ -80,7 +80,6 @@ impl<'a> Iterator for Lines<'a> {
 
 /// The first line of `head` that is not blank, trimmed (lossy UTF-8; empty if there is none):
 /// what the content sniffing of the text formats looks at.
-#[allow(dead_code)]
 pub(crate) fn first_nonblank_line(head: &[u8]) -> String {
     String::from_utf8_lossy(head)
         .lines()

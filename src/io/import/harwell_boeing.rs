@@ -101,7 +101,7 @@ pub fn read(path: &Path) -> Result<Csc> {
 /// # Errors
 /// As [`read`].
 pub fn read_with_header(path: &Path) -> Result<(Header, Csc)> {
-    super::check_regular(path)?;
+    crate::io::check_regular(path)?;
     let size = std::fs::metadata(path)
         .map_err(|e| Error::io(path, e))?
         .len();

@@ -45,7 +45,7 @@
 //! record (binary).
 //!
 //! # The import
-//! The import (`read_model`, reached through [`crate::io::import::read`]) finds the stiffness and the
+//! The import (`read_model`, reached through [`super::read`]) finds the stiffness and the
 //! mass among the matrices of one or more OP4 files: by the matrix names `KAA`, `KGG`,
 //! `KLL`, `KHH` (stiffness) and `MAA`, `MGG`, `MLL`, `MHH` (mass), or, for a file holding one
 //! matrix, by the file's role (`K=file`, `M=file`, or `stif`/`mass` in its name). OP4 files
@@ -53,9 +53,9 @@
 //! component 1–6) gives it; without one, N must be a multiple of 6 and the DoFs are assumed
 //! to be nodes 1, 2, ... with components 1–6 each (said in the notes).
 
+use super::types::{role_from_name, uniform_nodes, Direction, Dof, Format, Imported, Role};
 use crate::io::binary::BinaryFile;
 use crate::io::head;
-use crate::io::import::{role_from_name, uniform_nodes, Direction, Dof, Format, Imported, Role};
 use crate::io::text::{fields, for_each_line, parse_u64, show};
 use crate::sparse::Triplets;
 use crate::{Error, Result};
