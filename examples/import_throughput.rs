@@ -14,7 +14,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use sparsemor::fe::{bar_model, BoxSpec};
-use sparsemor::io::{abaqus, harwell_boeing, import, nastran};
+use sparsemor::io::import::{self, abaqus, harwell_boeing, nastran};
 use sparsemor::sparse::Csc;
 
 /// Writes `a` (full storage) with 1-based indices, one entry per line, through `line`.

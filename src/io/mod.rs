@@ -1,19 +1,17 @@
-//! File formats (docs/design.md §4): Matrix Market, Harwell–Boeing, the model directory, the ROM
-//! directory, the importers of FE codes' files ([`import`]: ANSYS, Abaqus, Nastran OP4); and the
-//! atomic writes all writers (and the CLI's outputs) go through.
+//! File formats (docs/design.md §4): Matrix Market, the model directory, the ROM directory, the
+//! importers of FE codes' files ([`import`]: ANSYS, Abaqus, Nastran OP4, Harwell–Boeing); the
+//! text toolkit their text readers share (`text`: lines, tokens, numbers, parallel line
+//! parsing); and the atomic writes all writers (and the CLI's outputs) go through.
 
-pub mod abaqus;
-pub mod ansys;
 pub mod atomic;
 mod binary;
 pub mod exudyn;
-pub mod harwell_boeing;
 pub mod import;
 pub mod matrix_market;
 pub mod model_dir;
-pub mod nastran;
 pub mod npz;
 pub mod rom_dir;
+mod text;
 
 /// The bytes of `path`, which must be a regular file (after symlinks): a file name from
 /// `model.toml` naming a device such as `/dev/zero` made the reader allocate until the
@@ -39,6 +37,18 @@ pub(crate) fn check_regular(path: &std::path::Path) -> crate::Result<()> {
     Ok(())
 }
 
+/// The first 4 KiB of a file (all of a shorter one), which must be a regular file
+/// ([`check_regular`]): what the importers tell a file's format from.
+pub(crate) fn head(path: &std::path::Path) -> crate::Result<Vec<u8>> {
+    use std::io::Read;
+    check_regular(path)?;
+    let mut head = Vec::with_capacity(4096);
+    std::fs::File::open(path)
+        .and_then(|f| f.take(4096).read_to_end(&mut head))
+        .map_err(|e| crate::Error::io(path, e))?;
+    Ok(head)
+}
+
 /// The 32-bit word of the first four bytes of `b` in the file's byte order (the binary
 /// readers: ANSYS `.full`, Nastran OP4). The caller guarantees `b.len() >= 4`.
 pub(crate) fn word(b: &[u8], big_endian: bool) -> u32 {
@@ -58,51 +68,4 @@ pub(crate) fn read_regular_text(path: &std::path::Path) -> crate::Result<String>
             std::io::Error::new(std::io::ErrorKind::InvalidData, e.utf8_error()),
         )
     })
-}
-
-/// Splits `body` into about `pieces` ranges that end just after a newline (the last one at the
-/// end of `body`).
-pub(crate) fn split_at_lines(body: &[u8], pieces: usize) -> Vec<std::ops::Range<usize>> {
-    let pieces = pieces.max(1);
-    let mut out = Vec::with_capacity(pieces);
-    let mut start = 0;
-    for k in 1..pieces {
-        let target = (body.len() / pieces * k).max(start);
-        if target >= body.len() {
-            break;
-        }
-        let end = match memchr::memchr(b'\n', &body[target..]) {
-            Some(i) => target + i + 1,
-            None => body.len(),
-        };
-        out.push(start..end);
-        start = end;
-        if start >= body.len() {
-            break;
-        }
-    }
-    if start < body.len() || out.is_empty() {
-        out.push(start..body.len());
-    }
-    out
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn split_at_lines_covers_everything_at_line_ends() {
-        let text = b"a\nbb\nccc\n\ndddd\neeeee";
-        for pieces in 1..12 {
-            let r = split_at_lines(text, pieces);
-            assert_eq!(r.first().map(|r| r.start), Some(0));
-            assert_eq!(r.last().map(|r| r.end), Some(text.len()));
-            for w in r.windows(2) {
-                assert_eq!(w[0].end, w[1].start);
-                assert_eq!(text[w[0].end - 1], b'\n');
-            }
-        }
-        assert_eq!(split_at_lines(b"", 4), vec![0..0]);
-    }
 }

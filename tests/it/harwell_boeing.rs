@@ -1,11 +1,11 @@
-//! The Harwell–Boeing (HBMAT) reader, `io::harwell_boeing`: cross-check against scipy's
+//! The Harwell–Boeing (HBMAT) reader, `io::import::harwell_boeing`: cross-check against scipy's
 //! `hb_write`, a property test with a test-side writer in several Fortran formats, one test
 //! per bad-file class, and an APDL Math set with HB K and M through `io::import`.
 
 use crate::common::dense;
 use proptest::prelude::*;
 use sparsemor::fe::{bar_model, BoxSpec};
-use sparsemor::io::harwell_boeing;
+use sparsemor::io::import::harwell_boeing;
 use sparsemor::io::import::{self, Format};
 use sparsemor::sparse::Csc;
 use sparsemor::Error;

@@ -1,13 +1,15 @@
-//! Importers (io::import, io::ansys, io::abaqus) on the real files of `../shared/data/`, the
-//! rotor cross-check between ANSYS and Abaqus, and one test per bad-file class.
+//! Importers (io::import, io::import::ansys, io::import::abaqus) on the real files of
+//! `../shared/data/`, the rotor cross-check between ANSYS and Abaqus, and one test per bad-file
+//! class.
 
 use crate::common::dense;
 use proptest::prelude::*;
 use sparsemor::body::Body;
 use sparsemor::eigen::{eigenpairs, EigenOptions, Request};
 use sparsemor::io::import::{self, Direction, Dof, Format, Imported};
+use sparsemor::io::import::{abaqus, ansys};
+use sparsemor::io::matrix_market;
 use sparsemor::io::model_dir::{self, DofNames};
-use sparsemor::io::{abaqus, ansys, matrix_market};
 use sparsemor::sparse::Csc;
 use sparsemor::Error;
 use std::path::{Path, PathBuf};

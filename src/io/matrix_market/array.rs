@@ -5,12 +5,23 @@ use std::path::Path;
 use faer::Mat;
 
 use super::coordinate::parse_value;
-use super::header::{count_tokens, next_token, show, Header, Lines};
-use super::{dense_fits, Symmetry};
+use super::header::{show, Header, Symmetry};
 use crate::error::{Error, Result};
+use crate::io::text::{words, Lines};
 
 /// Largest dimension of an empty (0×n or n×0) array file.
 pub(super) const MAX_EMPTY_DIM: usize = 1 << 20;
+
+/// Whether a dense `nrows x ncols` matrix can be allocated (probed without touching memory).
+/// faer pads columns and does work per column even when `nrows == 0`, hence the margins.
+pub(super) fn dense_fits(nrows: usize, ncols: usize) -> bool {
+    nrows
+        .checked_next_multiple_of(16)
+        .and_then(|r| r.max(16).checked_mul(ncols.max(1)))
+        .is_some_and(|len| {
+            len <= isize::MAX as usize / 8 && Vec::<f64>::new().try_reserve_exact(len).is_ok()
+        })
+}
 
 pub(super) fn parse_array_body(body: &[u8], h: &Header, path: &Path) -> Result<Mat<f64>> {
     let (nrows, ncols) = (h.nrows, h.ncols);
@@ -54,17 +65,17 @@ pub(super) fn parse_array_body(body: &[u8], h: &Header, path: &Path) -> Result<M
     let mut count = 0usize;
     let mut lines = Lines::new(body, h.size_line + 1);
     for (number, line) in lines.by_ref() {
-        let mut pos = 0;
-        let Some(tok) = next_token(line, &mut pos) else {
+        let mut tokens = words(line);
+        let Some(tok) = tokens.next() else {
             continue;
         };
-        if next_token(line, &mut pos).is_some() {
+        if tokens.next().is_some() {
             return Err(Error::parse(
                 path,
                 number,
                 format!(
                     "wrong number of tokens: an array file holds 1 value per line, found {} in `{}`",
-                    count_tokens(line),
+                    words(line).count(),
                     show(line)
                 ),
             ));
@@ -98,7 +109,7 @@ pub(super) fn parse_array_body(body: &[u8], h: &Header, path: &Path) -> Result<M
     if count < expected {
         return Err(Error::parse(
             path,
-            lines.next_line.saturating_sub(1).max(h.size_line),
+            lines.next_line().saturating_sub(1).max(h.size_line),
             format!(
                 "too few entries: the size line (line {}) declares {nrows}x{ncols}{}, i.e. {expected} values, but the file holds only {count}",
                 h.size_line,

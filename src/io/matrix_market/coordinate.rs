@@ -5,9 +5,9 @@ use std::path::Path;
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
 use rayon::prelude::*;
 
-use super::header::{count_tokens, next_token, parse_usize, show, Header};
-use super::Symmetry;
+use super::header::{show, Header, Symmetry};
 use crate::error::{Error, Result};
+use crate::io::text::{finite_f64, line_at, par_pieces, parse_usize, words, BadNumber};
 
 /// An index type for the entry list: `u32` when the dimensions allow, else `usize`.
 pub(super) trait Ix: Copy + Send + Sync + Default + std::fmt::Debug {
@@ -73,16 +73,12 @@ pub(super) fn parse_coordinate_body<I: Ix>(
 ) -> Result<Vec<Vec<Entry<I>>>> {
     let threads = rayon::current_num_threads();
     if threads > 1 && body.len() >= PARALLEL_MIN_BYTES {
-        let ranges = crate::io::split_at_lines(body, threads * 4);
         let per_byte = h.nnz as f64 / body.len() as f64;
-        let chunks: Vec<Option<CoordChunk<I>>> = ranges
-            .into_par_iter()
-            .map(|r| {
-                let len = r.len();
-                let cap = ((len as f64 * per_byte * 1.02) as usize + 64).min(len / 6 + 1);
-                parse_coordinate_lines(&body[r], 0, h, path, None, cap).ok()
-            })
-            .collect();
+        let chunks: Vec<Option<CoordChunk<I>>> = par_pieces(body, threads * 4, |_, piece| {
+            let len = piece.len();
+            let cap = ((len as f64 * per_byte * 1.02) as usize + 64).min(len / 6 + 1);
+            parse_coordinate_lines(piece, 0, h, path, None, cap).ok()
+        });
         let consistent = chunks.iter().all(Option::is_some) && {
             let all = chunks.iter().flatten();
             let count: usize = all.clone().map(|c| c.count).sum();
@@ -199,16 +195,6 @@ pub(super) fn parse_coordinate_lines<I: Ix>(
     Ok(out)
 }
 
-/// The line starting at `pos` (without its `\n`) and the position after it.
-#[inline]
-pub(super) fn line_at(text: &[u8], pos: usize) -> (&[u8], usize) {
-    let rest = text.get(pos..).unwrap_or(&[]);
-    match memchr::memchr(b'\n', rest) {
-        Some(k) => (&rest[..k], pos + k + 1),
-        None => (rest, text.len()),
-    }
-}
-
 /// The common case of an entry line at `pos`: `row col value` separated by spaces or tabs,
 /// indices in range, a finite value, optional trailing spaces or `\r`, then `\n` or the end.
 /// Returns the 1-based indices, the value and the position after the line, or `None` if the
@@ -294,20 +280,20 @@ pub(super) fn slow_entry(
     h: &Header,
     path: &Path,
 ) -> Result<Option<(usize, usize, f64)>> {
-    let mut pos = 0;
-    let Some(t_row) = next_token(line, &mut pos) else {
+    let mut tokens = words(line);
+    let Some(t_row) = tokens.next() else {
         return Ok(None);
     };
-    let t_col = next_token(line, &mut pos);
-    let t_val = next_token(line, &mut pos);
-    let extra = next_token(line, &mut pos);
+    let t_col = tokens.next();
+    let t_val = tokens.next();
+    let extra = tokens.next();
     let (Some(t_col), Some(t_val), None) = (t_col, t_val, extra) else {
         return Err(Error::parse(
             path,
             number,
             format!(
                 "wrong number of tokens: expected 3 (row column value), found {} in `{}`",
-                count_tokens(line),
+                words(line).count(),
                 show(line)
             ),
         ));
@@ -318,24 +304,20 @@ pub(super) fn slow_entry(
     Ok(Some((row, col, val)))
 }
 
-/// A finite real value.
+/// A finite real value ([`finite_f64`]).
 pub(super) fn parse_value(tok: &[u8], number: usize, path: &Path) -> Result<f64> {
-    match fast_float2::parse::<f64, _>(tok) {
-        Ok(v) if v.is_finite() => Ok(v),
-        Ok(_) => Err(Error::parse(
-            path,
-            number,
-            format!(
+    finite_f64(tok).map_err(|bad| {
+        let msg = match bad {
+            BadNumber::NotFinite => format!(
                 "value `{}` is not finite (NaN and Inf are not allowed)",
                 show(tok)
             ),
-        )),
-        Err(_) => Err(Error::parse(
-            path,
-            number,
-            format!("unparsable value `{}`: expected a real number", show(tok)),
-        )),
-    }
+            BadNumber::NotANumber => {
+                format!("unparsable value `{}`: expected a real number", show(tok))
+            }
+        };
+        Error::parse(path, number, msg)
+    })
 }
 
 /// A 1-based index in `1..=n`.

@@ -1,9 +1,19 @@
-//! The banner, the size line and the tokenizer shared by the entry readers.
+//! The banner (with the [`Symmetry`] it declares), the size line, and how the entry readers
+//! show a token in an error; tokens and lines come from [`crate::io::text`].
 
 use std::path::Path;
 
-use super::Symmetry;
 use crate::error::{Error, Result};
+use crate::io::text::{parse_usize, words, Lines};
+
+/// The symmetry declared in a Matrix Market banner.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Symmetry {
+    /// All entries are stored.
+    General,
+    /// One triangle is stored; the matrix equals its transpose.
+    Symmetric,
+}
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) enum Format {
@@ -25,85 +35,6 @@ pub(super) struct Header {
     pub(super) body_start: usize,
 }
 
-/// Iterates over the lines of `buf` (without their `\n`), with 1-based line numbers.
-pub(super) struct Lines<'a> {
-    pub(super) buf: &'a [u8],
-    pub(super) pos: usize,
-    pub(super) next_line: usize,
-}
-
-impl<'a> Lines<'a> {
-    pub(super) fn new(buf: &'a [u8], first_line: usize) -> Self {
-        Lines {
-            buf,
-            pos: 0,
-            next_line: first_line,
-        }
-    }
-}
-
-impl<'a> Iterator for Lines<'a> {
-    type Item = (usize, &'a [u8]);
-
-    #[inline]
-    fn next(&mut self) -> Option<Self::Item> {
-        let rest = self.buf.get(self.pos..)?;
-        if rest.is_empty() {
-            return None;
-        }
-        let (line, advance) = match memchr::memchr(b'\n', rest) {
-            Some(k) => (&rest[..k], k + 1),
-            None => (rest, rest.len()),
-        };
-        self.pos += advance;
-        let number = self.next_line;
-        self.next_line += 1;
-        Some((number, line))
-    }
-}
-
-#[inline(always)]
-pub(super) fn is_space(b: u8) -> bool {
-    matches!(b, b' ' | b'\t' | b'\r' | 0x0b | 0x0c)
-}
-
-/// The next whitespace-separated token of `line` from `*pos`.
-#[inline(always)]
-pub(super) fn next_token<'a>(line: &'a [u8], pos: &mut usize) -> Option<&'a [u8]> {
-    let mut i = *pos;
-    while i < line.len() && is_space(line[i]) {
-        i += 1;
-    }
-    if i >= line.len() {
-        *pos = i;
-        return None;
-    }
-    let start = i;
-    while i < line.len() && !is_space(line[i]) {
-        i += 1;
-    }
-    *pos = i;
-    Some(&line[start..i])
-}
-
-pub(super) fn count_tokens(line: &[u8]) -> usize {
-    let mut pos = 0;
-    let mut n = 0;
-    while next_token(line, &mut pos).is_some() {
-        n += 1;
-    }
-    n
-}
-
-pub(super) fn tokens(line: &[u8]) -> Vec<&[u8]> {
-    let mut pos = 0;
-    let mut out = Vec::new();
-    while let Some(t) = next_token(line, &mut pos) {
-        out.push(t);
-    }
-    out
-}
-
 /// `bytes` for an error message: lossy UTF-8, cut to a readable length.
 pub(super) fn show(bytes: &[u8]) -> String {
     const MAX: usize = 60;
@@ -113,23 +44,6 @@ pub(super) fn show(bytes: &[u8]) -> String {
     } else {
         s.into_owned()
     }
-}
-
-/// A non-negative decimal integer (no sign), or `None` if malformed or too large.
-#[inline(always)]
-pub(super) fn parse_usize(tok: &[u8]) -> Option<usize> {
-    if tok.is_empty() {
-        return None;
-    }
-    let mut v: usize = 0;
-    for &b in tok {
-        let d = b.wrapping_sub(b'0');
-        if d > 9 {
-            return None;
-        }
-        v = v.checked_mul(10)?.checked_add(d as usize)?;
-    }
-    Some(v)
 }
 
 pub(super) const BANNER_HELP: &str =
@@ -145,8 +59,8 @@ pub(super) fn parse_header(bytes: &[u8], path: &Path) -> Result<Header> {
             format!("empty file: missing the Matrix Market banner; {BANNER_HELP}"),
         ));
     };
-    let words = tokens(first);
-    if !words
+    let banner: Vec<&[u8]> = words(first).collect();
+    if !banner
         .first()
         .is_some_and(|w| w.eq_ignore_ascii_case(b"%%MatrixMarket"))
     {
@@ -158,22 +72,22 @@ pub(super) fn parse_header(bytes: &[u8], path: &Path) -> Result<Header> {
             ),
         ));
     }
-    if words.len() != 5 {
+    if banner.len() != 5 {
         return Err(err(
             1,
             format!(
                 "bad banner `{}`: expected 5 words, found {}; {BANNER_HELP}",
                 show(first),
-                words.len()
+                banner.len()
             ),
         ));
     }
     let lower = |w: &[u8]| show(w).to_ascii_lowercase();
     let (object, format, field, symmetry) = (
-        lower(words[1]),
-        lower(words[2]),
-        lower(words[3]),
-        lower(words[4]),
+        lower(banner[1]),
+        lower(banner[2]),
+        lower(banner[3]),
+        lower(banner[4]),
     );
     if object != "matrix" {
         return Err(err(
@@ -223,19 +137,18 @@ pub(super) fn parse_header(bytes: &[u8], path: &Path) -> Result<Header> {
             ));
         };
         last_line = number;
-        let mut pos = 0;
-        match next_token(line, &mut pos) {
+        match words(line).next() {
             None => continue,
             Some(t) if t.first() == Some(&b'%') => continue,
             Some(_) => break (number, line),
         }
     };
-    let words = tokens(size);
+    let sizes: Vec<&[u8]> = words(size).collect();
     let (want, what) = match format {
         Format::Coordinate => (3, "`rows columns entries`"),
         Format::Array => (2, "`rows columns`"),
     };
-    let numbers: Vec<Option<usize>> = words.iter().map(|w| parse_usize(w)).collect();
+    let numbers: Vec<Option<usize>> = sizes.iter().map(|w| parse_usize(w)).collect();
     let bad_size = || {
         err(
             size_line,
@@ -247,7 +160,7 @@ pub(super) fn parse_header(bytes: &[u8], path: &Path) -> Result<Header> {
             ),
         )
     };
-    if words.len() != want || numbers.iter().any(Option::is_none) {
+    if sizes.len() != want || numbers.iter().any(Option::is_none) {
         return Err(bad_size());
     }
     let nrows = numbers[0].unwrap_or(0);
@@ -274,6 +187,6 @@ pub(super) fn parse_header(bytes: &[u8], path: &Path) -> Result<Header> {
         ncols,
         nnz,
         size_line,
-        body_start: lines.pos,
+        body_start: lines.pos(),
     })
 }

@@ -79,6 +79,7 @@ mod coordinate;
 mod header;
 mod writer;
 
+pub use header::Symmetry;
 pub use writer::{write_array, write_coordinate};
 
 use std::io::Read;
@@ -88,18 +89,9 @@ use faer::sparse::{SparseColMat, SparseColMatRef, SymbolicSparseColMat};
 use faer::{Mat, MatRef};
 
 use crate::error::{Error, Result};
-use array::parse_array_body;
+use array::{dense_fits, parse_array_body};
 use coordinate::{build_csc, parse_coordinate_body, Entry};
 use header::{parse_header, Format, Header};
-
-/// The symmetry declared in a Matrix Market banner.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Symmetry {
-    /// All entries are stored.
-    General,
-    /// One triangle is stored; the matrix equals its transpose.
-    Symmetric,
-}
 
 /// The values of a Matrix Market file, always in full storage (symmetric files expanded).
 #[derive(Debug, Clone)]
@@ -253,17 +245,6 @@ fn parse_plain(bytes: &[u8], path: &Path) -> Result<Parsed> {
         Format::Coordinate => Parsed::Coord64(h, parse_coordinate_body(body, &h, path)?),
         Format::Array => Parsed::Dense(h, parse_array_body(body, &h, path)?),
     })
-}
-
-/// Whether a dense `nrows x ncols` matrix can be allocated (probed without touching memory).
-/// faer pads columns and does work per column even when `nrows == 0`, hence the margins.
-fn dense_fits(nrows: usize, ncols: usize) -> bool {
-    nrows
-        .checked_next_multiple_of(16)
-        .and_then(|r| r.max(16).checked_mul(ncols.max(1)))
-        .is_some_and(|len| {
-            len <= isize::MAX as usize / 8 && Vec::<f64>::new().try_reserve_exact(len).is_ok()
-        })
 }
 
 // ---------------------------------------------------------------------------------------------

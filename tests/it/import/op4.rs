@@ -1,12 +1,12 @@
-//! Nastran OP4 (io::nastran): round trips through a small test-side writer (ASCII and binary,
-//! both byte orders, dense, string-sparse and BIGMAT records), the pyNastran cross-check, one
-//! test per bad-file class, and `sparsemor import` end to end.
+//! Nastran OP4 (io::import::nastran): round trips through a small test-side writer (ASCII and
+//! binary, both byte orders, dense, string-sparse and BIGMAT records), the pyNastran
+//! cross-check, one test per bad-file class, and `sparsemor import` end to end.
 
 use crate::common::dense;
 use proptest::prelude::*;
 use sparsemor::fe::{bar_model, BoxSpec};
+use sparsemor::io::import::nastran::{read_op4, Encoding};
 use sparsemor::io::import::{self, Direction, Format};
-use sparsemor::io::nastran::{read_op4, Encoding};
 use sparsemor::sparse::Csc;
 use sparsemor::Error;
 use std::path::{Path, PathBuf};

@@ -34,7 +34,7 @@
 //! The result is ordered like ansys-mapdl-reader's `load_km(sort=True)` (and ANSYS `HBMAT`):
 //! nodes by ascending node number, each node's DoFs in DoF-set order. Constrained DoFs (their
 //! rows and columns) are removed and listed in [`Imported::removed`]. The full file holds no
-//! coordinates; a node table ([`crate::io::import::read_node_table`]) may be given with it.
+//! coordinates; a node table ([`super::read_node_table`]) may be given with it.
 //!
 //! The file is read record by record through a buffered reader (no whole-file copy); errors
 //! name the byte offset of the record.
@@ -47,11 +47,18 @@
 //! N = 345). The order of the matrices is kept.
 //!
 //! K and M may instead be Harwell–Boeing files (`*EXPORT,…,HBMAT`, the `HBMAT` command; read by
-//! [`crate::io::harwell_boeing`], told apart by their header); the rest of the set is the same.
+//! [`super::harwell_boeing`], told apart by their header); the rest of the set is the same.
+//!
+//! # Recognizing the files
+//! [`looks_like_full`]: the 32-bit word 100 at byte 0 in either byte order (the standard
+//! header's record length). [`looks_like_mapping`]: a Matrix Market banner naming `array` and
+//! `integer`. [`looks_like_matrix_market`]: any other Matrix Market file, a K or M.
 
+use super::harwell_boeing;
+use super::node_table::read_node_table;
+use super::types::{uniform_nodes, Direction, Dof, Format, Imported};
 use crate::io::binary::BinaryFile;
-use crate::io::import::{read_node_table, uniform_nodes, Direction, Dof, Format, Imported};
-use crate::io::matrix_market;
+use crate::io::{head, matrix_market, word};
 use crate::sparse::Triplets;
 use crate::{Error, Result};
 use std::path::Path;
@@ -61,6 +68,27 @@ const FLAG_SHORT: u32 = 1 << 30;
 const FLAG_ZLIB: u32 = 1 << 29;
 const FLAG_WINDOWED: u32 = 1 << 28;
 const FLAG_BITSPARSE: u32 = 1 << 27;
+
+/// True when `head` (a file's first bytes) starts like an ANSYS binary file: the 32-bit word
+/// 100 at byte 0, in either byte order (the standard header is a 100-word record; ANSYS
+/// Programmer's Reference, "Standard ANSYS file header").
+pub(crate) fn looks_like_full(head: &[u8]) -> bool {
+    head.len() >= 4 && (word(head, false) == 100 || word(head, true) == 100)
+}
+
+/// True when `head` (a file's first bytes) is a Matrix Market file: with an APDL Math export,
+/// the K or M (unless [`looks_like_mapping`]).
+pub(crate) fn looks_like_matrix_market(head: &[u8]) -> bool {
+    head.starts_with(b"%%MatrixMarket")
+}
+
+/// True when `head` (a file's first bytes) is the DoF mapping vector of an APDL Math export:
+/// a Matrix Market file whose banner names `array` and `integer`.
+pub(crate) fn looks_like_mapping(head: &[u8]) -> bool {
+    let banner = String::from_utf8_lossy(head.split(|&b| b == b'\n').next().unwrap_or(&[]))
+        .to_ascii_lowercase();
+    looks_like_matrix_market(head) && banner.contains("array") && banner.contains("integer")
+}
 
 /// Sequential reader of ANSYS binary records.
 struct Records {
@@ -587,8 +615,8 @@ pub fn read_apdl_math(
 /// An exported K or M, Matrix Market or Harwell–Boeing (told by its header): the matrix, who
 /// wrote it (the `% Creator:` comment; the Harwell–Boeing title and key) and the format's name.
 fn exported_matrix(path: &Path) -> Result<(crate::sparse::Csc, String, &'static str)> {
-    if crate::io::harwell_boeing::looks_like(&crate::io::import::head(path)?) {
-        let (h, a) = crate::io::harwell_boeing::read_with_header(path)?;
+    if harwell_boeing::looks_like(&head(path)?) {
+        let (h, a) = harwell_boeing::read_with_header(path)?;
         let who = [h.title.as_str(), h.key.as_str()]
             .iter()
             .filter(|s| !s.is_empty())
@@ -608,7 +636,7 @@ fn exported_matrix(path: &Path) -> Result<(crate::sparse::Csc, String, &'static 
 
 /// The `% Creator:` comment of a Matrix Market header, or `unknown creator`.
 fn creator(path: &Path) -> Result<String> {
-    let head = crate::io::import::head(path)?;
+    let head = head(path)?;
     Ok(String::from_utf8_lossy(&head)
         .lines()
         .take_while(|l| l.starts_with('%'))

@@ -21,17 +21,39 @@
 //! (`*Density`, `*Elastic`), reported as the only unit hint: Abaqus has no unit system.
 //!
 //! Every file is streamed, never held whole: the matrix files in blocks whose lines are parsed
-//! in parallel (`io::import::par_lines`), the deck line by line
-//! ([`crate::io::import::for_each_line`]); errors name the file and the line.
+//! in parallel (`io::text::par_lines`), the deck line by line (`io::text::for_each_line`);
+//! errors name the file and the line.
 
-use crate::io::import::{
-    first_fields, for_each_line, par_lines, parse_f64, parse_u64, tokens, uniform_nodes, Direction,
-    Dof, Format, Imported, NodeTable,
+use super::types::{uniform_nodes, Direction, Dof, Format, Imported, NodeTable};
+use crate::io::text::{
+    fields, first_fields, first_nonblank_line, for_each_line, par_lines, parse_f64, parse_u64,
 };
 use crate::sparse::Triplets;
 use crate::{Error, Result};
 use std::collections::HashMap;
 use std::path::Path;
+
+/// True when `head` (a file's first bytes) is an Abaqus input deck: its first non-blank line
+/// is a keyword or comment line, starting with `*` (`*Heading`, `*Node`, `** ...`).
+pub(crate) fn looks_like_deck(head: &[u8]) -> bool {
+    first_nonblank_line(head).starts_with('*')
+}
+
+/// True when `head` (a file's first bytes) is an Abaqus `*MATRIX OUTPUT` file: its first
+/// non-blank line is 3 numbers separated by blanks (`row col value`, COORDINATE) or 5 numbers
+/// separated by commas and blanks (`node, dof, node, dof, value`).
+pub(crate) fn looks_like_matrix(head: &[u8]) -> bool {
+    let first = first_nonblank_line(head);
+    let numbers = |sep: &dyn Fn(char) -> bool| -> Option<usize> {
+        let t: Vec<&str> = first.split(sep).filter(|t| !t.is_empty()).collect();
+        t.iter()
+            .all(|t| t.parse::<f64>().is_ok())
+            .then_some(t.len())
+    };
+    let by_comma = numbers(&|c: char| c == ',' || c.is_whitespace());
+    let by_space = numbers(&|c: char| c.is_whitespace());
+    by_space == Some(3) || (first.contains(',') && by_comma == Some(5))
+}
 
 /// The two `*MATRIX OUTPUT` layouts.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -88,7 +110,7 @@ fn read_matrix(path: &Path, keys: &mut Keys) -> Result<(Layout, Triplets)> {
     let mut layout = None;
     let mut t = Triplets::default();
     let parse = |line: usize, bytes: &[u8]| -> Result<Option<Entry>> {
-        let (tok, count) = first_fields::<5>(tokens(bytes));
+        let (tok, count) = first_fields::<5>(fields(bytes));
         if count == 0 || bytes.starts_with(b"**") {
             return Ok(None);
         }
@@ -202,7 +224,7 @@ pub fn read_deck(path: &Path) -> Result<Deck> {
         if keyword != "node" {
             return Ok(());
         }
-        let f: Vec<&[u8]> = tokens(text.as_bytes()).collect();
+        let f: Vec<&[u8]> = fields(text.as_bytes()).collect();
         if !(3..=4).contains(&f.len()) {
             return Err(Error::parse(
                 path,

@@ -45,7 +45,7 @@
 //! record (binary).
 //!
 //! # The import
-//! The import (`read_model`, reached through [`crate::io::import::read`]) finds the stiffness and the
+//! The import (`read_model`, reached through [`super::read`]) finds the stiffness and the
 //! mass among the matrices of one or more OP4 files: by the matrix names `KAA`, `KGG`,
 //! `KLL`, `KHH` (stiffness) and `MAA`, `MGG`, `MLL`, `MHH` (mass), or, for a file holding one
 //! matrix, by the file's role (`K=file`, `M=file`, or `stif`/`mass` in its name). OP4 files
@@ -53,11 +53,10 @@
 //! component 1–6) gives it; without one, N must be a multiple of 6 and the DoFs are assumed
 //! to be nodes 1, 2, ... with components 1–6 each (said in the notes).
 
+use super::types::{role_from_name, uniform_nodes, Direction, Dof, Format, Imported, Role};
 use crate::io::binary::BinaryFile;
-use crate::io::import::{
-    for_each_line, head, parse_u64, role_from_name, show, tokens, uniform_nodes, Direction, Dof,
-    Format, Imported, Role,
-};
+use crate::io::head;
+use crate::io::text::{fields, for_each_line, parse_u64, show};
 use crate::sparse::Triplets;
 use crate::{Error, Result};
 use std::fmt;
@@ -813,7 +812,7 @@ pub(crate) fn looks_like_dof_map(h: &[u8]) -> bool {
     }) else {
         return false;
     };
-    let t: Vec<&[u8]> = tokens(first.as_bytes()).collect();
+    let t: Vec<&[u8]> = fields(first.as_bytes()).collect();
     t.len() == 2
         && std::str::from_utf8(t[0]).is_ok_and(|s| s.parse::<u64>().is_ok())
         && std::str::from_utf8(t[1]).is_ok_and(|s| matches!(s.parse::<u8>(), Ok(1..=6)))
@@ -838,7 +837,7 @@ pub fn read_dof_map(path: &Path) -> Result<Vec<Dof>> {
         {
             return Ok(());
         }
-        let t: Vec<&[u8]> = tokens(text.as_bytes()).collect();
+        let t: Vec<&[u8]> = fields(text.as_bytes()).collect();
         if t.len() != 2 {
             return Err(Error::parse(
                 path,
