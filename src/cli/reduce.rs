@@ -3,6 +3,7 @@
 //! as a ROM directory; exit status 3 when a requested tolerance was not met.
 
 use super::args::parse_list;
+use super::done::Done;
 use super::progress::{rank0_share, with_progress};
 use sparsemor::body::Body;
 use sparsemor::distributed::Cluster;
@@ -99,7 +100,7 @@ impl ReduceArgs {
 }
 
 /// `cluster`: the ranks line-fitting's frequencies are spread over (rank 0 runs this).
-pub fn reduce(a: &ReduceArgs, cluster: Option<Arc<dyn Cluster>>) -> Result<super::Done> {
+pub fn reduce(a: &ReduceArgs, cluster: Option<Arc<dyn Cluster>>) -> Result<Done> {
     // before minutes of work, not after
     sparsemor::io::atomic::check_dir_free(&a.out)?;
     let model_dir::Loaded {
@@ -216,9 +217,9 @@ pub fn reduce(a: &ReduceArgs, cluster: Option<Arc<dyn Cluster>>) -> Result<super
                 "the ROM was written, but the tolerance {:.1e} was NOT met (error reached {:.2e}); exit status 3",
                 s.tol, s.error
             );
-            super::Done::RequestNotMet
+            Done::RequestNotMet
         }
-        _ => super::Done::Met,
+        _ => Done::Met,
     })
 }
 
