@@ -21,7 +21,7 @@ SRC = Path(__file__).resolve().parent.parent / "src"
 # Layers, lowest first (docs/design.md §5). A file may import from its own layer or lower
 # ones. The first matching prefix (module path as `a::b`) decides a file's layer.
 LAYERS = [
-    ("support", ["error", "units", "memory", "sparse", "dense", "pool", "lsq", "text"]),
+    ("support", ["error", "units", "memory", "sparse", "dense", "pool", "lsq", "text", "grid"]),
     ("model", ["model", "scene", "io::atomic", "io::binary", "io::matrix_market", "io::npz",
                "io::import", "io::text", "io"]),
     ("pencil", ["pencil", "rigid", "fe"]),

@@ -61,6 +61,7 @@ pub mod eigen;
 pub mod error;
 pub mod factor;
 pub mod fe;
+pub mod grid;
 pub mod io;
 pub mod lsq;
 pub mod memory;

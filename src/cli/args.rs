@@ -1,5 +1,5 @@
 //! Parsing and formatting helpers shared by the commands: DoF and frequency lists, bands,
-//! triples, grids, byte counts.
+//! triples, byte counts.
 
 use sparsemor::{Error, Result};
 
@@ -46,16 +46,6 @@ pub fn parse_list<T: std::str::FromStr>(s: &str, what: &str) -> Result<Vec<T>> {
                 Error::InvalidSetting(format!("{what}: '{}' is not a valid value", p.trim()))
             })
         })
-        .collect()
-}
-
-/// `points` linearly spaced frequencies including both ends of `band`.
-pub fn linspace(band: [f64; 2], points: usize) -> Vec<f64> {
-    if points == 1 {
-        return vec![band[0]];
-    }
-    (0..points)
-        .map(|k| band[0] + (band[1] - band[0]) * k as f64 / (points - 1) as f64)
         .collect()
 }
 

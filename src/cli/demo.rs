@@ -2,10 +2,10 @@
 //! vs SEREP 9/9 and 14/14 and Craig–Bampton of order 14 — and the automatic path for two
 //! tolerances.
 
-use super::args::linspace;
 use sparsemor::body::Body;
 use sparsemor::eigen::{eigenpairs, EigenOptions, Request};
 use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
+use sparsemor::grid::linspace;
 use sparsemor::metrics::{modal_comparison, rom_eigenfrequencies, ErrorCurve, Reference};
 use sparsemor::reduce::craig_bampton::{self, CraigBamptonOptions};
 use sparsemor::reduce::linefit::{self, Interface, LineFitOptions, References, SamplingOptions};

@@ -1,11 +1,12 @@
 //! `sparsemor evaluate`: ε(f) of a ROM against its model, the ROM's eigenfrequencies, the
 //! one-to-one MAC pairing and stability.
 
-use super::args::{linspace, parse_band};
+use super::args::parse_band;
 use super::progress::{rank0_share, with_progress, with_slice_progress};
 use sparsemor::distributed::Cluster;
 use sparsemor::eigen::{eigenpairs_with_progress, EigenOptions, Request};
 use sparsemor::factor::count_eigenvalues_below_with;
+use sparsemor::grid::linspace;
 use sparsemor::io::{atomic, model_dir, rom_dir};
 use sparsemor::metrics::{
     modal_comparison, rom_eigenfrequencies, ErrorCurve, ModalComparison, Reference,

@@ -1,10 +1,10 @@
 //! `sparsemor export`: a ROM as a flexible body for a multibody code (docs/design.md §3.9).
 //! The elastic basis and the checks are library calls; this module prints them.
 
-use super::args::linspace;
 use super::evaluate::evaluation_band;
 use super::progress::with_progress;
 use sparsemor::body::Body;
+use sparsemor::grid::linspace;
 use sparsemor::io::exudyn::{self, TransferCheck, NO_SURFACE};
 use sparsemor::io::{model_dir, rom_dir};
 use sparsemor::metrics::{ErrorCurve, Reference};

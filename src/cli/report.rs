@@ -1,9 +1,9 @@
 //! `report`: one self-contained HTML page (inline SVG, no scripts or external assets) that
 //! compares ROMs with their full model — the paper's figures 4–7 and more (issue 9 item 4).
 
-use super::args::linspace;
 use super::progress::with_progress;
 use sparsemor::eigen::{eigenpairs, EigenOptions, Request};
+use sparsemor::grid::linspace;
 use sparsemor::io::{atomic, model_dir, rom_dir};
 use sparsemor::metrics::{mac_matrix, ErrorCurve, MacMatrix, ModalComparison, Reference};
 use sparsemor::reduce::linefit::Outcome;
