@@ -62,6 +62,7 @@ pub mod error;
 pub mod factor;
 pub mod fe;
 pub mod frf;
+pub mod grid;
 pub mod io;
 pub mod lsq;
 pub mod memory;

@@ -307,11 +307,6 @@ impl Pencil {
         from_parts(n_rows, cols.len(), col_ptr, row_idx, val)
     }
 
-    /// The stiffness values on the pattern (A(0) = K).
-    pub fn stiffness_values(&self) -> &[f64] {
-        &self.k
-    }
-
     /// max_i |K_ii| (the first entry of each column is its diagonal).
     pub fn stiffness_diagonal_max(&self) -> f64 {
         (0..self.n)

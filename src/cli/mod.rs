@@ -5,6 +5,7 @@ mod args;
 mod bench;
 mod bench_modes;
 mod demo;
+mod done;
 mod evaluate;
 mod export;
 mod generate;
@@ -18,6 +19,7 @@ mod sweep;
 mod tradeoff;
 
 use clap::{Parser, Subcommand};
+use done::Done;
 use sparsemor::distributed::Cluster;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -57,28 +59,6 @@ Exit status:
   2  bad command line
   3  the ROM was written but the requested tolerance was NOT met
      (rom.toml [sampling] records the tolerance, the error reached and why the loop stopped)";
-
-/// How a successful command ended (see the exit-status table in `--help`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Done {
-    /// Everything asked for was delivered: exit status 0.
-    Met,
-    /// The output was written but a requested accuracy was not reached: exit status 3.
-    RequestNotMet,
-    /// A distributed run failed and rank 0 has reported why: exit status 1, no message here.
-    Failed,
-}
-
-impl Done {
-    /// The process exit status.
-    pub fn exit_code(self) -> i32 {
-        match self {
-            Done::Met => 0,
-            Done::RequestNotMet => 3,
-            Done::Failed => 1,
-        }
-    }
-}
 
 #[derive(Subcommand)]
 enum Command {

@@ -2,12 +2,14 @@
 //! Craig–Bampton, written
 //! as a ROM directory; exit status 3 when a requested tolerance was not met.
 
-use super::args::parse_list;
+use super::args::{hz_list, parse_list};
+use super::done::Done;
 use super::progress::{rank0_share, with_progress};
 use sparsemor::body::Body;
 use sparsemor::distributed::Cluster;
 use sparsemor::eigen::EigenOptions;
 use sparsemor::io::{model_dir, rom_dir};
+use sparsemor::metrics::Stability;
 use sparsemor::reduce::craig_bampton::{self, CraigBamptonOptions};
 use sparsemor::reduce::linefit::{
     self, Growth, Interface, LineFitOptions, References, SamplingOptions, SamplingReport, Step,
@@ -99,7 +101,7 @@ impl ReduceArgs {
 }
 
 /// `cluster`: the ranks line-fitting's frequencies are spread over (rank 0 runs this).
-pub fn reduce(a: &ReduceArgs, cluster: Option<Arc<dyn Cluster>>) -> Result<super::Done> {
+pub fn reduce(a: &ReduceArgs, cluster: Option<Arc<dyn Cluster>>) -> Result<Done> {
     // before minutes of work, not after
     sparsemor::io::atomic::check_dir_free(&a.out)?;
     let model_dir::Loaded {
@@ -216,9 +218,9 @@ pub fn reduce(a: &ReduceArgs, cluster: Option<Arc<dyn Cluster>>) -> Result<super
                 "the ROM was written, but the tolerance {:.1e} was NOT met (error reached {:.2e}); exit status 3",
                 s.tol, s.error
             );
-            super::Done::RequestNotMet
+            Done::RequestNotMet
         }
-        _ => super::Done::Met,
+        _ => Done::Met,
     })
 }
 
@@ -278,26 +280,17 @@ fn print_rom(rom: &Rom) {
         println!(
             "fixed-interface  {} modes, {} Hz, max backward error {eta:.2e}",
             cb.fixed_interface_hz.len(),
-            cb.fixed_interface_hz
-                .iter()
-                .map(|f| format!("{f:.1}"))
-                .collect::<Vec<_>>()
-                .join(", ")
+            hz_list(&cb.fixed_interface_hz, 1, ", ")
         );
     }
-    for (name, d) in [
-        ("Mr", &rom.mass_definiteness),
-        ("Kr", &rom.stiffness_definiteness),
+    let s = Stability::of(rom);
+    for (name, class, d) in [
+        ("Mr", s.mass, &rom.mass_definiteness),
+        ("Kr", s.stiffness, &rom.stiffness_definiteness),
     ] {
         println!(
-            "{name}               {} (eigenvalues {:.3e} .. {:.3e})",
-            if d.positive_definite {
-                "positive definite"
-            } else {
-                "NOT positive definite"
-            },
-            d.min_eig,
-            d.max_eig
+            "{name}               {class} (eigenvalues {:.3e} .. {:.3e})",
+            d.min_eig, d.max_eig
         );
     }
     for t in &rom.timings {

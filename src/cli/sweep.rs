@@ -1,9 +1,10 @@
 //! `sparsemor sweep`: H, H1 or H0 on a band or a frequency list, written as CSV.
 
-use super::args::{linspace, parse_band, parse_list};
+use super::args::{parse_band, parse_list};
 use super::progress::{rank0_share, with_progress};
 use sparsemor::distributed::Cluster;
 use sparsemor::frf::{transfer_function, Part};
+use sparsemor::grid::linspace;
 use sparsemor::io::{atomic, model_dir};
 use sparsemor::sweep::{FreqStats, SweepOptions};
 use sparsemor::{Error, Result};

@@ -2,10 +2,11 @@
 //! mode count and Craig–Bampton per number of fixed-interface modes, each verified on one
 //! fine grid of full solves.
 
-use super::args::{linspace, parse_list};
+use super::args::parse_list;
 use super::progress::with_progress;
 use super::reduce::sampling_message;
 use sparsemor::eigen::EigenOptions;
+use sparsemor::grid::linspace;
 use sparsemor::io::{atomic, model_dir};
 use sparsemor::metrics::{ErrorCurve, Reference};
 use sparsemor::reduce::craig_bampton::{self, CraigBamptonOptions};

@@ -13,9 +13,9 @@
 //! so one process can run one ARPACK iteration at a time: a global lock serializes them.
 //! No Rust code is called from Fortran, so no panic can cross the FFI boundary.
 
-use super::krylov::Iteration;
+use super::krylov::{random_vector, Iteration};
 use super::operator::ShiftInvert;
-use super::{random_vector, EigenOptions};
+use super::options::EigenOptions;
 use crate::{Error, Result};
 use faer::{Mat, MatMut, MatRef};
 use std::ffi::c_char;

@@ -37,7 +37,7 @@
 //! ones — which has a component along every missing eigenvector.
 
 use super::operator::ShiftInvert;
-use super::{random_vector, EigenOptions};
+use super::options::EigenOptions;
 use crate::dense::sym_eigen;
 use crate::{Error, Result};
 use faer::{Mat, MatRef};
@@ -434,4 +434,16 @@ fn orthogonalize(
         beta = m_norm(w, &mut mw);
     }
     (total, norm0, beta, mw)
+}
+
+/// A deterministic pseudo-random vector (xorshift, uniform in [−½, ½)); `seed` 0 is the start
+/// vector of both backends.
+pub(super) fn random_vector(n: usize, seed: u64) -> Mat<f64> {
+    let mut seed = 0x2545f4914f6cdd1du64 ^ seed.wrapping_mul(0x9e3779b97f4a7c15);
+    Mat::from_fn(n, 1, |_, _| {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    })
 }

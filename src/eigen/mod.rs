@@ -34,241 +34,21 @@
 #[cfg(feature = "arpack")]
 mod arpack;
 mod krylov;
+mod modes;
 mod operator;
+mod options;
 mod slicing;
+mod stats;
+
+pub use modes::{Modes, MAX_BACKWARD_ERROR, RIGID_RTOL};
+pub use options::{EigenBackend, EigenOptions, Request};
+pub use stats::{EigenProgress, EigenStats, SliceStats};
 
 use crate::body::Body;
-use crate::pencil::Coefficient;
 use crate::units::hz_to_lambda;
 use crate::{Error, Result};
-use faer::{Mat, Side};
 use slicing::{Slicer, Solved};
 use std::time::Instant;
-
-/// |λ| ≤ RIGID_RTOL · max_i K_ii/M_ii marks a rigid-body mode when the model gives no rigid
-/// modes V0 (see the module doc).
-pub const RIGID_RTOL: f64 = 1e-10;
-
-/// Largest accepted normwise backward error of a returned eigenpair ([`Modes::residuals`]);
-/// a backward-stable iteration gives a small multiple of ε.
-pub const MAX_BACKWARD_ERROR: f64 = 1e-10;
-
-/// Which eigenpairs.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Request {
-    /// The c lowest modes, rigid ones included.
-    Lowest(usize),
-    /// Every mode with frequency ≤ f_hi (Hz), rigid ones included, counted exactly by inertia.
-    UpTo(f64),
-    /// Every mode with lo ≤ f ≤ hi (Hz), counted exactly by inertia; only these are computed
-    /// (lo ≤ 0 includes the rigid modes).
-    Band(f64, f64),
-}
-
-/// Which iteration computes the eigenpairs (the slicing and factorizations are the same).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum EigenBackend {
-    /// Our Krylov–Schur in the M-inner product (pure Rust, always available).
-    #[default]
-    Krylov,
-    /// ARPACK `dsaupd`/`dseupd`, mode 3; needs the cargo feature `arpack` (libarpack2-dev).
-    Arpack,
-}
-
-impl std::fmt::Display for EigenBackend {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            EigenBackend::Krylov => "krylov",
-            EigenBackend::Arpack => "arpack",
-        })
-    }
-}
-
-/// Settings of the eigensolver.
-#[derive(Clone, Debug)]
-pub struct EigenOptions {
-    /// Shift σ < 0 of the bottom slice; `None` = −b/100 with b the slice's upper bound (or
-    /// −0.01·(2π [`Self::band_end_hz`])² while the bound of [`Request::Lowest`] is unknown).
-    pub sigma: Option<f64>,
-    /// The frequency scale (Hz) of the first shift for [`Request::Lowest`]: the end of the
-    /// scene's band, where the wanted modes lie below; `None` = 1 Hz.
-    pub band_end_hz: Option<f64>,
-    /// Convergence: Ritz residual ≤ tol·|θ| + 4ε·θ_max (module `krylov`; ARPACK: its `tol`).
-    pub tol: f64,
-    /// Krylov dimension per slice (ARPACK: `ncv`); `None` = max(2c, c + 40) for a slice of c
-    /// modes, capped at N.
-    pub krylov_dim: Option<usize>,
-    /// Restart limit per slice (ARPACK: `iparam(3)`, its update iterations).
-    pub max_restarts: usize,
-    /// Restarts in a row without a newly converged mode after which a slice gives up.
-    pub patience: usize,
-    /// Target number of modes per slice; smaller when the Krylov bases of the slices that run
-    /// at once would take more than half the memory budget (module `slicing`).
-    pub slice_size: usize,
-    /// Block size of the Krylov–Schur iteration: vectors solved at once (a block solve costs
-    /// far less than as many single ones) and the largest multiplicity resolved without a
-    /// fresh start.
-    pub block: usize,
-    /// Worker threads (slices at once, or threads inside a lone factorization); 0 = all cores.
-    pub threads: usize,
-    /// Memory the concurrent slices may use (bytes); `None` = half of MemAvailable.
-    pub memory_budget: Option<usize>,
-    /// The iteration.
-    pub backend: EigenBackend,
-}
-
-impl EigenOptions {
-    /// The defaults with the shift scale of a scene band ending at `band_end_hz`.
-    pub fn for_band(band_end_hz: f64) -> Self {
-        EigenOptions {
-            band_end_hz: Some(band_end_hz),
-            ..Default::default()
-        }
-    }
-}
-
-impl Default for EigenOptions {
-    fn default() -> Self {
-        EigenOptions {
-            sigma: None,
-            band_end_hz: None,
-            tol: 1e-14,
-            krylov_dim: None,
-            max_restarts: 500,
-            patience: 60,
-            slice_size: 96,
-            block: 4,
-            threads: 0,
-            memory_budget: None,
-            backend: EigenBackend::Krylov,
-        }
-    }
-}
-
-/// Progress of one slice, passed to the callback of [`eigenpairs_with_progress`] after each
-/// restart of its iteration.
-#[derive(Clone, Copy, Debug)]
-pub struct EigenProgress {
-    /// The slice (0-based) and how many there are.
-    pub slice: usize,
-    /// Slices in this solve.
-    pub slices: usize,
-    /// Modes of the slice converged so far.
-    pub found: usize,
-    /// Modes in the slice (its inertia count).
-    pub wanted: usize,
-    /// The slice's frequency range (Hz; 0 for the bottom slice's open lower end).
-    pub lo_hz: f64,
-    /// Upper end (Hz).
-    pub hi_hz: f64,
-}
-
-/// What one slice did.
-#[derive(Clone, Debug, Default)]
-pub struct SliceStats {
-    /// Frequency range (Hz) (lo = 0 for the bottom slice).
-    pub lo_hz: f64,
-    /// Upper end (Hz).
-    pub hi_hz: f64,
-    /// Shift used.
-    pub sigma: f64,
-    /// ν(σ) from the LBLᵀ inertia (0 for a shift below the spectrum).
-    pub below_sigma: usize,
-    /// Modes counted (and found) in the slice.
-    pub count: usize,
-    /// Krylov dimension.
-    pub krylov_dim: usize,
-    /// nnz of the factor.
-    pub factor_nnz: usize,
-    /// Factorization time, s.
-    pub factor_s: f64,
-    /// Iteration time, s.
-    pub iterate_s: f64,
-    /// Applications of S.
-    pub solves: usize,
-    /// Restarts.
-    pub restarts: usize,
-    /// Fresh starts after missed copies of multiple eigenvalues.
-    pub fresh_starts: usize,
-    /// Iterative-refinement steps of the interior shift's LBLᵀ solves (0 when every solve
-    /// met its backward-error target at once; see `factor::ShiftedLblt`): a large number
-    /// means the factor at this shift grew and each solve cost up to four.
-    pub refinements: usize,
-}
-
-/// What the eigensolver did.
-#[derive(Clone, Debug, Default)]
-pub struct EigenStats {
-    /// The iteration used.
-    pub backend: EigenBackend,
-    /// Factorizations of the slices (summed over slices), s.
-    pub factor_s: f64,
-    /// Iterations (summed over slices), s.
-    pub iterate_s: f64,
-    /// Inertia counts (summed), s.
-    pub count_s: f64,
-    /// Wall-clock time of the whole solve, s.
-    pub wall_s: f64,
-    /// Applications of S (all slices).
-    pub solves: usize,
-    /// Restarts (all slices).
-    pub restarts: usize,
-    /// Largest Krylov dimension of a slice.
-    pub krylov_dim: usize,
-    /// Shift of the first slice.
-    pub sigma: f64,
-    /// nnz of the Cholesky/LBLᵀ factor.
-    pub factor_nnz: usize,
-    /// Sparse factorizations in all: one per slice and one per counted bound.
-    pub factorizations: usize,
-    /// Neighbouring slices whose vectors needed the Rayleigh–Ritz step to be M-orthonormal.
-    pub repaired_bounds: usize,
-    /// Per slice, in ascending order.
-    pub slices: Vec<SliceStats>,
-    /// Modes below the ones returned (ν(lo) of a [`Request::Band`], else 0): the first
-    /// returned mode is mode number `modes_below + 1` of the body.
-    pub modes_below: usize,
-}
-
-/// Eigenpairs in ascending order of λ.
-#[derive(Clone, Debug)]
-pub struct Modes {
-    /// Eigenvalues λ = ω².
-    pub lambdas: Vec<f64>,
-    /// Eigenvectors (N × c), M-orthonormal.
-    pub vectors: Mat<f64>,
-    /// Normwise backward errors η = ‖Kφ − λMφ‖₂ / ((‖K‖₁ + |λ|‖M‖₁)‖φ‖₂): the pair is an
-    /// exact eigenpair of a pencil (K + ΔK, M + ΔM) with ‖ΔK‖ ≲ η‖K‖, ‖ΔM‖ ≲ η‖M‖ (the matrix
-    /// 1-norms bound the 2-norms). A backward-stable solve gives a small multiple of ε. It is
-    /// not a forward error (the relative error of a low λ can be larger by up to about
-    /// ‖K‖/(|λ|‖M‖)), but unlike a residual relative to ‖Kφ‖ it has no rounding floor for the
-    /// lowest modes of a fine mesh and stays meaningful for rigid modes (λ ≈ 0), where that
-    /// ratio compares two rounding errors.
-    pub residuals: Vec<f64>,
-    /// How many of them are rigid-body modes (the first ones; see the module doc).
-    pub rigid: usize,
-    /// Measurements.
-    pub stats: EigenStats,
-}
-
-impl Modes {
-    /// Frequencies f = √λ / 2π (Hz) of the deformation modes; the [`Self::rigid`] rigid
-    /// modes are reported as 0 Hz (their computed λ, a rounding-level number of either sign,
-    /// stays in [`Self::lambdas`]) — never as a negative frequency.
-    pub fn freqs_hz(&self) -> Vec<f64> {
-        self.lambdas
-            .iter()
-            .enumerate()
-            .map(|(k, &l)| {
-                if k < self.rigid {
-                    0.0
-                } else {
-                    crate::units::lambda_to_hz(l)
-                }
-            })
-            .collect()
-    }
-}
 
 /// The eigenpairs of (K, M) asked for.
 ///
@@ -389,7 +169,7 @@ fn solve_request(
             .to_owned();
     }
     stats.wall_s = wall.elapsed().as_secs_f64();
-    finish(body, lambdas, vectors, stats)
+    modes::finish(body, lambdas, vectors, stats)
 }
 
 /// Every mode in [lo, hi] Hz (lo = None: from the bottom of the spectrum, rigid modes
@@ -526,85 +306,4 @@ fn lowest(
     bottom.stats.count = bottom.lambdas.len();
     rest.insert(0, bottom);
     Ok((rest, probe))
-}
-/// A deterministic pseudo-random vector (xorshift, uniform in [−½, ½)); `seed` 0 is the start
-/// vector of both backends.
-fn random_vector(n: usize, seed: u64) -> Mat<f64> {
-    let mut seed = 0x2545f4914f6cdd1du64 ^ seed.wrapping_mul(0x9e3779b97f4a7c15);
-    Mat::from_fn(n, 1, |_, _| {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-    })
-}
-
-/// The shared post-processing: ascending order, residuals and the rigid count.
-fn finish(body: &Body, lambdas: Vec<f64>, vectors: Mat<f64>, stats: EigenStats) -> Result<Modes> {
-    let (pencil, n) = (body.pencil(), body.n());
-    let mut order: Vec<usize> = (0..lambdas.len()).collect();
-    order.sort_by(|&a, &b| lambdas[a].total_cmp(&lambdas[b]));
-    let lambdas: Vec<f64> = order.iter().map(|&c| lambdas[c]).collect();
-    let vectors = Mat::from_fn(n, order.len(), |i, c| vectors[(i, order[c])]);
-    let kphi = pencil.mul(Coefficient::Stiffness, vectors.as_ref());
-    let mphi = pencil.mul(Coefficient::Mass, vectors.as_ref());
-    let (norm_k, norm_m) = (
-        pencil.norm_1(Coefficient::Stiffness),
-        pencil.norm_1(Coefficient::Mass),
-    );
-    let residuals: Vec<f64> = (0..lambdas.len())
-        .map(|c| {
-            let r = kphi.col(c) - mphi.col(c) * lambdas[c];
-            r.norm_l2() / ((norm_k + lambdas[c].abs() * norm_m) * vectors.col(c).norm_l2())
-        })
-        .collect();
-    // the iteration's residual estimate is not the true residual: a pair that passed it but
-    // is not an eigenpair of the pencil to far better than 1e-10 is an error, never a result
-    if let Some((k, &worst)) = residuals
-        .iter()
-        .enumerate()
-        .max_by(|a, b| a.1.total_cmp(b.1))
-        .filter(|(_, &r)| !(r <= MAX_BACKWARD_ERROR))
-    {
-        return Err(Error::NotConverged(format!(
-            "mode {} ({:.6e} Hz) has backward error {worst:.1e} > {MAX_BACKWARD_ERROR:.0e} although its Ritz estimate \
-             converged; use smaller slices (slice_size) or a larger block",
-            stats.modes_below + k + 1,
-            crate::units::lambda_to_hz(lambdas[k])
-        )));
-    }
-    let rigid = match body.rigid() {
-        Some(rb) => {
-            // M-norm² of the M-orthogonal projection onto span V0: cᵀ M0⁻¹ c with c = V0ᵀ M φ
-            let c = rb.modes().transpose() * &mphi;
-            let llt = rb.mass().llt(Side::Lower).map_err(|_| {
-                Error::InvalidModel("rigid modes: V0ᵀ M V0 is not positive definite".into())
-            })?;
-            let y = faer::linalg::solvers::Solve::solve(&llt, &c);
-            (0..lambdas.len())
-                .filter(|&j| {
-                    (0..6).map(|i| c[(i, j)] * y[(i, j)]).sum::<f64>()
-                        >= 0.5 * (vectors.col(j).transpose() * mphi.col(j))
-                })
-                .count()
-        }
-        None => {
-            let (k, m) = (
-                pencil.diagonal(Coefficient::Stiffness),
-                pencil.diagonal(Coefficient::Mass),
-            );
-            let scale = k.iter().zip(&m).map(|(k, m)| k / m).fold(0.0, f64::max);
-            lambdas
-                .iter()
-                .filter(|&&l| l.abs() <= RIGID_RTOL * scale)
-                .count()
-        }
-    };
-    Ok(Modes {
-        lambdas,
-        vectors,
-        residuals,
-        rigid,
-        stats,
-    })
 }

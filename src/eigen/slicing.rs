@@ -25,7 +25,8 @@
 
 use super::krylov::{self, Target};
 use super::operator::ShiftInvert;
-use super::{EigenBackend, EigenOptions, EigenProgress, SliceStats};
+use super::options::{EigenBackend, EigenOptions};
+use super::stats::{EigenProgress, SliceStats};
 use crate::body::Body;
 use crate::dense::{sym, sym_eigen};
 use crate::factor::count_eigenvalues_below_with;

@@ -514,6 +514,75 @@ fn reduce_craig_bampton_then_evaluate() {
     );
 }
 
+/// The demo's Craig–Bampton ROM of the free bar (outputs + 1 boundary DoF, 4 fixed-interface
+/// modes) keeps the six rigid modes: `reduce`, `evaluate` and the demo's table call them the
+/// same, and no frequency reads `-0.0`.
+#[test]
+fn free_craig_bampton_rom_reads_the_same_in_evaluate_and_the_demo() {
+    let work = scratch("cb_stability");
+    let out = ok(
+        &work,
+        &[
+            "reduce",
+            bar_str(),
+            "--method",
+            "craig-bampton",
+            "--extra-interface",
+            "1",
+            "--modes",
+            "4",
+            "--threads",
+            "2",
+            "--out",
+            "ROM",
+        ],
+    );
+    let line = |out: &str, prefix: &str| -> String {
+        out.lines()
+            .find(|l| l.starts_with(prefix))
+            .unwrap_or_else(|| panic!("no '{prefix}' line:\n{out}"))[prefix.len()..]
+            .trim()
+            .to_string()
+    };
+    assert!(
+        line(&out, "Kr").starts_with("semidefinite (6 rigid) (eigenvalues"),
+        "reduce:\n{out}"
+    );
+    let eval = ok(
+        &work,
+        &[
+            "evaluate",
+            bar_str(),
+            "ROM",
+            "--points",
+            "5",
+            "--threads",
+            "2",
+            "--no-modes",
+        ],
+    );
+    let freqs = line(&eval, "ROM eigenfreqs");
+    let freqs: Vec<&str> = freqs.split(' ').collect();
+    assert_eq!(freqs[..6], ["0"; 6], "evaluate:\n{eval}");
+    assert!(
+        freqs[6..].iter().all(|f| num(f) > 100.0),
+        "evaluate:\n{eval}"
+    );
+    let stability = line(&eval, "stability");
+    assert_eq!(stability, "Mr SPD, Kr semidefinite (6 rigid)");
+
+    let demo = ok(&work, &["demo", "--threads", "2"]);
+    let row = demo
+        .lines()
+        .find(|l| l.starts_with("| Craig–Bampton"))
+        .unwrap_or_else(|| panic!("no Craig–Bampton row in the demo:\n{demo}"));
+    let cells: Vec<&str> = row.split('|').map(str::trim).collect();
+    assert_eq!(cells[cells.len() - 2], stability, "demo:\n{demo}");
+    for (name, text) in [("reduce", &out), ("evaluate", &eval), ("demo", &demo)] {
+        assert!(!text.contains("-0.0"), "{name}:\n{text}");
+    }
+}
+
 #[test]
 fn reduce_bad_settings_fail_cleanly_without_output() {
     let cases: [(&str, &[&str], &[&str]); 8] = [

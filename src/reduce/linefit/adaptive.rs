@@ -42,6 +42,7 @@ use super::options::{Growth, LineFitOptions, SamplingOptions};
 use super::report::{Outcome, SamplingReport, Step, Verified};
 use crate::body::Body;
 use crate::distributed::{Engine, Keep};
+use crate::grid::linspace;
 use crate::lsq::StreamedQr;
 use crate::reduce::rom::{Provenance, Rom, Timing};
 use crate::scene::{positive_band, Scene};
@@ -153,9 +154,7 @@ impl<'a> Loop<'a> {
             })
             .max(part.order());
         let z0 = part.order().div_ceil(2 * p).max(2);
-        let mut sampled: Vec<f64> = (0..z0)
-            .map(|k| band[0] + (band[1] - band[0]) * k as f64 / (z0 - 1) as f64)
-            .collect();
+        let mut sampled = linspace(band, z0);
         sampled.extend(sampling.seeds_hz.iter().copied());
         sampled.sort_by(f64::total_cmp);
         sampled.dedup();
@@ -183,9 +182,7 @@ impl<'a> Loop<'a> {
             Keep::No
         };
         let nc = sampling.candidates.max(3);
-        let candidates: Vec<f64> = (0..nc)
-            .map(|k| band[0] + (band[1] - band[0]) * k as f64 / (nc - 1) as f64)
-            .collect();
+        let candidates = linspace(band, nc);
         let absorbed = engine.absorb(
             &part.split,
             &scene.inputs,
@@ -433,12 +430,10 @@ impl<'a> Loop<'a> {
             .unwrap_or(factorizations.div_ceil(3));
         let verified = if points > 0 {
             let band = positive_band(self.scene.band_hz);
-            let freqs: Vec<f64> = (0..points)
-                .map(|k| match points {
-                    1 => band[1],
-                    _ => band[0] + (band[1] - band[0]) * k as f64 / (points - 1) as f64,
-                })
-                .collect();
+            let freqs = match points {
+                1 => vec![band[1]],
+                _ => linspace(band, points),
+            };
             let (h1, _) = self.engine.respond(
                 Response::Elastic,
                 &self.scene.inputs,
