@@ -10,8 +10,8 @@
 //! The full H1 on the grid comes from the same parallel sweep as everything else.
 
 use crate::body::Body;
-use crate::eigen::Modes;
-use crate::reduce::Rom;
+use crate::eigen::{Modes, RIGID_RTOL};
+use crate::reduce::{Definiteness, Rom};
 use crate::scene::Scene;
 use crate::sweep::{transfer_function, Part, ProgressFn, SweepOptions};
 use crate::units::lambda_to_hz;
@@ -132,12 +132,125 @@ pub fn rom_modes(rom: &Rom) -> Result<(Vec<f64>, Mat<f64>)> {
     Ok((lambdas, linv.transpose() * u))
 }
 
-/// Eigenfrequencies (Hz, ascending) of the ROM.
+/// Eigenfrequencies (Hz, ascending) of the ROM, f = √λ / 2π as computed (signed for λ < 0).
 ///
 /// # Errors
 /// As [`rom_modes`].
 pub fn rom_eigenfrequencies(rom: &Rom) -> Result<Vec<f64>> {
     Ok(rom_modes(rom)?.0.into_iter().map(lambda_to_hz).collect())
+}
+
+/// The rigid tolerance τ of a ROM spectrum (docs/design.md §3.6–3.7): a ROM mode is rigid
+/// when |λ| ≤ τ = [`RIGID_RTOL`] · λ_max — the full model's rule without V0, applied to the
+/// ROM's own spectrum, whose largest eigenvalue is known exactly — elastic when λ > τ and
+/// negative (an unstable ROM) when λ < −τ.
+fn rigid_tol(lambdas: &[f64]) -> f64 {
+    RIGID_RTOL * lambdas.iter().copied().fold(0.0, f64::max)
+}
+
+/// The ROM's eigenfrequencies reported as [`Modes::freqs_hz`] reports the full model's.
+#[derive(Clone, Debug)]
+pub struct RomSpectrum {
+    /// f = √λ / 2π (Hz, ascending; signed for λ < 0), the rigid modes at exactly 0 Hz (their
+    /// computed λ is a rounding-level number of either sign).
+    pub freqs_hz: Vec<f64>,
+    /// Rigid modes, |λ| ≤ τ = [`RIGID_RTOL`] · λ_max; [`mac_matrix`] compares the modes above τ.
+    pub rigid: usize,
+    /// Modes with λ < −τ.
+    pub negative: usize,
+}
+
+/// The ROM's eigenfrequencies with its rigid modes at 0 Hz ([`RomSpectrum`]).
+///
+/// # Errors
+/// As [`rom_modes`].
+pub fn rom_spectrum(rom: &Rom) -> Result<RomSpectrum> {
+    let lambdas = rom_modes(rom)?.0;
+    let tol = rigid_tol(&lambdas);
+    Ok(RomSpectrum {
+        freqs_hz: lambdas
+            .iter()
+            .map(|&l| if l.abs() <= tol { 0.0 } else { lambda_to_hz(l) })
+            .collect(),
+        rigid: lambdas.iter().filter(|&&l| l.abs() <= tol).count(),
+        negative: lambdas.iter().filter(|&&l| l < -tol).count(),
+    })
+}
+
+/// The definiteness class of a reduced matrix (docs/design.md §3.4), as every command prints it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Definite {
+    /// Positive definite (Cholesky succeeded; for Kr also no rigid mode): `SPD`.
+    Positive,
+    /// Positive semidefinite: `semidefinite (k rigid)`, for Kr with its k rigid modes, or
+    /// `semidefinite` when they are not counted.
+    Semi(Option<usize>),
+    /// Indefinite: `indefinite (k negative)`, for Kr with its k modes at λ < −τ, or
+    /// `indefinite` when they are not counted.
+    Indefinite(Option<usize>),
+}
+
+impl Definite {
+    /// From the Cholesky test and the extreme eigenvalues μ of the matrix alone: SPD when
+    /// Cholesky succeeded, else semidefinite when μ_min ≥ −[`RIGID_RTOL`] · μ_max, else
+    /// indefinite.
+    pub fn of(d: &Definiteness) -> Self {
+        if d.positive_definite {
+            Definite::Positive
+        } else if d.min_eig >= -RIGID_RTOL * d.max_eig {
+            Definite::Semi(None)
+        } else {
+            Definite::Indefinite(None)
+        }
+    }
+}
+
+impl std::fmt::Display for Definite {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Definite::Positive => f.write_str("SPD"),
+            Definite::Semi(None) => f.write_str("semidefinite"),
+            Definite::Semi(Some(k)) => write!(f, "semidefinite ({k} rigid)"),
+            Definite::Indefinite(None) => f.write_str("indefinite"),
+            Definite::Indefinite(Some(k)) => write!(f, "indefinite ({k} negative)"),
+        }
+    }
+}
+
+/// The definiteness of Mr and Kr (docs/design.md §3.4) in the words every command prints,
+/// `Mr SPD, Kr semidefinite (6 rigid)`. Kr is classed by the ROM's spectrum Kr φ = λ Mr φ when
+/// Mr is positive definite — by Sylvester's law of inertia its signs are those of Kr's
+/// eigenvalues, and its zeros are the rigid modes printed at 0 Hz ([`RomSpectrum`]) — so a free
+/// body's Craig–Bampton ROM, which keeps the six rigid modes, reads `semidefinite (6 rigid)`
+/// whether or not rounding let Kr's Cholesky pass; otherwise, and when the spectrum shows
+/// neither rigid nor negative modes, by [`Definite::of`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Stability {
+    /// Mr.
+    pub mass: Definite,
+    /// Kr.
+    pub stiffness: Definite,
+}
+
+impl Stability {
+    /// The classes of a ROM's Mr and Kr.
+    pub fn of(rom: &Rom) -> Self {
+        let stiffness = match rom_spectrum(rom) {
+            Ok(s) if s.negative > 0 => Definite::Indefinite(Some(s.negative)),
+            Ok(s) if s.rigid > 0 => Definite::Semi(Some(s.rigid)),
+            _ => Definite::of(&rom.stiffness_definiteness),
+        };
+        Stability {
+            mass: Definite::of(&rom.mass_definiteness),
+            stiffness,
+        }
+    }
+}
+
+impl std::fmt::Display for Stability {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Mr {}, Kr {}", self.mass, self.stiffness)
+    }
 }
 
 /// MAC(a, b) = (aᵀb)² / (aᵀa · bᵀb).
@@ -191,17 +304,15 @@ pub struct MacMatrix {
 }
 
 /// The MAC matrix of the deformation modes of `full` (rigid ones skipped) against the
-/// ROM's elastic modes (λ > 1e-10 λ_max). The MAC uses V φ̃ when `basis` (V) is given,
+/// ROM's elastic modes (λ > [`RIGID_RTOL`] · λ_max). The MAC uses V φ̃ when `basis` (V) is given,
 /// else the mode shapes on the ROM's DoFs.
 ///
 /// # Errors
 /// As [`rom_modes`].
 pub fn mac_matrix(rom: &Rom, full: &Modes, basis: Option<MatRef<'_, f64>>) -> Result<MacMatrix> {
     let (lam_r, phi_r) = rom_modes(rom)?;
-    let lam_max = lam_r.iter().copied().fold(0.0, f64::max);
-    let rom_elastic: Vec<usize> = (0..lam_r.len())
-        .filter(|&j| lam_r[j] > 1e-10 * lam_max)
-        .collect();
+    let tol = rigid_tol(&lam_r);
+    let rom_elastic: Vec<usize> = (0..lam_r.len()).filter(|&j| lam_r[j] > tol).collect();
     let expanded_modes = basis.map(|v| v * &phi_r);
     let full_modes: Vec<usize> = (full.rigid..full.lambdas.len()).collect();
     let mut values = Mat::zeros(full_modes.len(), rom_elastic.len());

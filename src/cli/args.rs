@@ -1,5 +1,5 @@
 //! Parsing and formatting helpers shared by the commands: DoF and frequency lists, bands,
-//! triples, byte counts.
+//! triples; frequencies and byte counts as text.
 
 use sparsemor::{Error, Result};
 
@@ -47,6 +47,30 @@ pub fn parse_list<T: std::str::FromStr>(s: &str, what: &str) -> Result<Vec<T>> {
             })
         })
         .collect()
+}
+
+/// A frequency (Hz) with `decimals` decimals. A rigid mode, which the library reports at
+/// exactly 0 Hz (`Modes::freqs_hz`, `metrics::rom_spectrum`), is `0`; any other value that
+/// would print as zero is written in scientific notation, so no frequency reads `-0.0`.
+pub fn hz(f: f64, decimals: usize) -> String {
+    if f == 0.0 {
+        return "0".into();
+    }
+    let s = format!("{f:.decimals$}");
+    if s.bytes().all(|b| matches!(b, b'-' | b'0' | b'.')) {
+        format!("{f:.1e}")
+    } else {
+        s
+    }
+}
+
+/// Frequencies (Hz) as [`hz`] writes each, joined by `sep`.
+pub fn hz_list(freqs: &[f64], decimals: usize, sep: &str) -> String {
+    freqs
+        .iter()
+        .map(|&f| hz(f, decimals))
+        .collect::<Vec<_>>()
+        .join(sep)
 }
 
 /// 1234567 → "1.2 MB".

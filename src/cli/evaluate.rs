@@ -1,7 +1,7 @@
 //! `sparsemor evaluate`: ε(f) of a ROM against its model, the ROM's eigenfrequencies, the
 //! one-to-one MAC pairing and stability.
 
-use super::args::parse_band;
+use super::args::{hz, hz_list, parse_band};
 use super::progress::{rank0_share, with_progress, with_slice_progress};
 use sparsemor::distributed::Cluster;
 use sparsemor::eigen::{eigenpairs_with_progress, EigenOptions, Request};
@@ -9,7 +9,7 @@ use sparsemor::factor::count_eigenvalues_below_with;
 use sparsemor::grid::linspace;
 use sparsemor::io::{atomic, model_dir, rom_dir};
 use sparsemor::metrics::{
-    modal_comparison, rom_eigenfrequencies, ErrorCurve, ModalComparison, Reference,
+    modal_comparison, rom_spectrum, ErrorCurve, ModalComparison, Reference, Stability,
 };
 use sparsemor::reduce::Rom;
 use sparsemor::scene::{positive_band, Scene};
@@ -147,31 +147,13 @@ fn print_errors(rom: &Rom, curve: &ErrorCurve) -> Result<()> {
         curve.freqs_hz[curve.freqs_hz.len() - 1]
     );
     println!("eps total        max {tmax:.3e}  mean {tmean:.3e}");
-    let f = rom_eigenfrequencies(rom)?;
+    let f = rom_spectrum(rom)?.freqs_hz;
+    println!("ROM eigenfreqs   {}", hz_list(&f, 1, " "));
     println!(
-        "ROM eigenfreqs   {}",
-        f.iter()
-            .map(|x| format!("{x:.1}"))
-            .collect::<Vec<_>>()
-            .join(" ")
+        "largest          {} Hz",
+        hz(f.last().copied().unwrap_or(f64::NAN), 1)
     );
-    println!(
-        "largest          {:.1} Hz",
-        f.last().copied().unwrap_or(f64::NAN)
-    );
-    println!(
-        "stability        Mr {}, Kr {}",
-        if rom.mass_definiteness.positive_definite {
-            "SPD"
-        } else {
-            "NOT SPD"
-        },
-        if rom.stiffness_definiteness.positive_definite {
-            "SPD"
-        } else {
-            "NOT SPD"
-        }
-    );
+    println!("stability        {}", Stability::of(rom));
     Ok(())
 }
 

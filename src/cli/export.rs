@@ -1,6 +1,7 @@
 //! `sparsemor export`: a ROM as a flexible body for a multibody code (docs/design.md §3.9).
 //! The elastic basis and the checks are library calls; this module prints them.
 
+use super::args::hz_list;
 use super::evaluate::evaluation_band;
 use super::progress::with_progress;
 use sparsemor::body::Body;
@@ -108,11 +109,7 @@ pub fn export(a: &ExportArgs) -> Result<()> {
     }
     println!(
         "eigenfreqs       {} Hz",
-        flex.eigenfrequencies_hz
-            .iter()
-            .map(|f| format!("{f:.2}"))
-            .collect::<Vec<_>>()
-            .join(" ")
+        hz_list(&flex.eigenfrequencies_hz, 2, " ")
     );
     if let Some(c) = &check {
         println!(

@@ -1,6 +1,6 @@
 //! `sparsemor modes`: eigenfrequencies counted exactly up to a bound, or the lowest c.
 
-use super::args::parse_band;
+use super::args::{hz, parse_band};
 use super::progress::with_slice_progress;
 use sparsemor::eigen::{eigenpairs_with_progress, EigenOptions, Modes, Request};
 use sparsemor::io::{atomic, model_dir};
@@ -102,9 +102,9 @@ pub fn modes(a: &ModesArgs) -> Result<()> {
 fn print_modes(m: &Modes) {
     for (k, f) in m.freqs_hz().iter().enumerate() {
         println!(
-            "{:>4} {:>12.4} Hz  {:<8} backward error {:.1e}{}",
+            "{:>4} {:>12} Hz  {:<8} backward error {:.1e}{}",
             m.stats.modes_below + k + 1,
-            f,
+            hz(*f, 4),
             if k < m.rigid { "rigid" } else { "elastic" },
             m.residuals[k],
             if k < m.rigid {

@@ -2,13 +2,14 @@
 //! Craig–Bampton, written
 //! as a ROM directory; exit status 3 when a requested tolerance was not met.
 
-use super::args::parse_list;
+use super::args::{hz_list, parse_list};
 use super::done::Done;
 use super::progress::{rank0_share, with_progress};
 use sparsemor::body::Body;
 use sparsemor::distributed::Cluster;
 use sparsemor::eigen::EigenOptions;
 use sparsemor::io::{model_dir, rom_dir};
+use sparsemor::metrics::Stability;
 use sparsemor::reduce::craig_bampton::{self, CraigBamptonOptions};
 use sparsemor::reduce::linefit::{
     self, Growth, Interface, LineFitOptions, References, SamplingOptions, SamplingReport, Step,
@@ -279,26 +280,17 @@ fn print_rom(rom: &Rom) {
         println!(
             "fixed-interface  {} modes, {} Hz, max backward error {eta:.2e}",
             cb.fixed_interface_hz.len(),
-            cb.fixed_interface_hz
-                .iter()
-                .map(|f| format!("{f:.1}"))
-                .collect::<Vec<_>>()
-                .join(", ")
+            hz_list(&cb.fixed_interface_hz, 1, ", ")
         );
     }
-    for (name, d) in [
-        ("Mr", &rom.mass_definiteness),
-        ("Kr", &rom.stiffness_definiteness),
+    let s = Stability::of(rom);
+    for (name, class, d) in [
+        ("Mr", s.mass, &rom.mass_definiteness),
+        ("Kr", s.stiffness, &rom.stiffness_definiteness),
     ] {
         println!(
-            "{name}               {} (eigenvalues {:.3e} .. {:.3e})",
-            if d.positive_definite {
-                "positive definite"
-            } else {
-                "NOT positive definite"
-            },
-            d.min_eig,
-            d.max_eig
+            "{name}               {class} (eigenvalues {:.3e} .. {:.3e})",
+            d.min_eig, d.max_eig
         );
     }
     for t in &rom.timings {

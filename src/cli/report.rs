@@ -1,13 +1,16 @@
 //! `report`: one self-contained HTML page (inline SVG, no scripts or external assets) that
 //! compares ROMs with their full model — the paper's figures 4–7 and more (issue 9 item 4).
 
+use super::args::hz_list;
 use super::progress::with_progress;
 use sparsemor::eigen::{eigenpairs, EigenOptions, Request};
 use sparsemor::grid::linspace;
 use sparsemor::io::{atomic, model_dir, rom_dir};
-use sparsemor::metrics::{mac_matrix, ErrorCurve, MacMatrix, ModalComparison, Reference};
+use sparsemor::metrics::{
+    mac_matrix, ErrorCurve, MacMatrix, ModalComparison, Reference, Stability,
+};
 use sparsemor::reduce::linefit::Outcome;
-use sparsemor::reduce::{Definiteness, Method, Rom};
+use sparsemor::reduce::{Method, Rom};
 use sparsemor::report::{
     chart_svg, heat_map_svg, tradeoff_svg, Chart, Draw, HeatMap, Series, TradeoffRow,
 };
@@ -421,13 +424,6 @@ fn table(html: &mut String, roms: &[Evaluated]) {
                 })
                 .unwrap_or_default(),
         };
-        let spd = |d: &Definiteness| {
-            if d.positive_definite {
-                "SPD"
-            } else {
-                "NOT SPD"
-            }
-        };
         let pairs = &e.modal.pairs;
         let tolerance = r.sampling().map_or(String::new(), |s| {
             format!(
@@ -448,7 +444,7 @@ fn table(html: &mut String, roms: &[Evaluated]) {
         });
         let _ = writeln!(
             html,
-            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{factorizations}</td><td>{}</td><td>{cond}</td><td>Mr {}, Kr {}</td><td>{:.2e} / {:.2e}</td><td>{:.2e}, {:.4}{}</td><td>{tolerance}</td><td>{}</td></tr>",
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{factorizations}</td><td>{}</td><td>{cond}</td><td>{}</td><td>{:.2e} / {:.2e}</td><td>{:.2e}, {:.4}{}</td><td>{tolerance}</td><td>{}</td></tr>",
             esc(&e.name),
             r.method(),
             r.order(),
@@ -457,8 +453,7 @@ fn table(html: &mut String, roms: &[Evaluated]) {
                 .map(|t| format!("{} {:.3}", esc(&t.phase), t.seconds))
                 .collect::<Vec<_>>()
                 .join("<br>"),
-            spd(&r.mass_definiteness),
-            spd(&r.stiffness_definiteness),
+            Stability::of(r),
             ErrorCurve::max_mean(&e.curve.eps_elastic).0,
             ErrorCurve::max_mean(&e.curve.eps_total).0,
             pairs.iter().map(|p| p.rel_freq_error).fold(0.0, f64::max),
@@ -468,12 +463,11 @@ fn table(html: &mut String, roms: &[Evaluated]) {
             } else {
                 format!(
                     "; unpaired full modes at {} Hz",
-                    e.modal
-                        .unpaired
-                        .iter()
-                        .map(|(_, f)| format!("{f:.1}"))
-                        .collect::<Vec<_>>()
-                        .join(", ")
+                    hz_list(
+                        &e.modal.unpaired.iter().map(|&(_, f)| f).collect::<Vec<_>>(),
+                        1,
+                        ", "
+                    )
                 )
             },
             r.warnings
