@@ -1,6 +1,7 @@
 //! The paper's evaluation (§4.3, docs/design.md §3.7): the relative transfer-function error
-//! ε(f) = ‖H(iω) − Hr(iω)‖_F / ‖H(iω)‖_F (eq. 23) on a grid, in two variants, and the ROM's
-//! eigenfrequencies.
+//! ε(f) = ‖H(iω) − Hr(iω)‖_F / ‖H(iω)‖_F (eq. 23) on a grid, in two variants, the ROM's
+//! eigenfrequencies (its rigid modes at 0 Hz) and MAC, and the definiteness of Mr and Kr in
+//! words (§3.4).
 //!
 //! - elastic: H1 (by inertia relief, [`crate::frf::Part::Elastic`]) vs the ROM;
 //! - total: H = H0 + H1 vs H0 + ROM, i.e. ‖H1 − Hr‖ / ‖H0 + H1‖. H is formed as H0 + H1
@@ -305,8 +306,8 @@ pub struct MacMatrix {
 }
 
 /// The MAC matrix of the deformation modes of `full` (rigid ones skipped) against the
-/// ROM's elastic modes (λ > [`RIGID_RTOL`] · λ_max). The MAC uses V φ̃ when `basis` (V) is given,
-/// else the mode shapes on the ROM's DoFs.
+/// ROM's elastic modes (λ > [`RIGID_RTOL`] · λ_max). The MAC uses V φ̃ when `basis` (V) is
+/// given, else the mode shapes on the ROM's DoFs.
 ///
 /// # Errors
 /// As [`rom_modes`].

@@ -462,10 +462,13 @@ fn reduce_linefit_then_evaluate() {
     );
 }
 
+/// Craig–Bampton of the free bar, then `evaluate`: the ROM keeps the six rigid modes, which
+/// `reduce`, `evaluate` and the demo's table word the same (`Kr semidefinite (6 rigid)`), and
+/// no frequency reads `-0.0`.
 #[test]
 fn reduce_craig_bampton_then_evaluate() {
     let work = scratch("reduce_cb");
-    let out = ok(
+    let reduced = ok(
         &work,
         &[
             "reduce",
@@ -483,8 +486,8 @@ fn reduce_craig_bampton_then_evaluate() {
         ],
     );
     assert!(
-        out.contains("method           craig-bampton") && out.contains("K_ii by cholesky"),
-        "reduce:\n{out}"
+        reduced.contains("method           craig-bampton") && reduced.contains("K_ii by cholesky"),
+        "reduce:\n{reduced}"
     );
     let toml = std::fs::read_to_string(work.join("ROM/rom.toml")).unwrap();
     assert!(
@@ -512,6 +515,37 @@ fn reduce_craig_bampton_then_evaluate() {
         worst < 2e-2,
         "Craig–Bampton c = 32: eps up to {worst:.3e}\n{out}"
     );
+    let line = |out: &str, prefix: &str| -> String {
+        out.lines()
+            .find(|l| l.starts_with(prefix))
+            .unwrap_or_else(|| panic!("no '{prefix}' line:\n{out}"))[prefix.len()..]
+            .trim()
+            .to_string()
+    };
+    let freqs = line(&out, "ROM eigenfreqs");
+    let freqs: Vec<&str> = freqs.split(' ').collect();
+    assert_eq!(freqs[..6], ["0"; 6], "evaluate:\n{out}");
+    assert!(
+        freqs[6..].iter().all(|f| num(f) > 100.0),
+        "evaluate:\n{out}"
+    );
+    let stability = line(&out, "stability");
+    assert_eq!(stability, "Mr SPD, Kr semidefinite (6 rigid)");
+    assert!(
+        line(&reduced, "Kr").starts_with("semidefinite (6 rigid) (eigenvalues"),
+        "reduce:\n{reduced}"
+    );
+    // the demo's own Craig–Bampton ROM (10 boundary DoFs + 4 modes) in its table
+    let demo = ok(&work, &["demo", "--threads", "2"]);
+    let row = demo
+        .lines()
+        .find(|l| l.starts_with("| Craig–Bampton"))
+        .unwrap_or_else(|| panic!("no Craig–Bampton row in the demo:\n{demo}"));
+    let cells: Vec<&str> = row.split('|').map(str::trim).collect();
+    assert_eq!(cells[cells.len() - 2], stability, "demo:\n{demo}");
+    for (name, text) in [("reduce", &reduced), ("evaluate", &out), ("demo", &demo)] {
+        assert!(!text.contains("-0.0"), "{name}:\n{text}");
+    }
 }
 
 /// The demo's Craig–Bampton ROM of the free bar (outputs + 1 boundary DoF, 4 fixed-interface
