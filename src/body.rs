@@ -57,6 +57,21 @@ impl Body {
         })
     }
 
+    /// The undamped body of the kept DoFs `keep` (ascending; `pos[i]` the new index of DoF i,
+    /// `usize::MAX` for a dropped one) with the dropped DoFs held fixed: its pencil is
+    /// M_kk, K_kk ([`Pencil::restricted`]), it has no nodes and so no rigid part, and its own
+    /// symbolic analysis. Craig–Bampton's interior (docs/design.md §3.8).
+    pub fn restricted(&self, name: String, pos: &[usize], keep: &[usize]) -> Body {
+        Body {
+            name,
+            nodes: None,
+            dofs_per_node: self.dofs_per_node,
+            pencil: self.pencil.restricted(pos, keep),
+            rigid: None,
+            symbolic: OnceLock::new(),
+        }
+    }
+
     /// The model's name.
     pub fn name(&self) -> &str {
         &self.name

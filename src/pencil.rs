@@ -283,6 +283,35 @@ impl Pencil {
         sum.sqrt()
     }
 
+    /// The undamped pencil of the principal submatrices M_kk, K_kk on the kept DoFs `keep`
+    /// (ascending; `pos[i]` the new index of DoF i, `usize::MAX` for a dropped one): the
+    /// pattern restricted to the kept rows and columns, its values copied. The map is
+    /// increasing, so rows stay sorted with the diagonal first. Memory O(nnz).
+    pub fn restricted(&self, pos: &[usize], keep: &[usize]) -> Pencil {
+        let mut col_ptr = Vec::with_capacity(keep.len() + 1);
+        col_ptr.push(0);
+        let (mut row_idx, mut m, mut k) = (Vec::new(), Vec::new(), Vec::new());
+        for &j in keep {
+            for p in self.col_ptr[j]..self.col_ptr[j + 1] {
+                let r = pos[self.row_idx[p]];
+                if r != usize::MAX {
+                    row_idx.push(r);
+                    m.push(self.m[p]);
+                    k.push(self.k[p]);
+                }
+            }
+            col_ptr.push(row_idx.len());
+        }
+        Pencil {
+            n: keep.len(),
+            col_ptr,
+            row_idx,
+            m,
+            k,
+            d: DampingValues::Zero,
+        }
+    }
+
     /// The rows `keep` (new index `pos[i]`, `usize::MAX` for a dropped row) of the columns
     /// `cols` (in that order) of the symmetric M, K or D, in full storage: e.g. K_ii, M_ii and
     /// K_ib of a Craig–Bampton partition. `pos` must be increasing on the kept rows (rows stay

@@ -6,13 +6,12 @@ use crate::options::SparsemorOptions;
 use crate::pool::in_pool;
 use crate::util::{check_ptr, copy_string, copy_to_buffer, obj, slice_in, write_opt, write_out};
 use faer::MatRef;
-use sparsemor::body::Body;
 use sparsemor::eigen::EigenOptions;
 use sparsemor::metrics::Reference;
-use sparsemor::reduce::craig_bampton::{self, CraigBamptonOptions};
-use sparsemor::reduce::linefit::{self, Interface};
-use sparsemor::reduce::serep::{self, ModeChoice, SerepOptions};
-use sparsemor::reduce::{Method, Rom};
+use sparsemor::reduce::craig_bampton::CraigBamptonOptions;
+use sparsemor::reduce::interface::Interface;
+use sparsemor::reduce::serep::{ModeChoice, SerepOptions};
+use sparsemor::reduce::{reduce, Context, Method, Reductor, Rom};
 use sparsemor::scene::Scene;
 use sparsemor::sweep::{no_progress, resolve_threads, Progress, SweepOptions};
 use std::ffi::{c_char, c_void};
@@ -133,7 +132,12 @@ pub unsafe extern "C" fn sparsemor_reduce_linefit(
                 .is_none_or(|c| c.call(p.done, p.total, p.freq_hz))
         };
         let opts = o.linefit(threads)?;
-        let rom = in_pool(threads, || linefit::reduce(m, scene, &opts, None, &report))??;
+        let context = Context {
+            progress: &report,
+            ..Context::default()
+        };
+        let reductor = Reductor::LineFit(opts);
+        let rom = in_pool(threads, || reduce(m, scene, &reductor, &context))??;
         unsafe { emit(rom, rom_out) }
     })
 }
@@ -172,32 +176,27 @@ pub unsafe extern "C" fn sparsemor_reduce_serep(
             .serep_modes
             .clone()
             .unwrap_or(ModeChoice::LowestDeformation(retain.len()));
-        let opts = SerepOptions {
+        let reductor = Reductor::Serep(SerepOptions {
             modes,
             retain: Some(retain),
             keep_basis: o.keep_basis,
             eigen: EigenOptions::for_band(scene.band_hz[1]),
-        };
-        let rom = bracketed(
-            progress,
-            user_data,
-            resolve_threads(o.threads),
-            m,
-            |body: &Body| serep::reduce(body, scene, &opts, None),
-        )?;
+        });
+        let rom = bracketed(progress, user_data, resolve_threads(o.threads), || {
+            reduce(m, scene, &reductor, &Context::default())
+        })?;
         unsafe { emit(rom, rom_out) }
     })
 }
 
-/// Runs a reduction without a progress hook inside on `m` in the call's thread pool;
+/// Runs a reduction without a progress hook inside in the call's thread pool;
 /// `progress` (may be NULL) is called with (0, 1, 0.0) before the work and (1, 1, 0.0) after
 /// it, nonzero cancels (`SPARSEMOR_STATUS_CANCELLED`, no ROM).
 fn bracketed(
     progress: SparsemorProgressFn,
     user_data: *mut c_void,
     threads: usize,
-    m: &Body,
-    reduce: impl FnOnce(&Body) -> sparsemor::Result<Rom> + Send,
+    work: impl FnOnce() -> sparsemor::Result<Rom> + Send,
 ) -> Result<Rom, Failure> {
     let cb = Callback::new(progress, user_data);
     let cancelled = || {
@@ -209,7 +208,7 @@ fn bracketed(
     if cb.as_ref().is_some_and(|c| !c.call(0, 1, 0.0)) {
         return Err(cancelled());
     }
-    let rom = in_pool(threads, || reduce(m))??;
+    let rom = in_pool(threads, work)??;
     if cb.as_ref().is_some_and(|c| !c.call(1, 1, 0.0)) {
         return Err(cancelled());
     }
@@ -253,8 +252,9 @@ pub unsafe extern "C" fn sparsemor_reduce_craig_bampton(
         let mut opts = CraigBamptonOptions::new(interface, c, scene.band_hz[1]);
         opts.keep_basis = o.keep_basis;
         opts.threads = threads;
-        let rom = bracketed(progress, user_data, threads, m, |body: &Body| {
-            craig_bampton::reduce(body, scene, &opts)
+        let reductor = Reductor::CraigBampton(opts);
+        let rom = bracketed(progress, user_data, threads, || {
+            reduce(m, scene, &reductor, &Context::default())
         })?;
         unsafe { emit(rom, rom_out) }
     })

@@ -331,7 +331,9 @@ fn measure(model: &Model, scene: &Scene, backend: Backend) -> Result<Row> {
 /// `bench reduce`: line-fitting (order 14, 20 reference frequencies in the band) per phase
 /// vs N, with the peak RSS of the whole reduction and one factorization's estimated bytes.
 fn reduce_table(a: &BenchArgs) -> Result<()> {
-    use sparsemor::reduce::linefit::{reduce, Interface, LineFitOptions, References};
+    use sparsemor::reduce::interface::Interface;
+    use sparsemor::reduce::linefit::{LineFitOptions, References};
+    use sparsemor::reduce::{reduce, Context, Reductor};
     println!("| model | N | symbolic s | sweep (factor+solve+absorb) s | absorb s | fit + projection s | total s | peak RSS | one factorization (est.) | streamed QR state |");
     println!("|---|---|---|---|---|---|---|---|---|---|");
     for case in CASES.iter().filter(|c| c.name.starts_with("bar")) {
@@ -355,7 +357,7 @@ fn reduce_table(a: &BenchArgs) -> Result<()> {
         let t = Instant::now();
         let body = Body::new(&model)?;
         drop(model); // as `sparsemor reduce`: the body holds the matrices
-        let rom = reduce(&body, &scene, &opts, None, &no_progress)?;
+        let rom = reduce(&body, &scene, &Reductor::LineFit(opts), &Context::default())?;
         let total = t.elapsed().as_secs_f64();
         let peak = memory::peak_rss_bytes().unwrap_or(0);
         let an = Analysis::new(body.pencil(), Backend::Auto, scene.inputs.len() + 1)?;

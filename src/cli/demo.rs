@@ -8,11 +8,11 @@ use sparsemor::eigen::{eigenpairs, EigenOptions, Request};
 use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
 use sparsemor::grid::linspace;
 use sparsemor::metrics::{modal_comparison, rom_spectrum, ErrorCurve, Reference, Stability};
-use sparsemor::reduce::craig_bampton::{self, CraigBamptonOptions};
-use sparsemor::reduce::linefit::{self, Interface, LineFitOptions, References, SamplingOptions};
-use sparsemor::reduce::serep::{self, ModeChoice, SerepOptions};
-use sparsemor::reduce::CraigBamptonReport;
-use sparsemor::reduce::Rom;
+use sparsemor::reduce::craig_bampton::CraigBamptonOptions;
+use sparsemor::reduce::interface::Interface;
+use sparsemor::reduce::linefit::{LineFitOptions, References, SamplingOptions};
+use sparsemor::reduce::serep::{ModeChoice, SerepOptions};
+use sparsemor::reduce::{reduce, Context, CraigBamptonReport, Reductor, Rom};
 use sparsemor::sweep::no_progress;
 use sparsemor::Result;
 use std::time::Instant;
@@ -58,8 +58,13 @@ pub fn demo(threads: usize) -> Result<()> {
     let mut opts = LineFitOptions::new(Interface::OutputsPlus(5), References::Count(20));
     opts.keep_basis = true;
     opts.sweep.threads = threads;
+    let sweep = opts.sweep.clone();
     let t = Instant::now();
-    let lf = linefit::reduce(&body, &scene, &opts, Some(&full), &no_progress)?;
+    let known = Context {
+        known_modes: Some(&full),
+        ..Context::default()
+    };
+    let lf = reduce(&body, &scene, &Reductor::LineFit(opts), &known)?;
     let lf_s = t.elapsed().as_secs_f64();
     println!(
         "line-fitting: interface {:?}; 20 reference frequencies {} Hz",
@@ -86,7 +91,11 @@ pub fn demo(threads: usize) -> Result<()> {
             keep_basis: true,
             eigen: EigenOptions::for_band(band[1]),
         };
-        let r = serep::reduce(&body, &scene, &opts, Some(&serep_modes))?;
+        let known = Context {
+            known_modes: Some(&serep_modes),
+            ..Context::default()
+        };
+        let r = reduce(&body, &scene, &Reductor::Serep(opts), &known)?;
         Ok((r, t.elapsed().as_secs_f64()))
     };
     let (s9, s9_s) = serep(9, outputs.clone())?;
@@ -99,14 +108,19 @@ pub fn demo(threads: usize) -> Result<()> {
     );
     cb_opts.keep_basis = true;
     cb_opts.threads = threads;
-    let cb = craig_bampton::reduce(&body, &scene, &cb_opts)?;
+    let cb = reduce(
+        &body,
+        &scene,
+        &Reductor::CraigBampton(cb_opts),
+        &Context::default(),
+    )?;
     let cb_s = t.elapsed().as_secs_f64();
     let grid = linspace([1.0, band[1]], 500);
     println!();
     println!("| ROM | order | reduce s | max eps | mean eps | max eigfreq err | min MAC | largest ROM freq Hz | Mr, Kr |");
     println!("|---|---|---|---|---|---|---|---|---|");
     let t = Instant::now();
-    let reference = Reference::compute(&body, &scene, &grid, &opts.sweep, &no_progress)?;
+    let reference = Reference::compute(&body, &scene, &grid, &sweep, &no_progress)?;
     for (name, rom, secs) in [
         ("line-fitting", &lf, lf_s),
         ("SEREP 9 modes / 9 DoFs", &s9, s9_s),
@@ -176,7 +190,7 @@ pub fn demo(threads: usize) -> Result<()> {
         );
         o.sweep.threads = threads;
         let t = Instant::now();
-        let rom = linefit::reduce(&body, &scene, &o, None, &no_progress)?;
+        let rom = reduce(&body, &scene, &Reductor::LineFit(o), &Context::default())?;
         let secs = t.elapsed().as_secs_f64();
         let grid_max = ErrorCurve::max_mean(&reference.error(&rom)?.eps_elastic).0;
         if let Some(r) = rom.sampling() {

@@ -9,12 +9,14 @@ use sparsemor::eigen::EigenOptions;
 use sparsemor::grid::linspace;
 use sparsemor::io::{atomic, model_dir};
 use sparsemor::metrics::{ErrorCurve, Reference};
-use sparsemor::reduce::craig_bampton::{self, CraigBamptonOptions};
-use sparsemor::reduce::linefit::{self, Interface, LineFitOptions, References, SamplingOptions};
-use sparsemor::reduce::serep::{self, ModeChoice, SerepOptions};
+use sparsemor::reduce::craig_bampton::CraigBamptonOptions;
+use sparsemor::reduce::interface::{spread_dofs, Interface};
+use sparsemor::reduce::linefit::{LineFitOptions, References, SamplingOptions};
+use sparsemor::reduce::serep::{ModeChoice, SerepOptions};
+use sparsemor::reduce::{reduce, Context, Reductor};
 use sparsemor::report::{tradeoff_svg, TradeoffRow};
 use sparsemor::scene::positive_band;
-use sparsemor::sweep::{no_progress, SweepOptions};
+use sparsemor::sweep::SweepOptions;
 use sparsemor::{Error, Result};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -95,7 +97,7 @@ pub fn tradeoff(a: &TradeoffArgs) -> Result<()> {
         );
         o.sweep = sweep.clone();
         let t = Instant::now();
-        let rom = linefit::reduce(&body, &scene, &o, None, &no_progress)?;
+        let rom = reduce(&body, &scene, &Reductor::LineFit(o), &Context::default())?;
         let secs = t.elapsed().as_secs_f64();
         let e = ErrorCurve::max_mean(&reference.error(&rom)?.eps_elastic).0;
         let report = rom
@@ -117,7 +119,7 @@ pub fn tradeoff(a: &TradeoffArgs) -> Result<()> {
         // r = c retained DoFs (SEREP needs c >= r): the outputs first, then spread DoFs
         let mut retain: Vec<usize> = outputs.iter().copied().take(c).collect();
         if c > retain.len() {
-            retain.extend(linefit::spread_dofs(&body, c - retain.len(), outputs)?);
+            retain.extend(spread_dofs(&body, c - retain.len(), outputs)?);
         }
         let t = Instant::now();
         let opts = SerepOptions {
@@ -126,7 +128,7 @@ pub fn tradeoff(a: &TradeoffArgs) -> Result<()> {
             keep_basis: false,
             eigen: EigenOptions::for_band(scene.band_hz[1]),
         };
-        let rom = serep::reduce(&body, &scene, &opts, None)?;
+        let rom = reduce(&body, &scene, &Reductor::Serep(opts), &Context::default())?;
         let secs = t.elapsed().as_secs_f64();
         let e = ErrorCurve::max_mean(&reference.error(&rom)?.eps_elastic).0;
         rows.push(TradeoffRow {
@@ -146,7 +148,12 @@ pub fn tradeoff(a: &TradeoffArgs) -> Result<()> {
         );
         opts.threads = a.threads;
         let t = Instant::now();
-        let rom = craig_bampton::reduce(&body, &scene, &opts)?;
+        let rom = reduce(
+            &body,
+            &scene,
+            &Reductor::CraigBampton(opts),
+            &Context::default(),
+        )?;
         let secs = t.elapsed().as_secs_f64();
         let e = ErrorCurve::max_mean(&reference.error(&rom)?.eps_elastic).0;
         rows.push(TradeoffRow {

@@ -10,8 +10,8 @@
 //! Sparse throughout: K_ii, M_ii and K_ib are sparse submatrices; K_ii is factored once — a
 //! sparse Cholesky when it is positive definite, otherwise an LBLᵀ (faer, Bunch–Kaufman) — and
 //! Ψ is solved in column blocks of [`BLOCK`] right-hand sides; Φ_c comes from the partial
-//! eigensolver (§3.6) on a model of (K_ii, M_ii) alone (no nodes, so no rigid-mode
-//! detection: the fixed interface holds the body). A free body needs no special case: its
+//! eigensolver (§3.6) on the interior body (K_ii, M_ii) ([`Body::restricted`]: no nodes,
+//! so no rigid part: the fixed interface holds the body). A free body needs no special case: its
 //! rigid motions lie in span [I; Ψ] as soon as the boundary holds them (checked: V0 restricted
 //! to the boundary rows must have rank 6). The ROM comes from the shared projection
 //! ([`project`], §3.4); its coordinates are the n_b boundary DoFs ([`Rom::dofs`]) followed
@@ -19,13 +19,12 @@
 //!
 //! Entry point: [`reduce`].
 
-use super::linefit::Interface;
+use super::interface::Interface;
 use super::projection::project;
 use super::rom::{CraigBamptonReport, Provenance, Rom, Timing};
 use crate::body::Body;
 use crate::eigen::{eigenpairs, EigenOptions, Request};
 use crate::factor::{Analysis, Backend, Cholesky};
-use crate::model::{Damping, Model};
 use crate::pencil::Coefficient;
 use crate::scene::{check_dofs, Scene};
 use crate::sparse::Csc;
@@ -77,7 +76,7 @@ impl CraigBamptonOptions {
 /// use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
 /// use sparsemor::metrics::rom_eigenfrequencies;
 /// use sparsemor::reduce::craig_bampton::{reduce, CraigBamptonOptions};
-/// use sparsemor::reduce::linefit::Interface;
+/// use sparsemor::reduce::interface::Interface;
 ///
 /// let spec = BoxSpec::paper_bar();
 /// let (model, scene) = (bar_model(&spec)?, paper_scene(&spec));
@@ -127,22 +126,10 @@ pub fn reduce(body: &Body, scene: &Scene, opts: &CraigBamptonOptions) -> Result<
         pos[d] = k;
     }
     let t = Instant::now();
-    let pencil = body.pencil();
-    let (k_ii, m_ii) = (
-        pencil.submatrix(Coefficient::Stiffness, &pos, &interior),
-        pencil.submatrix(Coefficient::Mass, &pos, &interior),
-    );
-    let k_ib = pencil.submatrix(Coefficient::Stiffness, &pos, &boundary);
-    let (inner, _) = Model::new(
-        format!("{} (interior)", body.name()),
-        m_ii,
-        k_ii,
-        Damping::None,
-        None,
-        body.dofs_per_node(),
-    )?;
-    let inner_body = Body::new(&inner)?;
-    drop(inner);
+    let k_ib = body
+        .pencil()
+        .submatrix(Coefficient::Stiffness, &pos, &boundary);
+    let inner_body = body.restricted(format!("{} (interior)", body.name()), &pos, &interior);
     let threads = resolve_threads(opts.threads);
     let par = if threads > 1 {
         Par::rayon(threads)

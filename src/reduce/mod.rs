@@ -2,17 +2,20 @@
 //! (`rom.rs`), the shared Galerkin projection with its definiteness check ([`project`],
 //! [`Definiteness`]),
 //! and the methods that build V: [`linefit`] (§3.3, §3.5), [`serep`] (§3.6) and
-//! [`craig_bampton`] (§3.8). Every
+//! [`craig_bampton`] (§3.8), behind one entry, [`reduce`] with a [`Reductor`]. Every
 //! reductor takes a prepared [`crate::body::Body`] and a [`crate::scene::Scene`] and ends in
-//! [`project`]. [`flexible`] turns any ROM's basis into the rigid-free elastic basis a
+//! [`project`]; [`interface`] chooses the physical DoFs of line-fitting and Craig–Bampton. [`flexible`] turns any ROM's basis into the rigid-free elastic basis a
 //! floating-frame multibody code needs (§3.9).
 
 pub mod craig_bampton;
 pub mod flexible;
+pub mod interface;
 pub mod linefit;
 pub(crate) mod projection;
+mod reductor;
 pub(crate) mod rom;
 pub mod serep;
 
 pub use projection::{project, Definiteness, Projected};
+pub use reductor::{reduce, Context, Reductor};
 pub use rom::{CraigBamptonReport, FitReport, Method, Provenance, Rom, Timing};

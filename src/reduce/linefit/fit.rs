@@ -8,9 +8,9 @@
 //! min_W ‖T_oᵀ Wᵀ − T_nᵀ‖_F,  T_oᵀ = [G_1; …; G_z],  T_nᵀ = [F_1; …; F_z]     (eq. 22)
 //! ```
 
-use super::options::Interface;
 use crate::body::Body;
 use crate::lsq::{LsqOptions, Split, StreamedQr};
+use crate::reduce::interface::Interface;
 use crate::reduce::projection::project;
 use crate::reduce::rom::{FitReport, Provenance, Rom};
 use crate::scene::{check_dofs, Scene};

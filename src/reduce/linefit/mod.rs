@@ -24,9 +24,10 @@ mod options;
 mod placement;
 pub(crate) mod report;
 
+pub use crate::reduce::interface::{spread_dofs, Interface};
 pub use indicator::Indicator;
-pub use options::{Growth, Interface, LineFitOptions, References, SamplingOptions};
-pub use placement::{place_reference_frequencies, spread_dofs, RESONANCE_OFFSET};
+pub use options::{Growth, LineFitOptions, References, SamplingOptions};
+pub use placement::{place_reference_frequencies, RESONANCE_OFFSET};
 pub use report::{Outcome, SamplingReport, Step, Verified};
 
 use crate::body::Body;

@@ -2,46 +2,9 @@
 //! (explicit, a count placed beside the resonances, or a tolerance for the adaptive loop of
 //! docs/design.md §3.5) and how the loop may grow the interface.
 
-use super::placement::spread_dofs;
-use crate::body::Body;
 use crate::lsq::LsqOptions;
+use crate::reduce::interface::Interface;
 use crate::sweep::SweepOptions;
-
-/// How the interface (the ROM's DoFs, order n) is chosen.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Interface {
-    /// These DoFs (must contain every output).
-    Explicit(Vec<usize>),
-    /// The outputs plus k DoFs spread along the body by [`super::spread_dofs`].
-    OutputsPlus(usize),
-    /// The default: the outputs plus ⌈q/2⌉ spread DoFs for q outputs ([`Self::auto_extra`]) —
-    /// on the paper bar 9 + 5 = 14, the order of the paper's example.
-    Auto,
-}
-
-impl Interface {
-    /// The number of spread DoFs [`Interface::Auto`] adds to q outputs: ⌈q/2⌉.
-    pub fn auto_extra(outputs: usize) -> usize {
-        outputs.div_ceil(2)
-    }
-
-    /// The DoF list of this setting for the given outputs: the explicit list, or the
-    /// outputs followed by the spread DoFs ([`spread_dofs`]). Shared by line-fitting (the
-    /// interface) and Craig–Bampton (the boundary); the callers check the list.
-    ///
-    /// # Errors
-    /// As [`spread_dofs`].
-    pub fn resolve(&self, body: &Body, outputs: &[usize]) -> crate::Result<Vec<usize>> {
-        let extra = match self {
-            Interface::Explicit(i) => return Ok(i.clone()),
-            Interface::OutputsPlus(k) => *k,
-            Interface::Auto => Interface::auto_extra(outputs.len()),
-        };
-        let mut i = outputs.to_vec();
-        i.extend(spread_dofs(body, extra, outputs)?);
-        Ok(i)
-    }
-}
 
 /// How the reference frequencies are chosen.
 #[derive(Clone, Debug)]

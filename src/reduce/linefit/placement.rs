@@ -1,72 +1,7 @@
 //! Where line-fitting's extra interface DoFs and its reference frequencies go when the user
 //! gives only their number (docs/design.md §3.3).
 
-use crate::body::Body;
 use crate::{Error, Result};
-
-/// `k` DoFs spread uniformly along the body, none of them in `exclude`.
-///
-/// Rule (with nodes): the long axis a is the longest side of the nodes' bounding box; the
-/// targets are the points at fractions (j + ½)/k of its length on the line through the
-/// centroid; the node nearest to each target is taken (the lower index on a tie; the next
-/// nearest if its DoF is excluded or taken), and its DoF in a direction cycling through the
-/// two axes perpendicular to a (bending carries most of a slender body's low-frequency
-/// dynamics). Without nodes: DoFs at fractions (j + ½)/k of 0..N.
-///
-/// # Errors
-/// [`Error::InvalidSetting`] when fewer than k DoFs are available.
-pub fn spread_dofs(body: &Body, k: usize, exclude: &[usize]) -> Result<Vec<usize>> {
-    let n = body.n();
-    if k + exclude.len() > n {
-        return Err(Error::InvalidSetting(format!(
-            "cannot spread {k} extra interface DoFs over a model with N = {n}"
-        )));
-    }
-    let mut taken: Vec<bool> = vec![false; n];
-    for &d in exclude {
-        taken[d] = true;
-    }
-    let mut out = Vec::with_capacity(k);
-    let Some(nodes) = body.nodes() else {
-        for j in 0..k {
-            let mut d = ((j as f64 + 0.5) / k as f64 * n as f64) as usize % n;
-            while taken[d] {
-                d = (d + 1) % n;
-            }
-            taken[d] = true;
-            out.push(d);
-        }
-        return Ok(out);
-    };
-    let (mut lo, mut hi, mut c) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3], [0.0; 3]);
-    for p in nodes {
-        for a in 0..3 {
-            lo[a] = lo[a].min(p[a]);
-            hi[a] = hi[a].max(p[a]);
-            c[a] += p[a] / nodes.len() as f64;
-        }
-    }
-    let axis = (0..3)
-        .max_by(|&a, &b| (hi[a] - lo[a]).total_cmp(&(hi[b] - lo[b])))
-        .unwrap_or(2);
-    let perp = [(axis + 1) % 3, (axis + 2) % 3];
-    let dpn = body.dofs_per_node();
-    for j in 0..k {
-        let mut target = c;
-        target[axis] = lo[axis] + (j as f64 + 0.5) / k as f64 * (hi[axis] - lo[axis]);
-        let dir = perp[j % 2];
-        let dist = |p: &[f64; 3]| (0..3).map(|a| (p[a] - target[a]).powi(2)).sum::<f64>();
-        let best = (0..nodes.len())
-            .filter(|&i| !taken[i * dpn + dir])
-            .min_by(|&x, &y| dist(&nodes[x]).total_cmp(&dist(&nodes[y])).then(x.cmp(&y)))
-            .ok_or_else(|| {
-                Error::InvalidSetting("no free DoF left to spread the interface over".into())
-            })?;
-        taken[best * dpn + dir] = true;
-        out.push(best * dpn + dir);
-    }
-    Ok(out)
-}
 
 /// Relative offset δ of the reference points placed beside each resonance: f(1 ± δ).
 pub const RESONANCE_OFFSET: f64 = 0.03;
