@@ -13,6 +13,7 @@
 //! | factor A(iω) | [`factor::Analysis`], [`factor::Numeric`] (faer LBLᵀ / LU, UMFPACK) | §3.1 |
 //! | sweep frequencies | [`frf::transfer_function`], [`sweep::Solver`] | §3.1 |
 //! | streamed least squares | [`lsq::StreamedQr`] | §3.3 |
+//! | reduce (any method) | [`reduce::reduce`] with a [`reduce::Reductor`] and a [`reduce::Context`] | §3.3–§3.8 |
 //! | line-fitting | [`reduce::linefit::reduce`] with [`reduce::linefit::References`] (explicit, count, tolerance: the adaptive loop) | §3.3–§3.5 |
 //! | eigenpairs | [`eigen::eigenpairs`] (shift-invert Krylov–Schur; ARPACK feature) | §3.6 |
 //! | SEREP | [`reduce::serep::reduce`] | §3.6 |
@@ -29,7 +30,9 @@
 //! use sparsemor::body::Body;
 //! use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
 //! use sparsemor::metrics::{ErrorCurve, Reference};
-//! use sparsemor::reduce::linefit::{self, Interface, LineFitOptions, References, SamplingOptions};
+//! use sparsemor::reduce::interface::Interface;
+//! use sparsemor::reduce::linefit::{LineFitOptions, References, SamplingOptions};
+//! use sparsemor::reduce::{reduce, Context, Reductor};
 //! use sparsemor::sweep::{no_progress, SweepOptions};
 //!
 //! // the paper's bar (N = 1656) and its scene: 9 inputs = outputs, band [0, 1000] Hz
@@ -38,7 +41,7 @@
 //! let body = Body::new(&model)?;
 //! // ask for an accuracy; the reference frequencies are chosen by the sampling loop
 //! let opts = LineFitOptions::new(Interface::Auto, References::Tolerance(SamplingOptions::new(1e-2)));
-//! let rom = linefit::reduce(&body, &scene, &opts, None, &no_progress)?;
+//! let rom = reduce(&body, &scene, &Reductor::LineFit(opts), &Context::default())?;
 //! let report = rom.sampling().expect("a tolerance-driven ROM");
 //! assert!(report.error <= 1e-2);
 //! // check it independently on 200 points: eq. 23 against full solves

@@ -62,3 +62,79 @@ pub fn reduce(
         Reductor::CraigBampton(o) => craig_bampton::reduce(body, scene, o),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::eigen::EigenOptions;
+    use crate::fe::{bar_model, paper_scene, BoxSpec};
+    use crate::reduce::interface::Interface;
+    use crate::reduce::linefit::References;
+    use crate::reduce::serep::ModeChoice;
+
+    /// The entry is the method's own entry: the same ROM, bit for bit, for each method (one
+    /// thread: with more, line-fitting's workers merge their QR states in the order they
+    /// finish).
+    #[test]
+    fn the_entry_gives_each_methods_own_rom() {
+        let spec = BoxSpec::paper_bar();
+        let (model, scene) = (bar_model(&spec).unwrap(), paper_scene(&spec));
+        let body = Body::new(&model).unwrap();
+        let mut lf = LineFitOptions::new(
+            Interface::OutputsPlus(5),
+            References::Explicit(vec![50.0, 150.0, 400.0, 800.0, 1000.0]),
+        );
+        lf.sweep.threads = 1;
+        let serep = SerepOptions {
+            modes: ModeChoice::LowestDeformation(9),
+            retain: None,
+            keep_basis: false,
+            eigen: EigenOptions::for_band(scene.band_hz[1]),
+        };
+        let mut cb = CraigBamptonOptions::new(Interface::OutputsPlus(1), 4, scene.band_hz[1]);
+        cb.threads = 1;
+        let pairs = [
+            (
+                reduce(
+                    &body,
+                    &scene,
+                    &Reductor::LineFit(lf.clone()),
+                    &Context::default(),
+                ),
+                linefit::reduce(&body, &scene, &lf, None, &no_progress),
+            ),
+            (
+                reduce(
+                    &body,
+                    &scene,
+                    &Reductor::Serep(serep.clone()),
+                    &Context::default(),
+                ),
+                serep::reduce(&body, &scene, &serep, None),
+            ),
+            (
+                reduce(
+                    &body,
+                    &scene,
+                    &Reductor::CraigBampton(cb.clone()),
+                    &Context::default(),
+                ),
+                craig_bampton::reduce(&body, &scene, &cb),
+            ),
+        ];
+        for (entry, own) in pairs {
+            let (entry, own) = (entry.unwrap(), own.unwrap());
+            assert_eq!(entry.method(), own.method());
+            assert_eq!(entry.dofs, own.dofs);
+            for (a, b) in [(&entry.mr, &own.mr), (&entry.kr, &own.kr)] {
+                let bits = |m: &faer::Mat<f64>| -> Vec<u64> {
+                    (0..m.ncols())
+                        .flat_map(|j| (0..m.nrows()).map(move |i| (i, j)))
+                        .map(|(i, j)| m[(i, j)].to_bits())
+                        .collect()
+                };
+                assert_eq!(bits(a), bits(b), "{}", entry.method());
+            }
+        }
+    }
+}
