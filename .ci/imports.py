@@ -22,7 +22,7 @@ SRC = Path(__file__).resolve().parent.parent / "src"
 # ones. The first matching prefix (module path as `a::b`) decides a file's layer.
 LAYERS = [
     ("support", ["error", "units", "memory", "sparse", "dense", "pool", "lsq", "snapshots",
-                 "distributed::cluster", "grid"]),
+                 "distributed::cluster", "grid", "random"]),
     ("model", ["model", "scene", "io::atomic", "io::binary", "io::matrix_market", "io::npz",
                "io::import", "io::text", "io"]),
     ("pencil", ["pencil", "rigid", "fe"]),

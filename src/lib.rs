@@ -73,6 +73,7 @@ pub mod metrics;
 pub mod model;
 pub mod pencil;
 pub mod pool;
+pub(crate) mod random;
 pub mod reduce;
 pub mod report;
 pub mod rigid;

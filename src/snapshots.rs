@@ -279,13 +279,8 @@ mod tests {
     #[test]
     fn streamed_qdeim_matches_a_dense_reference() {
         let (n, z) = (9000, 3);
-        let mut seed = 7u64;
-        let mut rnd = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut rng = crate::random::Xorshift::new(7);
+        let mut rnd = || rng.next_centred();
         let snaps: Vec<Mat<c64>> = (0..z)
             .map(|_| Mat::from_fn(n, 2, |_, _| c64::new(rnd(), rnd())))
             .collect();

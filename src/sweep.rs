@@ -30,6 +30,7 @@
 
 use crate::body::Body;
 use crate::factor::{Analysis, Backend, Numeric, SymbolicStats};
+use crate::random::Xorshift;
 use crate::rigid::RigidBody;
 use crate::{Error, Result};
 use faer::{c64, Mat, MatRef, Par};
@@ -262,13 +263,8 @@ impl<'a> Solver<'a> {
             Response::Total => body.unit_load(inputs),
         };
         // fixed pseudo-random probe (xorshift), elastic on a free body
-        let mut s = 0x9e3779b97f4a7c15u64;
-        let mut probe = Mat::<c64>::from_fn(n, 1, |_, _| {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            c64::new((s >> 11) as f64 / (1u64 << 53) as f64 - 0.5, 0.0)
-        });
+        let mut rng = Xorshift::new(0x9e3779b97f4a7c15);
+        let mut probe = Mat::<c64>::from_fn(n, 1, |_, _| c64::new(rng.next_centred(), 0.0));
         if let Some(rb) = body.rigid() {
             rb.project_response(probe.as_mut());
         }

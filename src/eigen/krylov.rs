@@ -39,6 +39,7 @@
 use super::operator::ShiftInvert;
 use super::options::EigenOptions;
 use crate::dense::sym_eigen;
+use crate::random::Xorshift;
 use crate::{Error, Result};
 use faer::{Mat, MatRef};
 
@@ -439,11 +440,6 @@ fn orthogonalize(
 /// A deterministic pseudo-random vector (xorshift, uniform in [−½, ½)); `seed` 0 is the start
 /// vector of both backends.
 pub(super) fn random_vector(n: usize, seed: u64) -> Mat<f64> {
-    let mut seed = 0x2545f4914f6cdd1du64 ^ seed.wrapping_mul(0x9e3779b97f4a7c15);
-    Mat::from_fn(n, 1, |_, _| {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-    })
+    let mut rng = Xorshift::new(0x2545f4914f6cdd1d ^ seed.wrapping_mul(0x9e3779b97f4a7c15));
+    Mat::from_fn(n, 1, |_, _| rng.next_centred())
 }
