@@ -125,39 +125,26 @@ class Module:
 
 def module_files():
     modules = {}
+    declared = re.compile(r"^\s*(?:pub(?:\([^)]*\))?\s+)?mod\s+(\w+)\s*;", re.M)
 
-    def load(path, file, dir_for_children):
+    def load(path, file, children_dir, children_path=None):
+        """Loads `file` as module `path` and, recursively, the modules it declares; their paths
+        start from `children_path` (the binary's modules are named from the root)."""
         mod = Module(path, file)
         modules[tuple(path)] = mod
-        for m in re.finditer(r"^\s*(?:pub(?:\([^)]*\))?\s+)?mod\s+(\w+)\s*;", mod.code, re.M):
+        base = path if children_path is None else children_path
+        for m in declared.finditer(mod.code):
             child = m.group(1)
-            for cand in (dir_for_children / f"{child}.rs", dir_for_children / child / "mod.rs"):
+            for cand in (children_dir / f"{child}.rs", children_dir / child / "mod.rs"):
                 if cand.exists():
-                    sub_dir = cand.parent if cand.name == "mod.rs" else dir_for_children / child
-                    mod.children[child] = load(path + [child], cand, sub_dir)
+                    sub_dir = cand.parent if cand.name == "mod.rs" else children_dir / child
+                    mod.children[child] = load(base + [child], cand, sub_dir)
                     break
         return mod
 
     load([], SRC / "lib.rs", SRC)
     if (SRC / "main.rs").exists():
-        main = Module(["main"], SRC / "main.rs")
-        modules[("main",)] = main
-        for m in re.finditer(r"^\s*(?:pub(?:\([^)]*\))?\s+)?mod\s+(\w+)\s*;", main.code, re.M):
-            child = m.group(1)
-            for cand in (SRC / f"{child}.rs", SRC / child / "mod.rs"):
-                if cand.exists():
-                    def load_bin(path, file, d):
-                        mod = Module(path, file)
-                        modules[tuple(path)] = mod
-                        for mm in re.finditer(r"^\s*(?:pub(?:\([^)]*\))?\s+)?mod\s+(\w+)\s*;", mod.code, re.M):
-                            c = mm.group(1)
-                            for cc in (d / f"{c}.rs", d / c / "mod.rs"):
-                                if cc.exists():
-                                    mod.children[c] = load_bin(path + [c], cc, cc.parent if cc.name == "mod.rs" else d / c)
-                                    break
-                        return mod
-                    main.children[child] = load_bin([child], cand, cand.parent if cand.name == "mod.rs" else SRC / child)
-                    break
+        load(["main"], SRC / "main.rs", SRC, children_path=[])
     return modules
 
 
