@@ -50,9 +50,9 @@
 //! [`super::harwell_boeing`], told apart by their header); the rest of the set is the same.
 //!
 //! # Recognizing the files
-//! [`looks_like_full`]: the 32-bit word 100 at byte 0 in either byte order (the standard
-//! header's record length). [`looks_like_mapping`]: a Matrix Market banner naming `array` and
-//! `integer`. [`looks_like_matrix_market`]: any other Matrix Market file, a K or M.
+//! `looks_like_full`: the 32-bit word 100 at byte 0 in either byte order (the standard
+//! header's record length). `looks_like_mapping`: a Matrix Market banner naming `array` and
+//! `integer`. `looks_like_matrix_market`: any other Matrix Market file, a K or M.
 
 use super::harwell_boeing;
 use super::node_table::read_node_table;

@@ -1,35 +1,6 @@
 //! The one import entry, [`read`] (docs/design.md §4, "Importers"): tells the format of each
-//! file from its content and hands the set to the reader of that format.
-//!
-//! # How a file is recognized
-//! From its first bytes, never from its name alone; the readers' sniffers are asked in this
-//! order ([`SNIFFERS`]) and the first that recognizes the file decides:
-//! * the 32-bit word 100 at byte 0, in either byte order: an ANSYS binary file (its standard
-//!   header is a 100-word record; ANSYS Programmer's Reference, "Standard ANSYS file header";
-//!   [`ansys::looks_like_full`]);
-//! * the 32-bit word 24 at bytes 0 and 28, in either byte order (a 24-byte Fortran record: the
-//!   OUTPUT4 matrix header), or a first line `NCOL NROW NF NTYPE` in 4 fields of 8, an 8-column
-//!   name and a Fortran format such as `1P,3E23.16`: a Nastran OP4 file
-//!   ([`nastran::looks_like_op4`]);
-//! * `%%MatrixMarket`: a Matrix Market file — `array integer` is the DoF mapping vector
-//!   ([`ansys::looks_like_mapping`]), anything else a matrix
-//!   ([`ansys::looks_like_matrix_market`]);
-//! * a line 2 of 4–5 whole numbers and a line 3 starting with a 3-letter type (`RSA`, `RUA`)
-//!   and 3–4 whole numbers: a Harwell–Boeing matrix ([`harwell_boeing::looks_like`]), which
-//!   stands wherever a Matrix Market K or M of an APDL Math export does;
-//! * a first non-blank line starting with `*` (`*Heading`, `*Node`): an Abaqus input deck
-//!   ([`abaqus::looks_like_deck`]);
-//! * a first line of 3 numbers `row col value` or 5 comma-separated `node, dof, node, dof,
-//!   value`: an Abaqus matrix ([`abaqus::looks_like_matrix`]);
-//! * a first data row of two integers `node component`, the component 1–6: a DoF map for OP4
-//!   files ([`nastran::looks_like_dof_map`], read by [`nastran::read_dof_map`]);
-//! * anything else with a non-blank line: a node coordinate table ([`node_table::looks_like`],
-//!   read by [`super::read_node_table`]).
-//!
-//! Which matrix is the stiffness and which the mass comes from the file name (`STIF`/`stiff`/`K`
-//! vs `MASS`/`mass`/`M`, case-insensitive, as ANSYS's and Abaqus's own names have it,
-//! [`role_from_name`]) or from an explicit `K=path` / `M=path` prefix; in OP4 files first from
-//! the matrix names.
+//! file from its content, asking the readers' own sniffers ([`SNIFFERS`]), and hands the set
+//! to the reader of that format.
 
 use super::types::{role_from_name, Imported, Role};
 use super::{abaqus, ansys, harwell_boeing, nastran, node_table};
@@ -50,8 +21,38 @@ enum Kind {
     NodeTable,
 }
 
-/// Reads a model from the files an FE code wrote (see the [module documentation](self) for
-/// how each file's format is told).
+/// Reads a model from the files an FE code wrote, with the reader of their format (the
+/// readers: [`super`]).
+///
+/// # How a file is recognized
+/// From its first bytes, never from its name alone; the readers' sniffers are asked in this
+/// order (`SNIFFERS`) and the first that recognizes the file decides:
+/// * the 32-bit word 100 at byte 0, in either byte order: an ANSYS binary file (its standard
+///   header is a 100-word record; ANSYS Programmer's Reference, "Standard ANSYS file header";
+///   `ansys::looks_like_full`);
+/// * the 32-bit word 24 at bytes 0 and 28, in either byte order (a 24-byte Fortran record: the
+///   OUTPUT4 matrix header), or a first line `NCOL NROW NF NTYPE` in 4 fields of 8, an 8-column
+///   name and a Fortran format such as `1P,3E23.16`: a Nastran OP4 file
+///   (`nastran::looks_like_op4`);
+/// * `%%MatrixMarket`: a Matrix Market file — `array integer` is the DoF mapping vector
+///   (`ansys::looks_like_mapping`), anything else a matrix
+///   (`ansys::looks_like_matrix_market`);
+/// * a line 2 of 4–5 whole numbers and a line 3 starting with a 3-letter type (`RSA`, `RUA`)
+///   and 3–4 whole numbers: a Harwell–Boeing matrix (`harwell_boeing::looks_like`), which
+///   stands wherever a Matrix Market K or M of an APDL Math export does;
+/// * a first non-blank line starting with `*` (`*Heading`, `*Node`): an Abaqus input deck
+///   (`abaqus::looks_like_deck`);
+/// * a first line of 3 numbers `row col value` or 5 comma-separated `node, dof, node, dof,
+///   value`: an Abaqus matrix (`abaqus::looks_like_matrix`);
+/// * a first data row of two integers `node component`, the component 1–6: a DoF map for OP4
+///   files (`nastran::looks_like_dof_map`, read by [`super::nastran::read_dof_map`]);
+/// * anything else with a non-blank line: a node coordinate table (`node_table::looks_like`,
+///   read by [`super::read_node_table`]).
+///
+/// Which matrix is the stiffness and which the mass comes from the file name (`STIF`/`stiff`/`K`
+/// vs `MASS`/`mass`/`M`, case-insensitive, as ANSYS's and Abaqus's own names have it,
+/// `role_from_name`) or from an explicit `K=path` / `M=path` prefix; in OP4 files first from
+/// the matrix names.
 ///
 /// # Errors
 /// [`Error::Io`]; [`Error::Parse`] naming the file and the line or byte offset; an

@@ -1,6 +1,6 @@
 //! Reading models written by FE codes (docs/design.md §4, "Importers"): one entry, [`read`],
-//! that tells the format of each file from its content and hands the set to the
-//! reader of that format.
+//! that tells the format of each file from its content (the rules: [`read`]) and hands the set
+//! to the reader of that format.
 //!
 //! | what | files | reader |
 //! |---|---|---|
