@@ -339,18 +339,27 @@ fn parse_growth(s: &str) -> Result<Growth> {
 fn print_steps(steps: &[Step]) {
     println!("| step | order | new points (Hz) | indicator max | true eps at new | true eps at sampled | factorizations | time s | action |");
     println!("|---|---|---|---|---|---|---|---|---|");
+    // a value the step did not measure (NaN in the library's report: the seed step has no
+    // indicator, a growth step refits without new points) is left empty; the action says why
+    let measured = |x: f64| {
+        if x.is_nan() {
+            String::new()
+        } else {
+            format!("{x:.2e}")
+        }
+    };
     for (k, s) in steps.iter().enumerate() {
         println!(
-            "| {k} | {} | {} | {:.2e} | {:.2e} | {:.2e} | {} | {:.3} | {} |",
+            "| {k} | {} | {} | {} | {} | {} | {} | {:.3} | {} |",
             s.order,
             s.points_hz
                 .iter()
                 .map(|f| format!("{f:.1}"))
                 .collect::<Vec<_>>()
                 .join(", "),
-            s.indicator_max,
-            s.true_error_max,
-            s.sampled_error_max,
+            measured(s.indicator_max),
+            measured(s.true_error_max),
+            measured(s.sampled_error_max),
             s.factorizations,
             s.seconds,
             s.action

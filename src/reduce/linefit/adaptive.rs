@@ -409,7 +409,7 @@ impl<'a> Loop<'a> {
     /// needs from the verification pass: within tol there too, the outcome is
     /// [`Outcome::Confirmed`]. Measured on the paper bar at tol 1e-4 with the budget ending
     /// right after the first step within tol: best ROM 6.98e-6, verification 6.98e-6, the
-    /// independent 2000-point maximum 6.98e-6 (before, the report read "NOT reached").
+    /// independent 2000-point maximum 6.98e-6.
     fn report(mut self, outcome: Outcome) -> Result<Rom> {
         let factorizations = self.steps.last().map(|s| s.factorizations).unwrap_or(0);
         let (error, mut rom) = match (outcome == Outcome::Converged, self.best) {

@@ -10,9 +10,11 @@ pub struct Step {
     pub points_hz: Vec<f64>,
     /// Max of the indicator Δ over the candidates before picking (NaN for the seed step).
     pub indicator_max: f64,
-    /// Max true elastic ε of the current ROM at the picked points (NaN for the seed step).
+    /// Max true elastic ε of the current ROM at the picked points (NaN for the seed step and a
+    /// growth step).
     pub true_error_max: f64,
-    /// Max true elastic ε of the current ROM at the earlier sampled points.
+    /// Max true elastic ε of the current ROM at the earlier sampled points (NaN when the
+    /// step measured none: the seed step, and a growth step, which refits without new points).
     pub sampled_error_max: f64,
     /// Factorizations so far.
     pub factorizations: usize,
