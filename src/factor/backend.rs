@@ -42,17 +42,6 @@ pub enum Backend {
     Umfpack,
 }
 
-impl Backend {
-    /// Every backend with its names, the first the one it is shown by (`--backend`, `info`).
-    const NAMES: [(Backend, &'static [&'static str]); 5] = [
-        (Backend::Auto, &["auto"]),
-        (Backend::Ldlt, &["ldlt"]),
-        (Backend::FaerLblt, &["faer-lblt", "lblt"]),
-        (Backend::FaerLu, &["faer-lu", "lu"]),
-        (Backend::Umfpack, &["umfpack"]),
-    ];
-}
-
 impl std::str::FromStr for Backend {
     type Err = Error;
     fn from_str(s: &str) -> Result<Self> {
@@ -69,6 +58,15 @@ impl std::str::FromStr for Backend {
 }
 
 impl Backend {
+    /// Every backend with its names, the first the one it is shown by (`--backend`, `info`).
+    const NAMES: [(Backend, &'static [&'static str]); 5] = [
+        (Backend::Auto, &["auto"]),
+        (Backend::Ldlt, &["ldlt"]),
+        (Backend::FaerLblt, &["faer-lblt", "lblt"]),
+        (Backend::FaerLu, &["faer-lu", "lu"]),
+        (Backend::Umfpack, &["umfpack"]),
+    ];
+
     /// The backend a factorization of an N-DoF pencil uses, `real` when it is undamped
     /// (D = 0): [`Backend::Auto`] becomes the complex LDLᵀ when damped, faer LU up to
     /// [`LU_MAX_N`] and faer LBLᵀ above when real; [`Backend::Ldlt`] of a real pencil is the
@@ -246,4 +244,26 @@ pub(super) fn workspace(req: StackReq) -> Result<MemBuffer> {
             req.size_bytes()
         ))
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every backend reads back from the name it shows and from its aliases; an unknown name
+    /// lists the shown names.
+    #[test]
+    fn names_round_trip() {
+        for (b, names) in Backend::NAMES {
+            assert_eq!(b.to_string(), names[0]);
+            for name in names {
+                assert_eq!(name.parse::<Backend>().unwrap(), b);
+            }
+        }
+        let err = "x".parse::<Backend>().unwrap_err().to_string();
+        assert!(
+            err.contains("backend 'x': choose auto, ldlt, faer-lblt, faer-lu or umfpack"),
+            "{err}"
+        );
+    }
 }
