@@ -28,7 +28,7 @@ LAYERS = [
     ("pencil", ["pencil", "rigid", "fe"]),
     ("factor", ["factor"]),
     ("body", ["body", "io::model_dir"]),
-    ("engine", ["sweep", "distributed", "frf", "eigen"]),
+    ("engine", ["sweep", "distributed", "frf", "eigen", "multishift"]),
     ("reduce", ["reduce"]),
     ("metrics", ["metrics"]),
     ("output", ["io::rom_dir", "io::exudyn", "report"]),

@@ -71,6 +71,7 @@ pub mod lsq;
 pub mod memory;
 pub mod metrics;
 pub mod model;
+pub(crate) mod multishift;
 pub mod pencil;
 pub mod pool;
 pub(crate) mod random;

@@ -147,6 +147,17 @@ impl Pencil {
         matches!(self.d, DampingValues::Zero)
     }
 
+    /// (α, β) when D = αM + βK (Rayleigh damping; (0, 0) without damping): then
+    /// A(iω) = (1 + iωβ)(K − μM) with μ = (ω² − iωα)/(1 + iωβ), a shift of one real pencil
+    /// (docs/design.md §3.10). `None` for an explicit D.
+    pub fn proportional_damping(&self) -> Option<(f64, f64)> {
+        match self.d {
+            DampingValues::Zero => Some((0.0, 0.0)),
+            DampingValues::Rayleigh { alpha, beta } => Some((alpha, beta)),
+            DampingValues::Matrix(_) => None,
+        }
+    }
+
     /// True when D is an explicit matrix (not zero, not Rayleigh).
     pub fn has_damping_matrix(&self) -> bool {
         matches!(self.d, DampingValues::Matrix(_))

@@ -30,6 +30,8 @@
 
 use crate::body::Body;
 use crate::factor::{Analysis, Backend, Numeric, SymbolicStats};
+use crate::multishift::{ShiftedSpace, GROW_TO};
+pub use crate::multishift::{CERTIFIED_BACKWARD_ERROR, CERTIFIED_RELATIVE_RESIDUAL};
 use crate::random::Xorshift;
 use crate::rigid::RigidBody;
 use crate::{Error, Result};
@@ -55,6 +57,8 @@ pub struct SweepOptions {
     pub memory_budget: Option<usize>,
     /// Largest accepted relative probe error of a solve (see module doc).
     pub probe_tol: f64,
+    /// How a frequency's response is computed ([`SolveMethod`]).
+    pub method: SolveMethod,
     /// The ranks of a distributed run ([`crate::distributed`], docs/design.md §9): with more
     /// than one, the frequencies of line-fitting and of the transfer functions are spread over
     /// them. `None` = this process alone.
@@ -93,7 +97,35 @@ impl Default for SweepOptions {
             backend: Backend::Auto,
             memory_budget: None,
             probe_tol: DEFAULT_PROBE_TOL,
+            method: SolveMethod::Auto,
             cluster: None,
+        }
+    }
+}
+
+/// How the responses are computed.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SolveMethod {
+    /// From one shifted Krylov space when the damping is proportional (D = 0 or αM + βK,
+    /// [`crate::multishift`], docs/design.md §3.10): one real factorization serves every
+    /// frequency, each response certified by its residual; a frequency whose response does
+    /// not pass is factored. Factored otherwise.
+    #[default]
+    Auto,
+    /// Factor A(iω) at every frequency.
+    Factored,
+}
+
+impl std::str::FromStr for SolveMethod {
+    type Err = Error;
+
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "auto" => Ok(Self::Auto),
+            "factor" => Ok(Self::Factored),
+            _ => Err(Error::InvalidSetting(format!(
+                "solve method `{s}`: expected auto (a shifted Krylov space when the damping is proportional) or factor (factor A(iw) at every frequency)"
+            ))),
         }
     }
 }
@@ -144,6 +176,24 @@ pub struct FreqStats {
     /// True when the complex LDLᵀ's static pivoting was not enough and the frequency was
     /// factored again by the pivoting LBLᵀ ([`Numeric::factor_with_pivoting`]).
     pub pivoted: bool,
+    /// 0 when A(iω) was factored; else the dimension of the shifted Krylov space the response
+    /// came from (no factorization, no probe: `probe_error`, `pivot_ratio` are NaN and
+    /// `backward_error` is the worst column's of the loads).
+    pub krylov_dim: usize,
+    /// The worst load column's ‖b − A x‖₂/‖b‖₂ of a response from the Krylov space (NaN when
+    /// factored: the probe measures those).
+    pub relative_residual: f64,
+    /// Real factorizations and block solves spent on the shifted Krylov space by the run
+    /// before its frequencies were solved, carried by the run's first frequency (0 on the
+    /// others), so that summing the stats counts them once.
+    pub space_cost: (usize, usize),
+}
+
+impl FreqStats {
+    /// The response came from the shifted Krylov space, not a factorization.
+    pub fn from_krylov(&self) -> bool {
+        self.krylov_dim > 0
+    }
 }
 
 /// What [`Solver::solve_checked`] measured of one frequency's solves.
@@ -157,8 +207,23 @@ struct Checked {
 /// so the user sees how accurate the full-model solves behind it were.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SolveAccuracy {
-    /// Frequencies factored.
+    /// Frequencies solved (factored or from the shifted Krylov space).
     pub frequencies: usize,
+    /// Of them, responses from the shifted Krylov space (docs/design.md §3.10).
+    #[serde(default)]
+    pub from_krylov: usize,
+    /// Real factorizations of K − σM made for the shifted Krylov space.
+    #[serde(default)]
+    pub shift_factorizations: usize,
+    /// Block solves with those factorizations.
+    #[serde(default)]
+    pub krylov_block_solves: usize,
+    /// Largest dimension of the shifted Krylov space.
+    #[serde(default)]
+    pub krylov_dim: usize,
+    /// Largest relative residual of a response from it (its certificate).
+    #[serde(default)]
+    pub relative_residual_max: f64,
     /// Largest probe error ([`FreqStats::probe_error`], after refinement).
     pub probe_error_max: f64,
     /// Largest backward error ([`FreqStats::backward_error`]; 0 when read from a ROM file
@@ -173,8 +238,20 @@ pub struct SolveAccuracy {
 }
 
 impl SolveAccuracy {
+    /// Factorizations in all: one per factored frequency and one per shifted Krylov space.
+    pub fn factorizations(&self) -> usize {
+        self.frequencies - self.from_krylov + self.shift_factorizations
+    }
+
     pub(crate) fn add(&mut self, s: &FreqStats) {
         self.frequencies += 1;
+        if s.from_krylov() {
+            self.from_krylov += 1;
+            self.krylov_dim = self.krylov_dim.max(s.krylov_dim);
+            self.relative_residual_max = self.relative_residual_max.max(s.relative_residual);
+        }
+        self.shift_factorizations += s.space_cost.0;
+        self.krylov_block_solves += s.space_cost.1;
         self.probe_error_max = self.probe_error_max.max(s.probe_error);
         self.backward_error_max = self.backward_error_max.max(s.backward_error);
         self.refined += usize::from(s.refinement_steps > 0);
@@ -232,6 +309,71 @@ pub struct Solver<'a> {
     /// supported K keeps its scale); chosen once here, not per solve.
     supports: Option<(Vec<usize>, f64)>,
     accuracy: Mutex<SolveAccuracy>,
+    /// The shifted Krylov space ([`SolveMethod::Auto`] on a proportionally damped body; made
+    /// by the first run that has a frequency > 0); `None` when every frequency is factored.
+    space: Option<Mutex<Space<'a>>>,
+}
+
+/// Rounds of growing the Krylov space for responses that failed their certificate (the
+/// target 100× tighter each round) before their frequencies are factored.
+const KRYLOV_ROUNDS: usize = 3;
+
+/// Why a frequency's response did not come from the Krylov space.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Fallback {
+    /// It failed its certificate: a larger space may pass.
+    Grow,
+    /// The space cannot answer it (0 Hz, or ill-conditioned: next to an undamped
+    /// eigenvalue): factor it.
+    Factor,
+}
+
+/// What the workers of one [`Solver::run`] share.
+struct Run<'r, S, I, F> {
+    freqs_hz: &'r [f64],
+    init: &'r I,
+    step: &'r F,
+    progress: ProgressFn<'r>,
+    stop: AtomicBool,
+    done: AtomicUsize,
+    first_error: Mutex<Option<Error>>,
+    stats: Mutex<Vec<Option<FreqStats>>>,
+    /// The workers' states, handed from one phase's workers to the next's.
+    states: Mutex<Vec<S>>,
+}
+
+impl<S, I, F> Run<'_, S, I, F> {
+    /// Stops the run on its first error.
+    fn fail(&self, e: Error) {
+        self.stop.store(true, Ordering::Relaxed);
+        self.first_error
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .get_or_insert(e);
+    }
+
+    /// Records a finished frequency and reports progress.
+    fn finished(&self, k: usize, st: FreqStats) {
+        let f = st.freq_hz;
+        self.stats.lock().unwrap_or_else(|p| p.into_inner())[k] = Some(st);
+        let done = self.done.fetch_add(1, Ordering::Relaxed) + 1;
+        if !(self.progress)(Progress {
+            done,
+            total: self.freqs_hz.len(),
+            freq_hz: f,
+        }) {
+            self.fail(Error::Cancelled);
+        }
+    }
+}
+
+/// The state of a [`Solver`]'s shifted Krylov space.
+enum Space<'a> {
+    /// Not made yet.
+    Unmade,
+    Made(ShiftedSpace<'a>),
+    /// K − σM could not be factored (M not positive definite?): every frequency is factored.
+    Failed,
 }
 
 impl<'a> Solver<'a> {
@@ -285,6 +427,10 @@ impl<'a> Solver<'a> {
                 .rigid()
                 .map(|rb| (rb.supports(), body.pencil().stiffness_diagonal_max())),
             accuracy: Mutex::new(SolveAccuracy::default()),
+            space: (opts.method == SolveMethod::Auto
+                && body.pencil().proportional_damping().is_some()
+                && (response == Response::Elastic || body.rigid().is_none()))
+            .then(|| Mutex::new(Space::Unmade)),
         })
     }
 
@@ -355,7 +501,100 @@ impl<'a> Solver<'a> {
                 return Err(zero_hz_total());
             }
         }
-        let schedule = self.schedule(freqs_hz.len());
+        let run = Run {
+            freqs_hz,
+            init: &init,
+            step: &step,
+            progress,
+            stop: AtomicBool::new(false),
+            done: AtomicUsize::new(0),
+            first_error: Mutex::new(None),
+            stats: Mutex::new(vec![None; freqs_hz.len()]),
+            states: Mutex::new(Vec::new()),
+        };
+        let mut pending: Vec<usize> = (0..freqs_hz.len()).collect();
+        let mut factor_now = Vec::new();
+        let mut space_cost = (0, 0);
+        if let Some(cell) = &self.space {
+            let mut space = cell.lock().unwrap_or_else(|p| p.into_inner());
+            // a response that fails its certificate asks for a larger space, with a target
+            // 100× tighter each round, before its frequency is factored
+            let mut target = GROW_TO;
+            for _ in 0..KRYLOV_ROUNDS {
+                let wanted: Vec<usize> = pending
+                    .iter()
+                    .copied()
+                    .filter(|&k| freqs_hz[k] > 0.0)
+                    .collect();
+                if wanted.is_empty() {
+                    break;
+                }
+                let f: Vec<f64> = wanted.iter().map(|&k| freqs_hz[k]).collect();
+                let cost = self.grow_space(&mut space, &f, target)?;
+                space_cost = (space_cost.0 + cost.0, space_cost.1 + cost.1);
+                let Space::Made(s) = &*space else {
+                    break;
+                };
+                let failed = self.phase(&run, &wanted, Some(s))?;
+                pending.retain(|k| !wanted.contains(k) || failed.iter().any(|(j, _)| j == k));
+                if !failed.iter().any(|&(_, why)| why == Fallback::Grow) || !s.can_grow() {
+                    break;
+                }
+                // only the frequencies a larger space may answer go round again
+                pending.retain(|k| !failed.contains(&(*k, Fallback::Factor)));
+                factor_now.extend(
+                    failed
+                        .iter()
+                        .filter(|&&(_, why)| why == Fallback::Factor)
+                        .map(|&(k, _)| k),
+                );
+                target /= 100.0;
+            }
+        }
+        pending.extend(factor_now);
+        if !pending.is_empty() {
+            self.phase(&run, &pending, None)?;
+        }
+        let mut stats: Vec<FreqStats> = run
+            .stats
+            .into_inner()
+            .unwrap_or_else(|p| p.into_inner())
+            .into_iter()
+            .map(|s| s.expect("every frequency finished"))
+            .collect();
+        if let Some(first) = stats.first_mut() {
+            first.space_cost = space_cost;
+        }
+        let mut acc = self.accuracy.lock().unwrap_or_else(|p| p.into_inner());
+        stats.iter().for_each(|s| acc.add(s));
+        drop(acc);
+        Ok((
+            run.states.into_inner().unwrap_or_else(|p| p.into_inner()),
+            stats,
+        ))
+    }
+
+    /// Solves the frequencies `items` (indices into the run's list) on parallel workers:
+    /// from the Krylov space `space` when given — returning the items it did not answer, not
+    /// stepped, and why — else by factorization (returning none).
+    fn phase<S, I, F>(
+        &self,
+        run: &Run<'_, S, I, F>,
+        items: &[usize],
+        space: Option<&ShiftedSpace<'_>>,
+    ) -> Result<Vec<(usize, Fallback)>>
+    where
+        S: Send,
+        I: Fn() -> S + Sync,
+        F: Fn(&mut S, Snapshot<'_>) -> Result<()> + Sync,
+    {
+        let schedule = match space {
+            // no factorization: the workers need no memory beyond a response each
+            Some(_) => Schedule::FrequencyParallel {
+                workers: self.threads.min(items.len()).max(1),
+            },
+            None => self.schedule(items.len()),
+        };
         // Frequency-parallel, a worker that runs out of frequencies lends its thread to the
         // others: each phase of a frequency (factorization, solves, residuals) asks how many
         // are idle and runs on that many more threads, taken up by rayon's work stealing. The
@@ -378,63 +617,64 @@ impl<'a> Solver<'a> {
             ),
         };
         let next = AtomicUsize::new(0);
-        let done = AtomicUsize::new(0);
-        let stop = AtomicBool::new(false);
-        let first_error: Mutex<Option<Error>> = Mutex::new(None);
-        let stats: Mutex<Vec<Option<FreqStats>>> = Mutex::new(vec![None; freqs_hz.len()]);
-        let states: Mutex<Vec<S>> = Mutex::new(Vec::new());
-        let fail = |e: Error| {
-            stop.store(true, Ordering::Relaxed);
-            first_error
+        let failed = Mutex::new(Vec::new());
+        let worker = || {
+            let mut state = run
+                .states
                 .lock()
                 .unwrap_or_else(|p| p.into_inner())
-                .get_or_insert(e);
-        };
-        let worker = || {
-            let mut numeric = match self.analysis.numeric(self.body.pencil()) {
-                Ok(x) => x,
-                Err(e) => return fail(e),
-            };
-            let mut state = init();
-            let mut rhs = Mat::<c64>::zeros(self.body.n(), self.inputs.len() + 1);
-            // the probe's right-hand side A(iω) z, kept for refinement
-            let mut az = Mat::<c64>::zeros(self.body.n(), 1);
-            while !stop.load(Ordering::Relaxed) {
-                let k = next.fetch_add(1, Ordering::Relaxed);
-                let Some(&f) = freqs_hz.get(k) else {
+                .pop()
+                .unwrap_or_else(run.init);
+            let mut factored = None;
+            while !run.stop.load(Ordering::Relaxed) {
+                let Some(&k) = items.get(next.fetch_add(1, Ordering::Relaxed)) else {
                     idle.fetch_add(1, Ordering::Relaxed);
                     break;
                 };
-                let r = self
-                    .solve_one(&mut numeric, f, &mut rhs, &mut az, par)
-                    .and_then(|st| {
-                        let p = self.inputs.len();
-                        step(
+                let f = run.freqs_hz[k];
+                let r = match space {
+                    Some(sp) => match self.from_space(sp, f, par()) {
+                        Ok((x, st)) => (run.step)(
                             &mut state,
                             Snapshot {
                                 index: k,
                                 freq_hz: f,
-                                x: rhs.as_ref().subcols(0, p),
+                                x: x.as_ref(),
                             },
-                        )?;
-                        Ok(st)
-                    });
-                match r {
-                    Ok(st) => {
-                        stats.lock().unwrap_or_else(|p| p.into_inner())[k] = Some(st);
-                        let d = done.fetch_add(1, Ordering::Relaxed) + 1;
-                        if !progress(Progress {
-                            done: d,
-                            total: freqs_hz.len(),
-                            freq_hz: f,
-                        }) {
-                            fail(Error::Cancelled);
+                        )
+                        .map(|()| Some(st)),
+                        Err(why) => {
+                            failed
+                                .lock()
+                                .unwrap_or_else(|p| p.into_inner())
+                                .push((k, why));
+                            Ok(None)
                         }
-                    }
-                    Err(e) => fail(e),
+                    },
+                    None => self
+                        .factored(&mut factored, f, par)
+                        .and_then(|(x, st)| {
+                            (run.step)(
+                                &mut state,
+                                Snapshot {
+                                    index: k,
+                                    freq_hz: f,
+                                    x,
+                                },
+                            )?;
+                            Ok(Some(st))
+                        }),
+                };
+                match r {
+                    Ok(Some(st)) => run.finished(k, st),
+                    Ok(None) => {}
+                    Err(e) => run.fail(e),
                 }
             }
-            states.lock().unwrap_or_else(|p| p.into_inner()).push(state);
+            run.states
+                .lock()
+                .unwrap_or_else(|p| p.into_inner())
+                .push(state);
         };
         crate::pool::with_pool(self.threads, || {
             rayon::scope(|s| {
@@ -443,22 +683,38 @@ impl<'a> Solver<'a> {
                 }
             })
         })?;
-        if let Some(e) = first_error.into_inner().unwrap_or_else(|p| p.into_inner()) {
+        if let Some(e) = run
+            .first_error
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .take()
+        {
             return Err(e);
         }
-        let stats: Vec<FreqStats> = stats
-            .into_inner()
-            .unwrap_or_else(|p| p.into_inner())
-            .into_iter()
-            .map(|s| s.expect("every frequency finished"))
-            .collect();
-        let mut acc = self.accuracy.lock().unwrap_or_else(|p| p.into_inner());
-        stats.iter().for_each(|s| acc.add(s));
-        drop(acc);
-        Ok((
-            states.into_inner().unwrap_or_else(|p| p.into_inner()),
-            stats,
-        ))
+        Ok(failed.into_inner().unwrap_or_else(|p| p.into_inner()))
+    }
+
+    /// Factors at `f` and solves, in the worker's factorization `slot` (allocated on its first
+    /// use, with its right-hand-side blocks): the response's view and the stats.
+    fn factored<'s, 'w>(
+        &'s self,
+        slot: &'w mut Option<(Numeric<'s>, Mat<c64>, Mat<c64>)>,
+        f: f64,
+        par: &dyn Fn() -> Par,
+    ) -> Result<(faer::MatRef<'w, c64>, FreqStats)> {
+        if slot.is_none() {
+            let numeric = self.analysis.numeric(self.body.pencil())?;
+            let n = self.body.n();
+            // the load and probe columns, and the probe's right-hand side A(iω) z (for refinement)
+            *slot = Some((
+                numeric,
+                Mat::zeros(n, self.inputs.len() + 1),
+                Mat::zeros(n, 1),
+            ));
+        }
+        let (numeric, rhs, az) = slot.as_mut().expect("allocated above");
+        let st = self.solve_one(numeric, f, rhs, az, par)?;
+        Ok((rhs.as_ref().subcols(0, self.inputs.len()), st))
     }
 
     /// Factors at `f`, solves load + probe into `rhs`, checks the probe, projects; each phase
@@ -530,7 +786,89 @@ impl<'a> Solver<'a> {
             refinement_steps,
             pivot_ratio: numeric.pivot_ratio(),
             pivoted: numeric.pivoted(),
+            krylov_dim: 0,
+            relative_residual: f64::NAN,
+            space_cost: (0, 0),
         })
+    }
+
+    /// Makes the shifted Krylov space on the first run with a frequency > 0 and grows it
+    /// for `freqs_hz` to the estimated relative residual `target` (docs/design.md §3.10);
+    /// returns the factorizations and block solves this cost. The shift σ = −(2π f_max/4)²
+    /// lies below the spectrum (K − σM positive definite), near enough to the band that the
+    /// band's modes are the space's first: any σ < 0 gives the same responses, up to the
+    /// space's size.
+    fn grow_space(
+        &self,
+        space: &mut Space<'a>,
+        freqs_hz: &[f64],
+        target: f64,
+    ) -> Result<(usize, usize)> {
+        let mut cost = (0, 0);
+        if matches!(space, Space::Unmade) {
+            let top = freqs_hz.iter().copied().fold(0.0, f64::max);
+            let sigma = -crate::units::hz_to_lambda(top / 4.0);
+            // the basis and M times it within half the memory budget, at most 3000 vectors
+            let max_dim = (self.memory_budget / (32 * self.body.n().max(1))).clamp(1, 3000);
+            let par = if self.threads > 1 {
+                Par::rayon(self.threads)
+            } else {
+                Par::Seq
+            };
+            *space = match crate::pool::with_pool(self.threads, || {
+                ShiftedSpace::new(self.body, self.load.clone(), sigma, max_dim, par)
+            })? {
+                Ok(s) => {
+                    cost = (1, s.block_solves());
+                    Space::Made(s)
+                }
+                Err(_) => Space::Failed,
+            };
+        }
+        if let Space::Made(s) = space {
+            let before = s.block_solves();
+            crate::pool::with_pool(self.threads, || s.grow_for(freqs_hz, target))??;
+            cost.1 += s.block_solves() - before;
+        }
+        Ok(cost)
+    }
+
+    /// The response at `f` from the Krylov space, when the answer passes its certificate and
+    /// its forward error estimate is within the probe tolerance (else the frequency is
+    /// factored, where the probe decides: at an undamped eigenfrequency it is refused as
+    /// singular).
+    fn from_space(
+        &self,
+        space: &ShiftedSpace<'_>,
+        f: f64,
+        par: Par,
+    ) -> std::result::Result<(Mat<c64>, FreqStats), Fallback> {
+        if !(f > 0.0) {
+            return Err(Fallback::Factor);
+        }
+        let t = Instant::now();
+        let r = space.response(f, par).map_err(|_| Fallback::Factor)?;
+        if !r.certified() {
+            return Err(Fallback::Grow);
+        }
+        if !(r.forward_error_estimate() <= self.probe_tol) {
+            return Err(Fallback::Factor);
+        }
+        let worst = |v: &[f64]| v.iter().copied().fold(0.0, f64::max);
+        let stats = FreqStats {
+            freq_hz: f,
+            factor_s: 0.0,
+            solve_s: t.elapsed().as_secs_f64(),
+            probe_error: f64::NAN,
+            backward_error: worst(&r.certificate.backward_error),
+            refinement_steps: 0,
+            pivot_ratio: f64::NAN,
+            pivoted: false,
+            krylov_dim: space.dim(),
+            relative_residual: worst(&r.certificate.relative_residual),
+            space_cost: (0, 0),
+        };
+        Ok((r.x, stats))
     }
 
     /// Solves load + probe into `rhs` with the current factorization, refines all columns when

@@ -10,3 +10,8 @@ pub fn lambda_to_hz(l: f64) -> f64 {
 pub fn hz_to_lambda(f: f64) -> f64 {
     (2.0 * std::f64::consts::PI * f).powi(2)
 }
+
+/// Angular frequency ω = 2πf of a frequency f (Hz).
+pub fn hz_to_omega(f: f64) -> f64 {
+    2.0 * std::f64::consts::PI * f
+}

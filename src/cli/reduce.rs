@@ -75,6 +75,11 @@ pub struct ReduceArgs {
     /// above it a frequency is refused as numerically singular.
     #[arg(long, default_value_t = sparsemor::sweep::DEFAULT_PROBE_TOL)]
     probe_tol: f64,
+    /// How line-fitting's responses are computed: auto (one shifted Krylov space when the
+    /// damping is proportional, each response certified by its residual; docs/design.md
+    /// §3.10) or factor (factor A(iω) at every frequency).
+    #[arg(long, default_value = "auto")]
+    solve: String,
     /// Worker threads (0 = all cores).
     #[arg(long, default_value_t = 0)]
     threads: usize,
@@ -97,6 +102,10 @@ impl ReduceArgs {
         let opts = SweepOptions {
             threads: self.threads,
             probe_tol: self.probe_tol,
+            method: self.solve.parse().map_err(|e| match e {
+                Error::InvalidSetting(m) => Error::InvalidSetting(format!("--solve: {m}")),
+                e => e,
+            })?,
             ..Default::default()
         };
         Ok((&self.model, opts))
@@ -276,16 +285,7 @@ fn print_rom(rom: &Rom) {
         );
         let a = &f.solves;
         if a.frequencies > 0 {
-            println!(
-                "solves           {} factorizations, worst probe error {:.1e}, worst backward error {:.1e}{}",
-                a.frequencies,
-                a.probe_error_max,
-                a.backward_error_max,
-                match a.refined {
-                    0 => String::new(),
-                    k => format!(", {k} refined"),
-                }
-            );
+            println!("solves           {}", solve_summary(a));
         }
     }
     if let Some(c) = rom.serep_cond() {
@@ -336,9 +336,37 @@ fn parse_growth(s: &str) -> Result<Growth> {
     }
 }
 
+/// How the full solves behind a ROM were made and how accurate they were.
+pub fn solve_summary(a: &sparsemor::sweep::SolveAccuracy) -> String {
+    let factored = a.frequencies - a.from_krylov;
+    let mut parts = vec![format!(
+        "{} full solves, {} factorizations",
+        a.frequencies,
+        a.factorizations()
+    )];
+    if a.from_krylov > 0 {
+        parts.push(format!(
+            "{} from a shifted Krylov space (dimension {}, {} block solves, worst relative residual {:.1e})",
+            a.from_krylov, a.krylov_dim, a.krylov_block_solves, a.relative_residual_max
+        ));
+    }
+    if factored > 0 {
+        parts.push(format!(
+            "{factored} factored (worst probe error {:.1e}{})",
+            a.probe_error_max,
+            match a.refined {
+                0 => String::new(),
+                k => format!(", {k} refined"),
+            }
+        ));
+    }
+    parts.push(format!("worst backward error {:.1e}", a.backward_error_max));
+    parts.join("; ")
+}
+
 fn print_steps(steps: &[Step]) {
-    println!("| step | order | new points (Hz) | indicator max | true eps at new | true eps at sampled | factorizations | time s | action |");
-    println!("|---|---|---|---|---|---|---|---|---|");
+    println!("| step | order | new points (Hz) | indicator max | true eps at new | true eps at sampled | full solves | factorizations | time s | action |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
     // a value the step did not measure (NaN in the library's report: the seed step has no
     // indicator, a growth step refits without new points) is left empty; the action says why
     let measured = |x: f64| {
@@ -350,7 +378,7 @@ fn print_steps(steps: &[Step]) {
     };
     for (k, s) in steps.iter().enumerate() {
         println!(
-            "| {k} | {} | {} | {} | {} | {} | {} | {:.3} | {} |",
+            "| {k} | {} | {} | {} | {} | {} | {} | {} | {:.3} | {} |",
             s.order,
             s.points_hz
                 .iter()
@@ -360,6 +388,7 @@ fn print_steps(steps: &[Step]) {
             measured(s.indicator_max),
             measured(s.true_error_max),
             measured(s.sampled_error_max),
+            s.solves,
             s.factorizations,
             s.seconds,
             s.action

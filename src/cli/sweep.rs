@@ -41,11 +41,18 @@ pub struct SweepArgs {
     /// Memory budget for concurrent factorizations in GB (default: half of available).
     #[arg(long)]
     memory_gb: Option<f64>,
+    /// How responses are computed: auto (one shifted Krylov space when the damping is
+    /// proportional, each response certified by its residual; docs/design.md §3.10) or
+    /// factor (factor A(iω) at every frequency).
+    #[arg(long, default_value = "auto")]
+    solve: String,
     /// Output CSV: f_hz,output,input,re,im.
     #[arg(long)]
     out: PathBuf,
     /// Also write each frequency's solve statistics as CSV: f_hz, factor_s, solve_s,
-    /// probe_error, backward_error, refinement_steps, pivot_ratio, pivoted.
+    /// probe_error, backward_error, refinement_steps, pivot_ratio, pivoted, krylov_dim,
+    /// relative_residual (a response from the shifted Krylov space has krylov_dim > 0, no
+    /// factorization and no probe: factor_s 0, probe_error and pivot_ratio NaN).
     #[arg(long)]
     stats: Option<PathBuf>,
 }
@@ -67,6 +74,7 @@ impl SweepArgs {
             backend: self.backend.parse().map_err(|e| flag("backend", e))?,
             memory_budget: self.memory_gb.map(|g| (g * 1e9) as usize),
             probe_tol: self.probe_tol,
+            method: self.solve.parse().map_err(|e| flag("solve", e))?,
             cluster: None,
         };
         Ok((&self.model, opts))
@@ -149,12 +157,12 @@ fn write_stats_csv(path: &Path, stats: &[FreqStats]) -> Result<()> {
     atomic::write_file(path, |w| {
         writeln!(
             w,
-            "f_hz,factor_s,solve_s,probe_error,backward_error,refinement_steps,pivot_ratio,pivoted"
+            "f_hz,factor_s,solve_s,probe_error,backward_error,refinement_steps,pivot_ratio,pivoted,krylov_dim,relative_residual"
         )?;
         for s in stats {
             writeln!(
                 w,
-                "{:?},{:?},{:?},{:?},{:?},{},{:?},{}",
+                "{:?},{:?},{:?},{:?},{:?},{},{:?},{},{},{:?}",
                 s.freq_hz,
                 s.factor_s,
                 s.solve_s,
@@ -162,7 +170,9 @@ fn write_stats_csv(path: &Path, stats: &[FreqStats]) -> Result<()> {
                 s.backward_error,
                 s.refinement_steps,
                 s.pivot_ratio,
-                u8::from(s.pivoted)
+                u8::from(s.pivoted),
+                s.krylov_dim,
+                s.relative_residual
             )?;
         }
         Ok(())

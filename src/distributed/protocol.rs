@@ -224,7 +224,11 @@ fn encode(rank: usize, reply: &Result<Reply>) -> Vec<u8> {
             .f64(s.backward_error)
             .usize(s.refinement_steps)
             .f64(s.pivot_ratio)
-            .u64(u64::from(s.pivoted));
+            .u64(u64::from(s.pivoted))
+            .usize(s.krylov_dim)
+            .f64(s.relative_residual)
+            .usize(s.space_cost.0)
+            .usize(s.space_cost.1);
     }
     w.f64(reply.absorb_s);
     w.0
@@ -270,6 +274,9 @@ fn decode(bytes: &[u8]) -> Result<Result<Reply>> {
                 refinement_steps: r.usize()?,
                 pivot_ratio: r.f64()?,
                 pivoted: r.u64()? == 1,
+                krylov_dim: r.usize()?,
+                relative_residual: r.f64()?,
+                space_cost: (r.usize()?, r.usize()?),
             },
         ));
     }

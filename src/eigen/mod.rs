@@ -44,6 +44,8 @@ pub use modes::{Modes, MAX_BACKWARD_ERROR, RIGID_RTOL};
 pub use options::{EigenBackend, EigenOptions, Request};
 pub use stats::{EigenProgress, EigenStats, SliceStats};
 
+pub(crate) use operator::ShiftInvert;
+
 use crate::body::Body;
 use crate::units::hz_to_lambda;
 use crate::{Error, Result};

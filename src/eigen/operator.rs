@@ -102,6 +102,15 @@ impl<'a> ShiftInvert<'a> {
         }
     }
 
+    /// X ← (K − σM)⁻¹ X as [`Self::solve_in_place`], the Cholesky solves parallel under
+    /// `par` (an interior shift's LBLᵀ solves stay sequential).
+    pub(crate) fn solve_with(&mut self, x: MatMut<'_, f64>, par: Par) {
+        match &mut self.factor {
+            Factor::Definite(f) => f.solve_block(x, par),
+            Factor::Indefinite(f) => f.solve_in_place(x),
+        }
+    }
+
     /// y ← S x = (K − σM)⁻¹ M x (ARPACK's mode 3 asks for it without M x).
     #[cfg(feature = "arpack")]
     pub(crate) fn apply(&mut self, x: MatRef<'_, f64>, mut y: MatMut<'_, f64>) {

@@ -482,3 +482,73 @@ fn active<'s, 'a>(
         _ => factors.as_mut(),
     }
 }
+
+/// How well X solves A(iω) X = B, column by column: the certificate of a response computed
+/// without a factorization of A(iω) (docs/design.md §3.10).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Certificate {
+    /// maxᵢ |b − A x|ᵢ / (|A||x| + |b|)ᵢ per column (Oettli–Prager, as
+    /// [`Numeric::backward_error`]).
+    pub backward_error: Vec<f64>,
+    /// ‖b − A x‖₂ / ‖b‖₂ per column (0 for a zero column b with x = 0).
+    pub relative_residual: Vec<f64>,
+}
+
+impl Certificate {
+    /// Every column passes: componentwise backward error ≤ `backward` or relative residual
+    /// ≤ `relative`.
+    pub fn passes(&self, backward: f64, relative: f64) -> bool {
+        self.backward_error
+            .iter()
+            .zip(&self.relative_residual)
+            .all(|(&be, &rr)| be <= backward || rr <= relative)
+    }
+}
+
+/// The [`Certificate`] of `x` as a solution of A(iω) X = B for the real B `b`: one pass over
+/// the pencil's pattern with the exact A(iω) (entries by [`Pencil::value`]), the residual's
+/// columns in parallel under `par`.
+pub fn certify(
+    pencil: &Pencil,
+    omega: f64,
+    b: faer::MatRef<'_, f64>,
+    x: faer::MatRef<'_, c64>,
+    par: Par,
+) -> Certificate {
+    let mut scratch = pattern::ResidualScratch::<c64>::default();
+    let mut block = scratch.block(x.nrows(), x.ncols());
+    for c in 0..x.ncols() {
+        for (d, &v) in block.as_mut().col_mut(c).iter_mut().zip(b.col(c).iter()) {
+            *d = c64::new(v, 0.0);
+        }
+    }
+    pattern::symmetric_residual(
+        pattern::Lower {
+            pencil,
+            entry: &|p| pencil.value(omega, p),
+        },
+        x,
+        true,
+        &mut scratch,
+        par,
+    );
+    let backward_error = scratch.column_errors().to_vec();
+    let r = scratch.block(x.nrows(), x.ncols());
+    let r = r.as_ref();
+    let relative_residual = (0..x.ncols())
+        .map(|c| {
+            let (rn, bn) = (r.col(c).norm_l2(), b.col(c).norm_l2());
+            if bn > 0.0 {
+                rn / bn
+            } else if rn == 0.0 {
+                0.0
+            } else {
+                f64::INFINITY
+            }
+        })
+        .collect();
+    Certificate {
+        backward_error,
+        relative_residual,
+    }
+}

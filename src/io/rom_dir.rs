@@ -59,6 +59,10 @@ struct SamplingToml {
     status: String,
     error: f64,
     error_kind: String,
+    /// Full solves of the loop (an older file without them: its factorizations, which it
+    /// counted one per solve).
+    #[serde(default)]
+    solves: Option<usize>,
     factorizations: usize,
     suggested_dof: usize,
     /// Max ε of the ROM over `verified_points` full solves spread over the band.
@@ -165,6 +169,7 @@ fn write_dir(dir: &Path, rom: &Rom, body: Option<&Body>) -> Result<()> {
                 status: outcome_name(&r.outcome).into(),
                 error: r.error,
                 error_kind: SamplingReport::ERROR_KIND.into(),
+                solves: Some(r.solves),
                 factorizations: r.factorizations,
                 suggested_dof: r.suggested_dof,
                 verified_error: r.verified.map(|v| v.error),
@@ -208,6 +213,7 @@ fn sampling_report(path: &Path, t: SamplingToml) -> Result<SamplingReport> {
             .verified_points
             .zip(t.verified_error)
             .map(|(points, error)| Verified { points, error }),
+        solves: t.solves.unwrap_or(t.factorizations),
         factorizations: t.factorizations,
         spilled: false,
     })

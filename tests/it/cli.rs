@@ -212,20 +212,27 @@ fn generate_info_sweep_matches_the_library_bit_exactly() {
     // The per-frequency statistics: the library's accuracy numbers, bit for bit.
     let stats = csv(
         &work.join("stats.csv"),
-        "f_hz,factor_s,solve_s,probe_error,backward_error,refinement_steps,pivot_ratio,pivoted",
+        "f_hz,factor_s,solve_s,probe_error,backward_error,refinement_steps,pivot_ratio,pivoted,krylov_dim,relative_residual",
     );
     assert_eq!(stats.len(), 7);
     for (r, s) in stats.iter().zip(&frf.freq_stats) {
         assert_eq!(num(&r[0]), s.freq_hz);
-        assert!(num(&r[1]) > 0.0 && num(&r[2]) > 0.0, "{r:?}");
         assert_eq!(num(&r[3]).to_bits(), s.probe_error.to_bits(), "{r:?}");
         assert_eq!(num(&r[4]).to_bits(), s.backward_error.to_bits(), "{r:?}");
-        assert!(
-            s.backward_error > 0.0 && s.backward_error <= crate::common::STABLE_BACKWARD_ERROR,
-            "{r:?}"
-        );
         assert_eq!(r[5], s.refinement_steps.to_string());
         assert_eq!(r[7], u8::from(s.pivoted).to_string());
+        assert_eq!(r[8], s.krylov_dim.to_string());
+        assert_eq!(num(&r[9]).to_bits(), s.relative_residual.to_bits(), "{r:?}");
+        // the bar is damped proportionally: every elastic response comes from the shifted
+        // Krylov space, no factorization, certified by its residual
+        assert!(s.from_krylov(), "{r:?}");
+        assert!(num(&r[1]) == 0.0 && num(&r[2]) > 0.0, "{r:?}");
+        assert!(
+            s.backward_error > 0.0
+                && (s.backward_error <= sparsemor::sweep::CERTIFIED_BACKWARD_ERROR
+                    || s.relative_residual <= sparsemor::sweep::CERTIFIED_RELATIVE_RESIDUAL),
+            "{r:?}"
+        );
     }
     for (k, h) in frf.h.iter().enumerate() {
         for o in 0..9 {

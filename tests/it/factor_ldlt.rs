@@ -253,7 +253,7 @@ fn the_pivoting_fallback_solves_like_dense() {
 fn the_ordering_with_fewer_entries_is_kept_and_solves_equal_dense() {
     use sparsemor::factor::{symbolic_cholesky_ordered, Order};
     use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
-    use sparsemor::sweep::SweepOptions;
+    use sparsemor::sweep::{SolveMethod, SweepOptions};
     let cube = BoxSpec {
         elements: [6, 6, 6],
         size_m: [0.1, 0.1, 0.1],
@@ -274,7 +274,10 @@ fn the_ordering_with_fewer_entries_is_kept_and_solves_equal_dense() {
         assert_eq!(choice.kept, expected);
         assert_eq!(nd_fills_less, metis && chunky, "{choice}");
         assert_eq!(sym.len_val(), choice.nnz());
-        let opts = SweepOptions::default();
+        let opts = SweepOptions {
+            method: SolveMethod::Factored,
+            ..SweepOptions::default()
+        };
         assert_sweep_matches_dense(&model, &paper_scene(&spec), &[130.0, 2400.0], &opts, 1e-9);
     }
 }

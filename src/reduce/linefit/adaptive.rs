@@ -199,7 +199,8 @@ impl<'a> Loop<'a> {
             indicator_max: f64::NAN,
             true_error_max: f64::NAN,
             sampled_error_max: f64::NAN,
-            factorizations: sampled.len(),
+            solves: sampled.len(),
+            factorizations: engine.accuracy().factorizations(),
             seconds: start.elapsed().as_secs_f64(),
             action: "seed".into(),
         }];
@@ -254,7 +255,7 @@ impl<'a> Loop<'a> {
             .collect();
         let picks = pick_maxima(&self.candidates, &delta, &self.sampled, self.threads);
         self.last_delta_max = delta.iter().copied().fold(0.0, f64::max);
-        self.last_used = self.steps.last().map(|s| s.factorizations).unwrap_or(0);
+        self.last_used = self.steps.last().map(|s| s.solves).unwrap_or(0);
         let picks = if picks.is_empty() {
             match self.largest_away(&delta) {
                 Some(f) => vec![f],
@@ -294,7 +295,8 @@ impl<'a> Loop<'a> {
             indicator_max: self.last_delta_max,
             true_error_max: true_error,
             sampled_error_max: sampled_error,
-            factorizations: used + picks.len(),
+            solves: used + picks.len(),
+            factorizations: self.engine.accuracy().factorizations(),
             seconds: self.start.elapsed().as_secs_f64(),
             action: "refine".into(),
         });
@@ -382,16 +384,17 @@ impl<'a> Loop<'a> {
         self.qr = self
             .engine
             .regrow(&self.part.split, self.scene.inputs.len())?;
-        let factorizations = self
+        let solves = self
             .last_used
-            .max(self.steps.last().map(|s| s.factorizations).unwrap_or(0));
+            .max(self.steps.last().map(|s| s.solves).unwrap_or(0));
         self.steps.push(Step {
             order: self.part.order(),
             points_hz: Vec::new(),
             indicator_max: self.last_delta_max,
             true_error_max: f64::NAN,
             sampled_error_max: f64::NAN,
-            factorizations,
+            solves,
+            factorizations: self.engine.accuracy().factorizations(),
             seconds: self.start.elapsed().as_secs_f64(),
             action: format!(
                 "stagnated: grow interface by DoF {d} (order {}), refit from kept snapshots",
@@ -411,7 +414,10 @@ impl<'a> Loop<'a> {
     /// right after the first step within tol: best ROM 6.98e-6, verification 6.98e-6, the
     /// independent 2000-point maximum 6.98e-6.
     fn report(mut self, outcome: Outcome) -> Result<Rom> {
-        let factorizations = self.steps.last().map(|s| s.factorizations).unwrap_or(0);
+        let (solves, factorizations) = self
+            .steps
+            .last()
+            .map_or((0, 0), |s| (s.solves, s.factorizations));
         let (error, mut rom) = match (outcome == Outcome::Converged, self.best) {
             (true, _) => {
                 let last = self
@@ -427,7 +433,7 @@ impl<'a> Loop<'a> {
         let points = self
             .sampling
             .verify_points
-            .unwrap_or(factorizations.div_ceil(3));
+            .unwrap_or(solves.div_ceil(3));
         let verified = if points > 0 {
             let band = positive_band(self.scene.band_hz);
             let freqs = match points {
@@ -465,6 +471,7 @@ impl<'a> Loop<'a> {
             outcome,
             error,
             verified,
+            solves,
             factorizations,
             spilled: self.engine.spilled(),
         };

@@ -16,7 +16,10 @@ pub struct Step {
     /// Max true elastic ε of the current ROM at the earlier sampled points (NaN when the
     /// step measured none: the seed step, and a growth step, which refits without new points).
     pub sampled_error_max: f64,
-    /// Factorizations so far.
+    /// Full solves so far (frequencies solved, seeds included).
+    pub solves: usize,
+    /// Factorizations so far: one per factored frequency, one per shifted Krylov space
+    /// (docs/design.md §3.10).
     pub factorizations: usize,
     /// Wall time so far (s).
     pub seconds: f64,
@@ -76,7 +79,10 @@ pub struct SamplingReport {
     /// The verification pass: max ε of the returned ROM over full solves at points spread
     /// evenly over the band ([`super::SamplingOptions::verify_points`]).
     pub verified: Option<Verified>,
-    /// Factorizations spent by the loop (the verification's come on top).
+    /// Full solves of the loop (frequencies solved; the verification's come on top).
+    pub solves: usize,
+    /// Factorizations spent by the loop (the verification's come on top): one per factored
+    /// frequency, one per shifted Krylov space.
     pub factorizations: usize,
     /// Snapshots were spilled to a temporary file.
     pub spilled: bool,
@@ -85,6 +91,14 @@ pub struct SamplingReport {
 impl SamplingReport {
     /// What kind of number [`Self::error`] is.
     pub const ERROR_KIND: &'static str = "max true elastic eps (eq. 23) of the loop's ROMs at the sampled points and the verified indicator maxima (a lower bound of the max over the band)";
+
+    /// "S full solves, F factorizations".
+    pub fn cost(&self) -> String {
+        format!(
+            "{} full solves, {} factorizations",
+            self.solves, self.factorizations
+        )
+    }
 
     /// One line on what was reached and, if the tolerance was not, what would help (named
     /// by the options' fields; front ends may word them as their flags).
@@ -99,29 +113,31 @@ impl SamplingReport {
         };
         match self.outcome {
             Outcome::Converged => format!(
-                "tolerance {:.1e} reached: true error {:.2e} at the last {} indicator maxima and all {} sampled points; order {}, {} factorizations{verified}",
+                "tolerance {:.1e} reached: true error {:.2e} at the last {} indicator maxima and all {} sampled points; order {}, {}{verified}",
                 self.tol,
                 self.error,
                 last.map(|s| s.points_hz.len()).unwrap_or(0),
                 sampled_points,
                 order,
-                self.factorizations
+                self.cost()
             ),
             Outcome::Confirmed => format!(
-                "tolerance {:.1e} reached: the best ROM measured (order {order}) had true error {:.2e} at one step's indicator maxima and sampled points, confirmed by the verification pass, after {} factorizations{verified}",
-                self.tol, self.error, self.factorizations
+                "tolerance {:.1e} reached: the best ROM measured (order {order}) had true error {:.2e} at one step's indicator maxima and sampled points, confirmed by the verification pass, after {}{verified}",
+                self.tol,
+                self.error,
+                self.cost()
             ),
             _ => format!(
-                "tolerance {:.1e} NOT reached ({}): the ROM returned (order {order}) has true error {:.2e} at its sampled points after {} factorizations{verified}. What would help: {}",
+                "tolerance {:.1e} NOT reached ({}): the ROM returned (order {order}) has true error {:.2e} at its sampled points after {}{verified}. What would help: {}",
                 self.tol,
                 match self.outcome {
-                    Outcome::Budget => "factorization budget spent",
+                    Outcome::Budget => "budget of full solves spent",
                     _ => "more frequencies stopped helping",
                 },
                 self.error,
-                self.factorizations,
+                self.cost(),
                 match self.outcome {
-                    Outcome::Budget => "a larger factorization budget (max_points)".to_string(),
+                    Outcome::Budget => "a larger budget of full solves (max_points)".to_string(),
                     _ => format!(
                         "a larger interface (max_order above {order}; the DoF with the largest fit residual is {})",
                         self.suggested_dof
