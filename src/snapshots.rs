@@ -170,15 +170,19 @@ impl SnapshotStore {
         Ok(())
     }
 
-    /// Q-DEIM continued from `interface`: the DoF outside it whose row of the snapshots'
-    /// left singular vectors adds the most to the span of the interface rows (module doc).
+    /// Q-DEIM continued from `interface` for `count` more pivots: the DoF outside it whose row
+    /// of the snapshots' left singular vectors adds the most to the span of the interface
+    /// rows (module doc), then the DoF that adds the most to the span with that one, and so
+    /// on. The later pivots are chosen among the rows of the largest first scores (8 per
+    /// pivot, at least 64): each pivot's row is taken out of the others (pivoted Gram–Schmidt),
+    /// so rows that repeat a chosen one's direction — its neighbours on the body — drop back.
     ///
     /// # Errors
     /// [`Error::Factor`] when the SVD does not converge; [`Error::InvalidSetting`] when no
     /// DoF is left outside the interface or the snapshots are empty; I/O errors of a spill file.
-    pub fn qdeim_next(&mut self, interface: &[usize]) -> Result<usize> {
+    pub fn qdeim_next(&mut self, interface: &[usize], count: usize) -> Result<Vec<usize>> {
         let (n, cols) = self.shape();
-        if cols == 0 || interface.len() >= n {
+        if cols == 0 || interface.len() + count > n {
             return Err(Error::InvalidSetting(
                 "Q-DEIM found no DoF outside the interface".into(),
             ));
@@ -232,24 +236,52 @@ impl SnapshotStore {
             .filter(|&k| rr[(k, k)].abs() > 1e-12 * rmax)
             .collect();
         let q = Mat::<f64>::from_fn(keep.len(), basis.len(), |i, k| q[(i, basis[k])]);
-        // pass 2: the largest part of a row of U outside span(Q)
-        let mut best = (f64::NEG_INFINITY, usize::MAX);
+        // pass 2: the part of each row of U outside span(Q); the rows of largest part kept
+        let pool = (8 * count).max(64);
+        let mut top: Vec<(f64, usize, Vec<f64>)> = Vec::with_capacity(pool + 1);
         self.for_each_row_block(|start, block| {
             let u = block * &t;
-            let proj = &u * &q;
+            let outside = &u - &u * &q * q.transpose();
             for i in 0..u.nrows() {
                 if pos[start + i] != usize::MAX {
                     continue;
                 }
-                let score = (0..u.ncols()).map(|k| u[(i, k)].powi(2)).sum::<f64>()
-                    - (0..proj.ncols()).map(|k| proj[(i, k)].powi(2)).sum::<f64>();
-                if score > best.0 {
-                    best = (score, start + i);
+                let row: Vec<f64> = (0..outside.ncols()).map(|k| outside[(i, k)]).collect();
+                let score = row.iter().map(|x| x * x).sum::<f64>();
+                if top.len() < pool || score > top[top.len() - 1].0 {
+                    let at = top.partition_point(|e| e.0 >= score);
+                    top.insert(at, (score, start + i, row));
+                    top.truncate(pool);
                 }
             }
             Ok(())
         })?;
-        Ok(best.1)
+        // pivoted Gram–Schmidt on the kept rows
+        let mut chosen = Vec::with_capacity(count);
+        for _ in 0..count {
+            let Some(best) = (0..top.len())
+                .filter(|&i| top[i].0 > 0.0)
+                .max_by(|&a, &b| top[a].0.total_cmp(&top[b].0))
+            else {
+                break;
+            };
+            let (_, dof, pivot) = top.swap_remove(best);
+            chosen.push(dof);
+            let norm = pivot.iter().map(|x| x * x).sum::<f64>().sqrt();
+            for (score, _, row) in &mut top {
+                let c = row.iter().zip(&pivot).map(|(a, b)| a * b).sum::<f64>() / norm;
+                for (x, p) in row.iter_mut().zip(&pivot) {
+                    *x -= c * p / norm;
+                }
+                *score = row.iter().map(|x| x * x).sum();
+            }
+        }
+        if chosen.is_empty() {
+            return Err(Error::InvalidSetting(
+                "Q-DEIM found no DoF outside the interface".into(),
+            ));
+        }
+        Ok(chosen)
     }
 }
 
@@ -274,8 +306,9 @@ impl Drop for SnapshotStore {
 mod tests {
     use super::*;
 
-    /// The streamed, interface-continued Q-DEIM picks the DoF a dense computation picks:
-    /// U from a dense SVD of S, the residual of each row against the interface rows' span.
+    /// The streamed, interface-continued Q-DEIM picks the DoFs a dense computation picks:
+    /// U from a dense SVD of S, the residual of each row against the span of the interface
+    /// rows, the best row added to the interface, three times.
     #[test]
     fn streamed_qdeim_matches_a_dense_reference() {
         let (n, z) = (9000, 3);
@@ -295,21 +328,27 @@ mod tests {
             }
         });
         let u = s.thin_svd().unwrap().U().to_owned();
-        let ui_t = Mat::<f64>::from_fn(u.ncols(), interface.len(), |k, c| u[(interface[c], k)]);
-        let q = ui_t.qr().compute_thin_Q();
-        let proj = &u * &q;
-        let score = |i: usize| {
-            (0..u.ncols()).map(|k| u[(i, k)].powi(2)).sum::<f64>()
-                - (0..q.ncols()).map(|k| proj[(i, k)].powi(2)).sum::<f64>()
-        };
-        let want = (0..n)
-            .filter(|i| !interface.contains(i))
-            .max_by(|&a, &b| score(a).total_cmp(&score(b)))
-            .unwrap();
+        let mut grown = interface.clone();
+        let mut want = Vec::new();
+        for _ in 0..3 {
+            let ui_t = Mat::<f64>::from_fn(u.ncols(), grown.len(), |k, c| u[(grown[c], k)]);
+            let q = ui_t.qr().compute_thin_Q();
+            let proj = &u * &q;
+            let score = |i: usize| {
+                (0..u.ncols()).map(|k| u[(i, k)].powi(2)).sum::<f64>()
+                    - (0..q.ncols()).map(|k| proj[(i, k)].powi(2)).sum::<f64>()
+            };
+            let next = (0..n)
+                .filter(|i| !grown.contains(i))
+                .max_by(|&a, &b| score(a).total_cmp(&score(b)))
+                .unwrap();
+            grown.push(next);
+            want.push(next);
+        }
         for spill in [false, true] {
             let mut store = SnapshotStore::new(spill).unwrap();
             store.extend(snaps.iter().cloned()).unwrap();
-            assert_eq!(store.qdeim_next(&interface).unwrap(), want, "spill {spill}");
+            assert_eq!(store.qdeim_next(&interface, 3).unwrap(), want, "spill {spill}");
         }
     }
 }

@@ -427,10 +427,7 @@ impl<'a> Solver<'a> {
                 .rigid()
                 .map(|rb| (rb.supports(), body.pencil().stiffness_diagonal_max())),
             accuracy: Mutex::new(SolveAccuracy::default()),
-            space: (opts.method == SolveMethod::Auto
-                && body.pencil().proportional_damping().is_some()
-                && (response == Response::Elastic || body.rigid().is_none()))
-            .then(|| Mutex::new(Space::Unmade)),
+            space: krylov_applies(body, response, opts.method).then(|| Mutex::new(Space::Unmade)),
         })
     }
 
@@ -943,6 +940,16 @@ impl<'a> Solver<'a> {
         }
         err.norm_l2() / self.probe.norm_l2()
     }
+}
+
+/// Whether a solver of `body` for `response` with `method` answers frequencies from a
+/// shifted Krylov space ([`SolveMethod::Auto`], docs/design.md §3.10): the damping is
+/// proportional, and the response is elastic or the body constrained (a free body's total
+/// response keeps its rigid part, which the space leaves out).
+pub(crate) fn krylov_applies(body: &Body, response: Response, method: SolveMethod) -> bool {
+    method == SolveMethod::Auto
+        && body.pencil().proportional_damping().is_some()
+        && (response == Response::Elastic || body.rigid().is_none())
 }
 
 /// The refusal of the total response at 0 Hz on a free body.

@@ -538,10 +538,12 @@ enum SparsemorStatus sparsemor_options_set_tolerance(struct SparsemorOptions *op
                                                      double tolerance);
 
 /**
- * Limits of the sampling loop (with a tolerance): at most `max_points` factorizations
- * (default 60, ≥ 1) and interface growth up to order `max_order` (default 0 = the automatic
- * cap min(max(3·n0, 40), N/2, memory) of the library's `SamplingOptions::auto_max_order`; a
- * value at most the initial order n0 keeps the order fixed).
+ * Limits of the sampling loop (with a tolerance): at most `max_points` full solves (0 =
+ * the library's default: 60 when every frequency is factored, 8 × the order cap when one
+ * shifted Krylov space answers them) and interface growth up to order `max_order` (0 = the
+ * automatic cap min(max(3·n0, 40, q + 2c), N/2, memory) for q outputs and c modes in the
+ * band, the library's `SamplingOptions::auto_max_order`; a value at most the initial order
+ * n0 keeps the order fixed).
  *
  * # Safety
  * `options` a live handle.

@@ -21,7 +21,7 @@ pub(crate) enum RefFreqs {
 pub struct SparsemorOptions {
     pub(crate) threads: usize,
     pub(crate) tolerance: Option<f64>,
-    pub(crate) max_points: usize,
+    pub(crate) max_points: Option<usize>,
     pub(crate) max_order: usize,
     /// `None`: the default, [`Interface::Auto`] with a tolerance, the outputs otherwise.
     pub(crate) interface: Option<Interface>,
@@ -39,7 +39,7 @@ impl Default for SparsemorOptions {
         SparsemorOptions {
             threads: 0,
             tolerance: None,
-            max_points: 60,
+            max_points: None,
             max_order: 0,
             interface: None,
             ref_freqs: RefFreqs::Unset,
@@ -197,10 +197,12 @@ pub unsafe extern "C" fn sparsemor_options_set_tolerance(
     })
 }
 
-/// Limits of the sampling loop (with a tolerance): at most `max_points` factorizations
-/// (default 60, ≥ 1) and interface growth up to order `max_order` (default 0 = the automatic
-/// cap min(max(3·n0, 40), N/2, memory) of the library's `SamplingOptions::auto_max_order`; a
-/// value at most the initial order n0 keeps the order fixed).
+/// Limits of the sampling loop (with a tolerance): at most `max_points` full solves (0 =
+/// the library's default: 60 when every frequency is factored, 8 × the order cap when one
+/// shifted Krylov space answers them) and interface growth up to order `max_order` (0 = the
+/// automatic cap min(max(3·n0, 40, q + 2c), N/2, memory) for q outputs and c modes in the
+/// band, the library's `SamplingOptions::auto_max_order`; a value at most the initial order
+/// n0 keeps the order fixed).
 ///
 /// # Safety
 /// `options` a live handle.
@@ -212,12 +214,7 @@ pub unsafe extern "C" fn sparsemor_options_set_sampling_limits(
 ) -> SparsemorStatus {
     ffi_body!({
         let o = unsafe { obj_mut(options, "options")? };
-        if max_points == 0 {
-            return Err(Failure::arg(
-                "max_points = 0: the sampling loop needs at least one factorization",
-            ));
-        }
-        o.max_points = max_points;
+        o.max_points = (max_points > 0).then_some(max_points);
         o.max_order = max_order;
         Ok(())
     })

@@ -54,15 +54,21 @@ pub fn rank0_share(n: usize, cluster: Option<&Arc<dyn Cluster>>) -> usize {
     n.div_ceil(cluster.map_or(1, |c| c.size().max(1)))
 }
 
-/// A bar of `total` steps labelled `msg` on stderr, hidden when stderr is not a terminal.
+/// A bar of `total` steps labelled `msg` on stderr (a counter without bar when `total` is 0:
+/// not known in advance), hidden when stderr is not a terminal.
 fn bar(total: usize, msg: &str) -> ProgressBar {
     let pb = if std::io::stderr().is_terminal() {
         ProgressBar::new(total as u64)
     } else {
         ProgressBar::hidden()
     };
+    let template = if total == 0 {
+        "{msg} {pos} {elapsed_precise}"
+    } else {
+        "{msg} [{bar:30}] {pos}/{len} {elapsed_precise} (eta {eta})"
+    };
     pb.set_style(
-        ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} {elapsed_precise} (eta {eta})")
+        ProgressStyle::with_template(template)
             .unwrap_or_else(|_| ProgressStyle::default_bar())
             .progress_chars("=> "),
     );

@@ -47,9 +47,10 @@ pub struct ReduceArgs {
     /// Target accuracy: choose the reference frequencies automatically (line-fitting).
     #[arg(long)]
     tol: Option<f64>,
-    /// Factorization budget of --tol.
-    #[arg(long, default_value_t = 60)]
-    max_points: usize,
+    /// Budget of full solves of --tol (default: 60 when every frequency is factored, 8 × the
+    /// order cap when one shifted Krylov space answers them).
+    #[arg(long)]
+    max_points: Option<usize>,
     /// Largest order --tol may grow the interface to (default: min(max(3·n0, 40), N/2, memory)
     /// for the initial order n0; at most n0 keeps the order fixed).
     #[arg(long)]
@@ -58,8 +59,9 @@ pub struct ReduceArgs {
     /// written to rom.toml (default ⌈F/3⌉ for F factorizations, ≈ 25 % of the run; 0 = none).
     #[arg(long, value_name = "P")]
     verify: Option<usize>,
-    /// Interface growth rule of --tol: residual or qdeim.
-    #[arg(long, default_value = "residual")]
+    /// Interface growth rule of --tol: auto (qdeim in one process, residual over MPI ranks),
+    /// residual or qdeim.
+    #[arg(long, default_value = "auto")]
     growth: String,
     /// Number of modes c (SEREP: the c lowest deformation modes; Craig–Bampton: the c lowest
     /// fixed-interface modes, 0 = static condensation).
@@ -145,11 +147,14 @@ pub fn reduce(a: &ReduceArgs, cluster: Option<Arc<dyn Cluster>>) -> Result<Done>
                     with_progress(share(f.len()), "reference frequencies", run)?
                 }
                 References::Tolerance(s) => {
-                    with_progress(share(s.max_points), "factorizations", run)?
+                    with_progress(share(s.max_points.unwrap_or(0)), "full solves", run)?
                 }
                 References::Count(_) => run(&no_progress)?,
             };
             if let Some(s) = rom.sampling() {
+                if let Some(c) = s.modes_in_band {
+                    println!("modes in band    {c} elastic (inertia count)");
+                }
                 print_steps(&s.steps);
                 println!("{}", sampling_message(s, &rom));
             }
@@ -328,10 +333,11 @@ fn print_rom(rom: &Rom) {
 
 fn parse_growth(s: &str) -> Result<Growth> {
     match s {
+        "auto" => Ok(Growth::Auto),
         "residual" => Ok(Growth::Residual),
         "qdeim" => Ok(Growth::QDeim),
         _ => Err(Error::InvalidSetting(format!(
-            "--growth '{s}': choose residual or qdeim"
+            "--growth '{s}': choose auto, residual or qdeim"
         ))),
     }
 }

@@ -34,9 +34,9 @@ pub struct TradeoffArgs {
     /// Largest order the sampling loop may grow to.
     #[arg(long, default_value_t = 40)]
     max_order: usize,
-    /// Factorization budget per tolerance.
-    #[arg(long, default_value_t = 80)]
-    max_points: usize,
+    /// Budget of full solves per tolerance (default: as `reduce --tol`).
+    #[arg(long)]
+    max_points: Option<usize>,
     /// SEREP mode counts c to compare (c retained DoFs: the outputs first, then spread DoFs).
     #[arg(long, default_value = "3,6,9,12,15,20")]
     serep_modes: String,

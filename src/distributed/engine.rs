@@ -88,6 +88,12 @@ impl<'a> Engine<'a> {
         self.opts.resolved_threads() * self.ranks()
     }
 
+    /// Whether `response` is answered from a shifted Krylov space (one factorization for
+    /// every frequency, docs/design.md §3.10) rather than a factorization per frequency.
+    pub fn krylov(&self, response: Response) -> bool {
+        crate::sweep::krylov_applies(self.body, response, self.opts.method)
+    }
+
     /// Number of ranks on this machine (sharing its memory).
     pub fn node_ranks(&self) -> usize {
         self.cluster().map_or(1, |c| c.node_size().max(1))
@@ -192,16 +198,16 @@ impl<'a> Engine<'a> {
         Ok(r.qr.unwrap_or_else(|| split.empty_qr()))
     }
 
-    /// The next interface DoF by Q-DEIM over the kept snapshots (one process only: the
+    /// The next `count` interface DoFs by Q-DEIM over the kept snapshots (one process only: the
     /// snapshots of a distributed run stay on their ranks).
-    pub fn qdeim_next(&mut self, interface: &[usize]) -> Result<usize> {
+    pub fn qdeim_next(&mut self, interface: &[usize], count: usize) -> Result<Vec<usize>> {
         self.check_qdeim()?;
         self.store
             .as_mut()
             .ok_or_else(|| {
                 Error::InvalidSetting("the interface may not grow: no snapshots were kept".into())
             })?
-            .qdeim_next(interface)
+            .qdeim_next(interface, count)
     }
 
     /// Whether Q-DEIM growth can run: the snapshots must all be in this process.

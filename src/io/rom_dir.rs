@@ -215,6 +215,7 @@ fn sampling_report(path: &Path, t: SamplingToml) -> Result<SamplingReport> {
             .map(|(points, error)| Verified { points, error }),
         solves: t.solves.unwrap_or(t.factorizations),
         factorizations: t.factorizations,
+        modes_in_band: None,
         spilled: false,
     })
 }

@@ -39,6 +39,9 @@ pub struct Timing {
     pub seconds: f64,
 }
 
+/// How many DoFs of largest fit residual a [`FitReport`] keeps for interface growth.
+pub const GROWTH_CANDIDATES: usize = 64;
+
 /// Numerics of the least-squares fit (line-fitting), reported to the user.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct FitReport {
@@ -56,6 +59,10 @@ pub struct FitReport {
     pub residual_mean: f64,
     /// DoF with the largest fit residual: the best hint where to add an interface DoF.
     pub residual_argmax_dof: usize,
+    /// The non-interface DoFs of largest fit residual, at most one per node, largest first
+    /// (up to [`GROWTH_CANDIDATES`]): where the sampling loop grows the interface (§3.5).
+    #[serde(skip)]
+    pub growth_candidates: Vec<usize>,
     /// Rows of T_oᵀ (2pz).
     pub rows: usize,
     /// How accurate the full-model solves behind the snapshots were (docs/design.md §3.1).

@@ -39,6 +39,9 @@
 use super::fit::{check_rows, Partition};
 use super::indicator::Indicator;
 use super::options::{Growth, LineFitOptions, SamplingOptions};
+use super::Interface;
+use crate::factor::count_eigenvalues_below_with;
+use crate::units::hz_to_lambda;
 use super::report::{Outcome, SamplingReport, Step, Verified};
 use crate::body::Body;
 use crate::distributed::{Engine, Keep};
@@ -50,6 +53,21 @@ use crate::sweep::{ProgressFn, Response};
 use crate::{Error, Result};
 use faer::{c64, Mat};
 use std::time::Instant;
+
+/// The number of elastic eigenfrequencies of the body below `f_hz`, exactly, from the
+/// inertia of K − (2πf)²M (one real LBLᵀ factorization; [`count_eigenvalues_below_with`]),
+/// less the rigid modes. A band end that is an eigenfrequency to working precision is
+/// counted a millionth higher.
+fn elastic_modes_below(body: &Body, f_hz: f64) -> Result<usize> {
+    let sym = body.symbolic()?;
+    let count = |f: f64| count_eigenvalues_below_with(&sym, body.pencil(), hz_to_lambda(f));
+    let below = match count(f_hz) {
+        Err(Error::Singular { .. }) => count(f_hz * (1.0 + 1e-6))?,
+        r => r?,
+    };
+    let rigid = if body.rigid().is_some() { 6 } else { 0 };
+    Ok(below.saturating_sub(rigid))
+}
 
 /// What [`Loop::refine`] decided.
 enum Next {
@@ -76,6 +94,14 @@ struct Loop<'a> {
     /// Frequencies solved per step: the threads of every rank.
     threads: usize,
     max_order: usize,
+    /// Budget of full solves ([`SamplingOptions::max_points`] or its default).
+    max_points: usize,
+    /// The growth rule ([`Growth::Auto`] resolved).
+    growth: Growth,
+    /// Factorizations outside the engine: the inertia count of the modes in the band.
+    counted: usize,
+    /// The elastic modes in the band, when counted.
+    modes_in_band: Option<usize>,
     candidates: Vec<f64>,
     /// Every frequency absorbed into `qr`, in the order of absorption.
     sampled: Vec<f64>,
@@ -138,30 +164,66 @@ impl<'a> Loop<'a> {
         }
         scene.validate(body.n(), "scene")?;
         let band = positive_band(scene.band_hz);
-        let part = Partition::new(body, scene, &opts.interface)?;
+        let q = scene.outputs.len();
+        // the resonances in the band set the default order: counted (inertia, one real
+        // factorization) when a default needs them
+        let modes_in_band = match (&opts.interface, sampling.max_order) {
+            (Interface::Explicit(_) | Interface::OutputsPlus(_), Some(_)) => None,
+            _ => Some(elastic_modes_below(body, band[1])?),
+        };
+        let interface = match (&opts.interface, modes_in_band) {
+            (Interface::Auto, Some(c)) => {
+                Interface::OutputsPlus(Interface::auto_extra(q).max(c.div_ceil(2)))
+            }
+            (i, _) => i.clone(),
+        };
+        let part = Partition::new(body, scene, &interface)?;
         let p = scene.inputs.len();
         let mut engine = Engine::new(body, &opts.sweep);
-        if sampling.growth == Growth::QDeim {
+        let growth = match sampling.growth {
+            Growth::Auto if engine.ranks() > 1 => Growth::Residual,
+            Growth::Auto => Growth::QDeim,
+            g => g,
+        };
+        if growth == Growth::QDeim {
             // refused before any work: the snapshots of a distributed run stay on their ranks
             engine.check_qdeim()?;
         }
-        let threads = engine.concurrency();
+        let krylov = engine.krylov(Response::Elastic);
+        // responses from a Krylov space cost little beside the refit a step needs: more
+        // points per step, fewer steps
+        let threads = if krylov {
+            engine.concurrency().max(4)
+        } else {
+            engine.concurrency()
+        };
         let max_order = sampling
             .max_order
             .unwrap_or_else(|| {
                 let memory = crate::memory::default_budget(1);
-                SamplingOptions::auto_max_order(part.order(), body.n(), threads, memory)
+                SamplingOptions::auto_max_order(
+                    part.order(),
+                    q,
+                    modes_in_band.unwrap_or(0),
+                    body.n(),
+                    engine.concurrency(),
+                    memory,
+                )
             })
             .max(part.order());
+        let max_points = sampling
+            .max_points
+            .unwrap_or_else(|| SamplingOptions::auto_max_points(max_order, krylov));
+        let counted = usize::from(modes_in_band.is_some());
         let z0 = part.order().div_ceil(2 * p).max(2);
         let mut sampled = linspace(band, z0);
         sampled.extend(sampling.seeds_hz.iter().copied());
         sampled.sort_by(f64::total_cmp);
         sampled.dedup();
-        if sampled.len() > sampling.max_points {
+        if sampled.len() > max_points {
             return Err(Error::InvalidSetting(format!(
                 "max_points = {} is below the {} seed frequencies the interface needs (2pz >= n)",
-                sampling.max_points,
+                max_points,
                 sampled.len()
             )));
         }
@@ -172,7 +234,7 @@ impl<'a> Loop<'a> {
             let budget = sampling
                 .snapshot_memory
                 .unwrap_or_else(|| crate::memory::default_budget(4) / engine.node_ranks());
-            let kept = sampling.max_points.div_ceil(engine.ranks());
+            let kept = max_points.div_ceil(engine.ranks());
             if kept.saturating_mul(body.n() * p * 16) > budget {
                 Keep::Spill
             } else {
@@ -200,7 +262,7 @@ impl<'a> Loop<'a> {
             true_error_max: f64::NAN,
             sampled_error_max: f64::NAN,
             solves: sampled.len(),
-            factorizations: engine.accuracy().factorizations(),
+            factorizations: counted + engine.accuracy().factorizations(),
             seconds: start.elapsed().as_secs_f64(),
             action: "seed".into(),
         }];
@@ -216,6 +278,10 @@ impl<'a> Loop<'a> {
             part,
             threads,
             max_order,
+            max_points,
+            growth,
+            counted,
+            modes_in_band,
             candidates,
             sampled,
             sampled_h1,
@@ -267,7 +333,7 @@ impl<'a> Loop<'a> {
             picks
         };
         let used = self.last_used;
-        if used + picks.len() > self.sampling.max_points {
+        if used + picks.len() > self.max_points {
             return Ok(Next::Stop(Outcome::Budget));
         }
         let absorbed = self.engine.absorb(
@@ -296,7 +362,7 @@ impl<'a> Loop<'a> {
             true_error_max: true_error,
             sampled_error_max: sampled_error,
             solves: used + picks.len(),
-            factorizations: self.engine.accuracy().factorizations(),
+            factorizations: self.counted + self.engine.accuracy().factorizations(),
             seconds: self.start.elapsed().as_secs_f64(),
             action: "refine".into(),
         });
@@ -376,11 +442,25 @@ impl<'a> Loop<'a> {
                 "the interface may not grow: no snapshots were kept".into(),
             ));
         }
-        let d = match self.sampling.growth {
-            Growth::Residual => self.rom.fit().map(|f| f.residual_argmax_dof).unwrap_or(0),
-            Growth::QDeim => self.engine.qdeim_next(&self.part.split.interface)?,
+        // a tenth of the order at once (at least one): the 3 m bar grows from 30 to 61 in
+        // 8 steps instead of 31
+        let g = (self.part.order() / 10)
+            .max(1)
+            .min(self.max_order - self.part.order());
+        let d: Vec<usize> = match self.growth {
+            Growth::Residual | Growth::Auto => {
+                let fit = self.rom.fit();
+                let mut d: Vec<usize> = fit
+                    .map(|f| f.growth_candidates.iter().copied().take(g).collect())
+                    .unwrap_or_default();
+                if d.is_empty() {
+                    d.push(fit.map(|f| f.residual_argmax_dof).unwrap_or(0));
+                }
+                d
+            }
+            Growth::QDeim => self.engine.qdeim_next(&self.part.split.interface, g)?,
         };
-        self.part = self.part.grown(self.body, self.scene, d)?;
+        self.part = self.part.grown(self.body, self.scene, &d)?;
         self.qr = self
             .engine
             .regrow(&self.part.split, self.scene.inputs.len())?;
@@ -394,10 +474,15 @@ impl<'a> Loop<'a> {
             true_error_max: f64::NAN,
             sampled_error_max: f64::NAN,
             solves,
-            factorizations: self.engine.accuracy().factorizations(),
+            factorizations: self.counted + self.engine.accuracy().factorizations(),
             seconds: self.start.elapsed().as_secs_f64(),
             action: format!(
-                "stagnated: grow interface by DoF {d} (order {}), refit from kept snapshots",
+                "stagnated: grow interface by DoF{} {} (order {}), refit from kept snapshots",
+                if d.len() > 1 { "s" } else { "" },
+                d.iter()
+                    .map(|x| x.to_string())
+                    .collect::<Vec<_>>()
+                    .join(", "),
                 self.part.order()
             ),
         });
@@ -473,6 +558,7 @@ impl<'a> Loop<'a> {
             verified,
             solves,
             factorizations,
+            modes_in_band: self.modes_in_band,
             spilled: self.engine.spilled(),
         };
         if let Provenance::LineFit { sampling, fit, .. } = &mut rom.provenance {

@@ -41,11 +41,29 @@ impl Partition {
         })
     }
 
-    /// The same split with one more interface DoF `d` appended.
-    pub fn grown(&self, body: &Body, scene: &Scene, d: usize) -> Result<Self> {
+    /// The same split with the interface DoFs `d` appended.
+    pub fn grown(&self, body: &Body, scene: &Scene, d: &[usize]) -> Result<Self> {
         let mut interface = self.split.interface.clone();
-        interface.push(d);
+        interface.extend_from_slice(d);
         Partition::new(body, scene, &Interface::Explicit(interface))
+    }
+
+    /// The non-interface DoFs in descending order of their fit residual `residual` (one per
+    /// rest DoF), at most one per node of `dofs_per_node` DoFs and none on a node that
+    /// already has an interface DoF: several DoFs added at once then spread over the body
+    /// instead of taking the three directions of one node.
+    fn growth_candidates(&self, residual: &[f64], dofs_per_node: usize) -> Vec<usize> {
+        let per = dofs_per_node.max(1);
+        let mut order: Vec<usize> = (0..residual.len()).collect();
+        order.sort_by(|&a, &b| residual[b].total_cmp(&residual[a]));
+        let mut used: std::collections::HashSet<usize> =
+            self.split.interface.iter().map(|&d| d / per).collect();
+        order
+            .into_iter()
+            .map(|r| self.split.rest[r])
+            .filter(|&d| used.insert(d / per))
+            .take(crate::reduce::rom::GROWTH_CANDIDATES)
+            .collect()
     }
 
     /// The order n.
@@ -101,6 +119,7 @@ impl Partition {
                         .get(sol.residual_argmax)
                         .copied()
                         .unwrap_or(0),
+                    growth_candidates: self.growth_candidates(&sol.residual, body.dofs_per_node()),
                     rows: sol.rows,
                     solves,
                 },

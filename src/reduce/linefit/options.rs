@@ -47,10 +47,14 @@ impl LineFitOptions {
     }
 }
 
-/// How the interface grows when frequencies stop helping.
+/// How the interface grows when frequencies stop helping (by a tenth of the order at a time,
+/// at least one DoF).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Growth {
-    /// The non-interface DoF with the largest relative fit residual (eq. 22).
+    /// The default: [`Self::QDeim`] in one process, [`Self::Residual`] over the ranks of a
+    /// distributed run (whose snapshots stay on their ranks).
+    Auto,
+    /// The non-interface DoFs with the largest relative fit residual (eq. 22), one per node.
     Residual,
     /// Q-DEIM continued from the interface: the DoF whose row of the snapshots' left
     /// singular vectors adds the most to the span of the interface rows (see
@@ -65,8 +69,10 @@ pub struct SamplingOptions {
     pub tol: f64,
     /// Extra seed frequencies (Hz).
     pub seeds_hz: Vec<f64>,
-    /// Budget of factorizations (frequencies solved).
-    pub max_points: usize,
+    /// Budget of full solves (frequencies solved); `None` = 60 when every frequency is
+    /// factored, 8 × the order cap when the responses come from a shifted Krylov space
+    /// (docs/design.md §3.10: one factorization serves them all).
+    pub max_points: Option<usize>,
     /// Largest order the interface may grow to; `None` = [`SamplingOptions::auto_max_order`].
     /// At most the initial order keeps the order fixed.
     pub max_order: Option<usize>,
@@ -76,39 +82,65 @@ pub struct SamplingOptions {
     pub verify_points: Option<usize>,
     /// Candidate grid size of the indicator.
     pub candidates: usize,
-    /// Interface growth rule. Default: the largest fit residual, which reaches tol = 1e-3 on
-    /// the paper bar at order 17 with 22 factorizations where Q-DEIM needs order 18 and 23
-    /// (docs/performance.md, "Speed and accuracy"), and needs no SVD of the snapshots.
+    /// Interface growth rule. Default [`Growth::Auto`]: Q-DEIM spreads the DoFs it adds at
+    /// once over the body where the largest residuals cluster at one place (on the 3 m bar,
+    /// tol 1e-2 at order 60 against 79; docs/design.md §3.5).
     pub growth: Growth,
     /// Memory for kept snapshots (bytes); `None` = a quarter of the available memory.
     pub snapshot_memory: Option<usize>,
 }
 
 impl SamplingOptions {
-    /// Defaults for a tolerance: 60 factorizations, growth up to
-    /// [`Self::auto_max_order`], 2000 candidates, residual growth, automatic verification.
+    /// Defaults for a tolerance: the automatic budget of full solves, growth up to
+    /// [`Self::auto_max_order`], 2000 candidates, automatic growth rule and verification.
     pub fn new(tol: f64) -> Self {
         SamplingOptions {
             tol,
             seeds_hz: Vec::new(),
-            max_points: 60,
+            max_points: None,
             max_order: None,
             verify_points: None,
             candidates: 2000,
-            growth: Growth::Residual,
+            growth: Growth::Auto,
             snapshot_memory: None,
         }
     }
 }
 
 impl SamplingOptions {
-    /// The default cap of the order for an initial order n0, N DoFs, `threads` workers and
-    /// `memory` bytes available: min(max(3·n0, 40), N/2, M/(32·threads·N)) — three times the
-    /// initial order (at least 40: the paper bar reaches tol 1e-4 at order 21–22 from 14,
-    /// docs/performance.md), never more than half the DoFs, and the workers' streamed-QR
-    /// states (n·N doubles each) within a quarter of the memory. Never below n0.
-    pub fn auto_max_order(n0: usize, n: usize, threads: usize, memory: usize) -> usize {
+    /// The default cap of the order for an initial order n0, q outputs, c elastic modes in
+    /// the band, N DoFs, `threads` workers and `memory` bytes available:
+    /// min(max(3·n0, 40, q + 2c), N/2, M/(32·threads·N)) — three times the initial order (at
+    /// least 40: the paper bar reaches tol 1e-4 at order 21–22 from 14, docs/performance.md)
+    /// and room for two interface DoFs per resonance in the band (the 3 m bar, 42 modes in
+    /// [0, 1000] Hz, needs order 61 at tol 1e-2), never more than half the DoFs, and the
+    /// workers' streamed-QR states (n·N doubles each) within a quarter of the memory. Never
+    /// below n0.
+    pub fn auto_max_order(
+        n0: usize,
+        outputs: usize,
+        modes_in_band: usize,
+        n: usize,
+        threads: usize,
+        memory: usize,
+    ) -> usize {
         let by_memory = memory / (32 * threads.max(1) * n.max(1));
-        (3 * n0).max(40).min(n / 2).min(by_memory).max(n0)
+        (3 * n0)
+            .max(40)
+            .max(outputs + 2 * modes_in_band)
+            .min(n / 2)
+            .min(by_memory)
+            .max(n0)
+    }
+
+    /// The default budget of full solves ([`Self::max_points`] = `None`): 60 when every
+    /// frequency is factored, 8 × `max_order` when the responses come from a shifted Krylov
+    /// space.
+    pub fn auto_max_points(max_order: usize, krylov: bool) -> usize {
+        if krylov {
+            (8 * max_order).max(60)
+        } else {
+            60
+        }
     }
 }

@@ -84,6 +84,9 @@ pub struct SamplingReport {
     /// Factorizations spent by the loop (the verification's come on top): one per factored
     /// frequency, one per shifted Krylov space.
     pub factorizations: usize,
+    /// Elastic modes in the band, counted by inertia when a default (the interface, the order
+    /// cap) needed them.
+    pub modes_in_band: Option<usize>,
     /// Snapshots were spilled to a temporary file.
     pub spilled: bool,
 }
