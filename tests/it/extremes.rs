@@ -660,7 +660,7 @@ fn sampling_band_with_50_resonances() {
     let f = elastic_freqs(&model);
     scene.band_hz = [0.0, 0.5 * (f[49] + f[50])];
     let mut s = SamplingOptions::new(1e-3);
-    s.max_points = 200;
+    s.max_points = Some(200);
     let rom = linefit_tol(&model, &scene, s).unwrap();
     let r = rom.sampling().unwrap();
     let e = rom_eps(&model, &scene, &rom, &grid(1.0, scene.band_hz[1], 400));

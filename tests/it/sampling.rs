@@ -151,7 +151,7 @@ fn a_budget_stop_after_one_step_within_tol_is_confirmed_by_the_verification() {
     assert_eq!(report(&free).outcome, Outcome::Converged);
     for verify in [None, Some(0)] {
         let mut s = SamplingOptions::new(tol);
-        s.max_points = first_ok.solves;
+        s.max_points = Some(first_ok.solves);
         s.verify_points = verify;
         let rom = sampled(m, scene, s, 5, 1, &no_progress).unwrap();
         let r = report(&rom);
@@ -357,7 +357,7 @@ fn impossible_requests_say_what_was_reached_and_what_would_help() {
     // a tiny budget: the library names the option (the CLI words it as --max-points, tested
     // in tests/it/cli.rs)
     let mut small = SamplingOptions::new(1e-6);
-    small.max_points = 5;
+    small.max_points = Some(5);
     let rom = sampled(m, scene, small, 5, 0, &no_progress).unwrap();
     let (r, message) = (
         report(&rom),

@@ -69,6 +69,41 @@ fn elastic_modes_below(body: &Body, f_hz: f64) -> Result<usize> {
     Ok(below.saturating_sub(rigid))
 }
 
+/// The verification pass of `rom`: full solves at `points` frequencies spread evenly over
+/// the band (ends included); [`Verified`] and the error at each point, or `None` for
+/// `points` = 0.
+fn verification(
+    engine: &mut Engine<'_>,
+    scene: &Scene,
+    points: usize,
+    rom: &Rom,
+    progress: ProgressFn<'_>,
+) -> Result<Option<(Verified, Vec<(f64, f64)>)>> {
+    if points == 0 {
+        return Ok(None);
+    }
+    let band = positive_band(scene.band_hz);
+    let freqs = match points {
+        1 => vec![band[1]],
+        _ => linspace(band, points),
+    };
+    let (h1, _) = engine.respond(
+        Response::Elastic,
+        &scene.inputs,
+        &scene.outputs,
+        &freqs,
+        false,
+        progress,
+    )?;
+    let errors: Vec<(f64, f64)> = freqs
+        .iter()
+        .zip(&h1)
+        .map(|(&f, h)| (f, rel_err(rom, f, h)))
+        .collect();
+    let error = errors.iter().map(|e| e.1).fold(0.0, f64::max);
+    Ok(Some((Verified { points, error }, errors)))
+}
+
 /// What [`Loop::refine`] decided.
 enum Next {
     /// Refit from the grown QR state and refine again.
@@ -114,9 +149,16 @@ struct Loop<'a> {
     /// The measured ROM of smallest error so far and that error (max true ε at its step's
     /// new and sampled points); returned when the tolerance is not reached.
     best: Option<(f64, Rom)>,
-    /// Indicator max and factorizations before the last refine step (for a grow step).
+    /// Indicator max and full solves before the last refine step (for a grow step).
     last_delta_max: f64,
     last_used: usize,
+    /// Frequencies a failed verification measured above tol: the next step solves them
+    /// instead of the indicator's maxima.
+    forced: Vec<f64>,
+    /// Full solves spent by verification passes that found the ROM above tol.
+    verify_spent: usize,
+    /// The verification of the current ROM, when it ran and passed.
+    verified: Option<Verified>,
     start: Instant,
 }
 
@@ -139,6 +181,14 @@ pub(super) fn reduce(
             Next::Stagnated => {
                 state.refit()?;
                 break Outcome::Stagnated;
+            }
+            // converged on the loop's points: the verification must agree, else the loop
+            // goes on from the points where it found the ROM above tol
+            Next::Stop(Outcome::Converged) => {
+                if state.verify_converged()? {
+                    break Outcome::Converged;
+                }
+                state.refit()?;
             }
             Next::Stop(outcome) => break outcome,
         }
@@ -292,6 +342,9 @@ impl<'a> Loop<'a> {
             best: None,
             last_delta_max: f64::NAN,
             last_used: 0,
+            forced: Vec::new(),
+            verify_spent: 0,
+            verified: None,
             start,
         })
     }
@@ -319,9 +372,14 @@ impl<'a> Loop<'a> {
             .iter()
             .map(|&f| indicator.eval(&self.rom, f))
             .collect();
-        let picks = pick_maxima(&self.candidates, &delta, &self.sampled, self.threads);
+        let picks = if self.forced.is_empty() {
+            pick_maxima(&self.candidates, &delta, &self.sampled, self.threads)
+        } else {
+            std::mem::take(&mut self.forced)
+        };
         self.last_delta_max = delta.iter().copied().fold(0.0, f64::max);
-        self.last_used = self.steps.last().map(|s| s.solves).unwrap_or(0);
+        self.last_used = self.steps.last().map(|s| s.solves).unwrap_or(0) + self.verify_spent;
+        self.verify_spent = 0;
         let picks = if picks.is_empty() {
             match self.largest_away(&delta) {
                 Some(f) => vec![f],
@@ -333,9 +391,11 @@ impl<'a> Loop<'a> {
             picks
         };
         let used = self.last_used;
-        if used + picks.len() > self.max_points {
-            return Ok(Next::Stop(Outcome::Budget));
-        }
+        // the largest maxima first, as many as the budget has left
+        let picks = match self.max_points.saturating_sub(used) {
+            0 => return Ok(Next::Stop(Outcome::Budget)),
+            left => picks.into_iter().take(left).collect::<Vec<f64>>(),
+        };
         let absorbed = self.engine.absorb(
             &self.part.split,
             &self.scene.inputs,
@@ -382,14 +442,16 @@ impl<'a> Loop<'a> {
         } else {
             0
         };
-        if self.ok_steps >= 2 {
-            return Ok(Next::Stop(Outcome::Converged));
-        }
+        // absorbed also when the loop stops here: a verification that disagrees continues
+        // from them (the ROM returned on convergence is the one measured, not refit)
         let qr = std::mem::replace(&mut self.qr, StreamedQr::new(0, 0));
         self.qr = qr.merge(absorbed.qr)?;
         self.sampled_h1
             .extend(picks.iter().copied().zip(absorbed.h));
         self.sampled.extend(picks.iter().copied());
+        if self.ok_steps >= 2 {
+            return Ok(Next::Stop(Outcome::Converged));
+        }
         let errors: Vec<f64> = self
             .steps
             .iter()
@@ -489,6 +551,49 @@ impl<'a> Loop<'a> {
         Ok(())
     }
 
+    /// Verifies the ROM the loop converged to. Within tol (or without a verification pass):
+    /// true, kept for the report. Above tol: the verification's points above tol (the worst
+    /// first, as many as a step solves) become the next step's picks, the loop's
+    /// convergence count restarts, and false is returned; the budget of full solves, which
+    /// counts the verification's, ends the loop if it cannot converge again.
+    fn verify_converged(&mut self) -> Result<bool> {
+        let solves = self.steps.last().map_or(0, |s| s.solves) + self.verify_spent;
+        let points = self.verify_points(solves);
+        let Some((v, errors)) = verification(
+            &mut self.engine,
+            self.scene,
+            points,
+            &self.rom,
+            self.progress,
+        )?
+        else {
+            return Ok(true);
+        };
+        if v.error <= self.sampling.tol {
+            self.verified = Some(v);
+            return Ok(true);
+        }
+        let mut above: Vec<(f64, f64)> = errors
+            .into_iter()
+            .filter(|&(f, e)| e > self.sampling.tol && !self.sampled.contains(&f))
+            .collect();
+        above.sort_by(|a, b| b.1.total_cmp(&a.1));
+        self.forced = above.iter().take(self.threads).map(|&(f, _)| f).collect();
+        if self.forced.is_empty() {
+            self.verified = Some(v);
+            return Ok(true);
+        }
+        self.verify_spent += v.points;
+        self.ok_steps = 0;
+        Ok(false)
+    }
+
+    /// Points of the verification pass after `solves` full solves
+    /// ([`SamplingOptions::verify_points`], default ⌈solves/3⌉).
+    fn verify_points(&self, solves: usize) -> usize {
+        self.sampling.verify_points.unwrap_or(solves.div_ceil(3))
+    }
+
     /// The ROM to return — on convergence the current one (verified at the last step's
     /// points), otherwise the measured ROM of smallest error — verified on
     /// [`SamplingOptions::verify_points`] full solves, with its sampling history.
@@ -503,6 +608,7 @@ impl<'a> Loop<'a> {
             .steps
             .last()
             .map_or((0, 0), |s| (s.solves, s.factorizations));
+        let points = self.verify_points(solves);
         let (error, mut rom) = match (outcome == Outcome::Converged, self.best) {
             (true, _) => {
                 let last = self
@@ -515,32 +621,16 @@ impl<'a> Loop<'a> {
             // stopped before any ROM was measured: the current one, error unknown
             (false, None) => (f64::NAN, self.rom),
         };
-        let points = self
-            .sampling
-            .verify_points
-            .unwrap_or(solves.div_ceil(3));
-        let verified = if points > 0 {
-            let band = positive_band(self.scene.band_hz);
-            let freqs = match points {
-                1 => vec![band[1]],
-                _ => linspace(band, points),
-            };
-            let (h1, _) = self.engine.respond(
-                Response::Elastic,
-                &self.scene.inputs,
-                &self.scene.outputs,
-                &freqs,
-                false,
+        let verified = match self.verified {
+            Some(v) if outcome == Outcome::Converged => Some(v),
+            _ => verification(
+                &mut self.engine,
+                self.scene,
+                points,
+                &rom,
                 self.progress,
-            )?;
-            let error = freqs
-                .iter()
-                .zip(&h1)
-                .map(|(&f, h)| rel_err(&rom, f, h))
-                .fold(0.0, f64::max);
-            Some(Verified { points, error })
-        } else {
-            None
+            )?
+            .map(|(v, _)| v),
         };
         let within = |e: f64| e <= self.sampling.tol;
         let outcome = match (&outcome, verified) {

@@ -1,0 +1,355 @@
+"""Tet10 linear-elastic FE models of CAD-like steel parts, written as sparsemor model directories.
+
+Each part is built with gmsh's OpenCASCADE kernel (boxes, cylinders and wedges fused, holes cut),
+meshed into linear tetrahedra of target size H, and given quadratic shape functions by
+scikit-fem (`ElementVector(ElementTetP2())`): every tet has 10 nodes, its 4 vertices and its
+6 edge midpoints (straight-sided, so curved faces are faceted at the vertex mesh). K is the
+linear-elastic stiffness, M the consistent mass. The bodies are free-free.
+
+Parts (lengths in metres):
+  shaft    stepped crankshaft, 0.4 long: three coaxial cylinders (r 0.018/0.025/0.03) and a
+           crank throw (two box webs and an offset pin).
+  bracket  L bracket, 0.15 x 0.08 x 0.12: base and upright plates with a gusset, two bolt
+           holes through each plate.
+  plate    0.3 x 0.2 x 0.01 plate with four corner bolt holes and two larger lightening holes.
+  housing  thin-walled open box, 0.2 x 0.15 x 0.1, wall 6 mm, with a flange round the rim
+           that has four bolt holes.
+
+Material: steel, E = 210 GPa, nu = 0.3, rho = 7850 kg/m^3; Rayleigh damping beta = 1e-5.
+
+Scene: three nodes at meaningful spots, the x, y, z DoFs of each as inputs and outputs
+(the same 9 DoFs): shaft - both end-face centres and the crank pin; bracket - the edges of the
+two bolt holes on the mounting (upright) face and the tip of the base; plate - two opposite
+corners and the centre; housing - two opposite flange corners and the bottom centre. The
+node nearest to each point is used. The band runs from 0 to a round number just above the
+13th elastic eigenfrequency (scipy eigsh, shift-invert), unless --band gives it.
+
+Model directory: model.toml, K.mtx and M.mtx (Matrix Market, symmetric, lower triangle,
+1-based), nodes.csv (x,y,z; vertices then edge midpoints). Node i owns DoFs 3i, 3i+1, 3i+2.
+
+Run:
+  python3 benches/parts.py PART --size H --out DIR [--band F]
+  python3 benches/parts.py all --out-root DIR
+
+`all` writes every part at two sizes (about 1e4 and 1e5 DoFs) into DIR/<part>-<N>, both sizes
+of a part with the band found on the small one, checks each model (6 rigid modes, M positive
+definite) and prints a table.
+
+Needs: numpy, scipy, gmsh, scikit-fem (`pip install gmsh scikit-fem`; gmsh's wheel needs the
+libGLU, libXcursor, libXinerama and libXft shared libraries on a bare Debian).
+"""
+
+import argparse
+import math
+import pathlib
+import time
+
+import gmsh
+import numpy as np
+import scipy.io
+import scipy.sparse as sp
+import scipy.sparse.linalg as sla
+from skfem import Basis, BilinearForm, ElementTetP2, ElementVector, MeshTet, asm
+from skfem.helpers import dot
+from skfem.models.elasticity import lame_parameters, linear_elasticity
+
+E = 210e9
+NU = 0.3
+RHO = 7850.0
+RAYLEIGH_BETA = 1e-5
+# Shift for eigsh: just below zero, so K - sigma M is definite on a free body.
+SIGMA = -1e3
+# Rigid modes come out at |f| far below this; the first elastic mode of these parts is
+# hundreds of Hz.
+RIGID_HZ = 1.0
+# The band ends just above this elastic mode (1-based), so it holds 13 or a few more.
+BAND_MODE = 13
+
+
+def cylinder_x(occ, x0, x1, r, y=0.0, z=0.0):
+    return (3, occ.addCylinder(x0, y, z, x1 - x0, 0, 0, r))
+
+
+def box(occ, lo, hi):
+    return (3, occ.addBox(*lo, *(h - l for l, h in zip(lo, hi))))
+
+
+def fuse(occ, parts):
+    out, _ = occ.fuse(parts[:1], parts[1:])
+    return out
+
+
+def cut(occ, body, tools):
+    out, _ = occ.cut(body, tools)
+    return out
+
+
+def shaft(occ):
+    """A crankshaft: snout, two journals, a crank throw; the scene spans its length."""
+    pieces = [
+        cylinder_x(occ, 0.0, 0.06, 0.018),
+        cylinder_x(occ, 0.06, 0.15, 0.025),
+        box(occ, (0.15, -0.035, -0.03), (0.175, 0.085, 0.03)),
+        cylinder_x(occ, 0.175, 0.225, 0.02, y=0.05),
+        box(occ, (0.225, -0.035, -0.03), (0.25, 0.085, 0.03)),
+        cylinder_x(occ, 0.25, 0.40, 0.03),
+    ]
+    fuse(occ, pieces)
+    return [(0.0, 0.0, 0.0), (0.2, 0.07, 0.0), (0.4, 0.0, 0.0)]
+
+
+def bracket(occ):
+    """An L bracket bolted by its upright (x = 0 face); the base sticks out as a cantilever."""
+    t = 0.012
+    body = fuse(occ, [
+        box(occ, (0.0, 0.0, 0.0), (0.15, 0.08, t)),
+        box(occ, (0.0, 0.0, 0.0), (t, 0.08, 0.12)),
+        # gusset: a right-angle wedge in the corner, in the middle of the width
+        (3, occ.addWedge(t, 0.034, t, 0.06, 0.012, 0.06)),
+    ])
+    r = 0.006
+    holes = [(3, occ.addCylinder(0.11, y, -0.01, 0, 0, t + 0.02, r)) for y in (0.02, 0.06)]
+    holes += [(3, occ.addCylinder(-0.01, y, 0.08, t + 0.02, 0, 0, r)) for y in (0.02, 0.06)]
+    cut(occ, body, holes)
+    return [(0.0, 0.02, 0.08 + r), (0.0, 0.06, 0.08 + r), (0.15, 0.04, t)]
+
+
+def plate(occ):
+    """A flat plate with bolt holes near the corners and two lightening holes beside the centre."""
+    lx, ly, t = 0.3, 0.2, 0.01
+    body = [box(occ, (0.0, 0.0, 0.0), (lx, ly, t))]
+    holes = [(3, occ.addCylinder(x, y, -0.01, 0, 0, t + 0.02, 0.008))
+             for x in (0.025, lx - 0.025) for y in (0.025, ly - 0.025)]
+    holes += [(3, occ.addCylinder(x, ly / 2, -0.01, 0, 0, t + 0.02, 0.03)) for x in (0.075, 0.225)]
+    cut(occ, body, holes)
+    return [(0.0, 0.0, t), (lx / 2, ly / 2, t), (lx, ly, t)]
+
+
+def housing(occ):
+    """An open-top thin-walled box with a bolting flange round its rim."""
+    lx, ly, lz, wall, tf, lip = 0.2, 0.15, 0.1, 0.006, 0.008, 0.025
+    shell = fuse(occ, [
+        box(occ, (0.0, 0.0, 0.0), (lx, ly, lz)),
+        box(occ, (-lip, -lip, lz - tf), (lx + lip, ly + lip, lz)),
+    ])
+    tools = [box(occ, (wall, wall, wall), (lx - wall, ly - wall, lz + 0.01))]
+    tools += [(3, occ.addCylinder(x, y, lz - tf - 0.01, 0, 0, tf + 0.02, 0.005))
+              for x in (-lip / 2, lx + lip / 2) for y in (-lip / 2, ly + lip / 2)]
+    cut(occ, shell, tools)
+    return [(-lip, -lip, lz), (lx / 2, ly / 2, 0.0), (lx + lip, ly + lip, lz)]
+
+
+# part -> (builder, element sizes giving about 1e4 and 1e5 DoFs)
+PARTS = {
+    "shaft": (shaft, (0.017, 0.0066)),
+    "bracket": (bracket, (0.02, 0.0043)),
+    "plate": (plate, (0.023, 0.0058)),
+    "housing": (housing, (0.03, 0.0075)),
+}
+
+
+def mesh(builder, h):
+    """Linear tets of size about h: vertex coordinates (3, nv), tets (4, nt), scene points."""
+    gmsh.initialize()
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("part")
+        points = builder(gmsh.model.occ)
+        gmsh.model.occ.synchronize()
+        gmsh.option.setNumber("Mesh.MeshSizeMax", h)
+        gmsh.option.setNumber("Mesh.MeshSizeMin", h / 4)
+        # at least this many elements round a full circle, so small holes keep their shape
+        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 8)
+        gmsh.model.mesh.generate(3)
+        tags, coords, _ = gmsh.model.mesh.getNodes()
+        _, elem_nodes = gmsh.model.mesh.getElementsByType(4)
+    finally:
+        gmsh.finalize()
+    coords = coords.reshape(-1, 3)
+    index = np.zeros(int(tags.max()) + 1, dtype=np.int64)
+    index[tags.astype(np.int64)] = np.arange(len(tags))
+    tets = index[elem_nodes.astype(np.int64)].reshape(-1, 4)
+    # gmsh keeps nodes of the geometry's points and curves that no tet uses: drop them, else
+    # they would own DoFs with no mass and no stiffness
+    used, tets = np.unique(tets, return_inverse=True)
+    # scikit-fem wants C-contiguous (3, nv) and (4, nt) arrays
+    p = np.ascontiguousarray(coords[used].T)
+    t = np.ascontiguousarray(tets.reshape(-1, 4).T)
+    return p, t, points
+
+
+@BilinearForm
+def mass(u, v, w):
+    return RHO * dot(u, v)
+
+
+def assemble(p, t):
+    """K and M in node-major order (DoF 3i+k = component k of node i) and the node coordinates."""
+    mesh_ = MeshTet(p, t)
+    element = ElementVector(ElementTetP2())
+    basis = Basis(mesh_, element)
+    # P2 strains are linear on a straight tet, so degree-2 quadrature integrates K exactly
+    # (and three times faster than the default degree 4, which M needs)
+    K = asm(linear_elasticity(*lame_parameters(E, NU)), Basis(mesh_, element, intorder=2))
+    M = asm(mass, basis)
+    # scikit-fem's DoF numbering depends on its version: take each node's x, y, z DoFs from
+    # the basis instead of assuming an order
+    per_node = np.hstack([basis.nodal_dofs, basis.edge_dofs])  # (3, nodes)
+    perm = per_node.T.ravel()
+    nodes = basis.doflocs[:, per_node[0]].T
+    assert np.allclose(basis.doflocs[:, per_node[1]].T, nodes)
+    assert np.allclose(basis.doflocs[:, per_node[2]].T, nodes)
+    assert np.array_equal(np.sort(perm), np.arange(basis.N))
+    check_components(basis, per_node)
+    K = symmetric(K[perm][:, perm])
+    M = symmetric(M[perm][:, perm])
+    return K, M, nodes
+
+
+def check_components(basis, per_node):
+    """A field with DoF 3i+k = 1 for every node must be the unit translation along axis k."""
+    for k in range(3):
+        v = np.zeros(basis.N)
+        v[per_node[k]] = 1.0
+        u = basis.interpolate(v).value
+        expected = np.zeros(3)
+        expected[k] = 1.0
+        assert np.allclose(u.reshape(3, -1).T, expected), f"DoF component {k} is not axis {k}"
+
+
+def symmetric(a):
+    a = sp.csr_matrix(a)
+    a = ((a + a.T) * 0.5).tocsr()
+    a.eliminate_zeros()
+    return a
+
+
+def frequencies(K, M, count):
+    """The lowest `count` eigenfrequencies in Hz (rigid ones near zero, signed)."""
+    lam = sla.eigsh(K.tocsc(), k=count, M=M.tocsc(), sigma=SIGMA, which="LM",
+                    return_eigenvectors=False)
+    lam = np.sort(lam)
+    return np.sign(lam) * np.sqrt(np.abs(lam)) / (2 * math.pi)
+
+
+def round_up(x):
+    """x rounded up to two significant digits."""
+    step = 10.0 ** (math.floor(math.log10(x)) - 1)
+    return math.ceil(x / step) * step
+
+
+def band_from(freqs):
+    elastic = freqs[np.abs(freqs) >= RIGID_HZ]
+    return round_up(elastic[BAND_MODE - 1] * 1.001)
+
+
+def scene_dofs(nodes, points):
+    dofs = []
+    for q in points:
+        i = int(np.argmin(np.linalg.norm(nodes - np.asarray(q), axis=1)))
+        dofs += [3 * i, 3 * i + 1, 3 * i + 2]
+    return dofs
+
+
+def write_model(out, name, K, M, nodes, dofs, band):
+    out.mkdir(parents=True, exist_ok=True)
+    for file, a in (("K.mtx", K), ("M.mtx", M)):
+        scipy.io.mmwrite(out / file, sp.tril(a).tocoo(), symmetry="symmetric")
+    np.savetxt(out / "nodes.csv", nodes, delimiter=",", header="x,y,z", comments="",
+               fmt="%.17g")
+    (out / "model.toml").write_text(
+        f'name = "{name}"\n'
+        'mass = "M.mtx"\n'
+        'stiffness = "K.mtx"\n'
+        'nodes = "nodes.csv"\n'
+        "dofs_per_node = 3\n"
+        "\n[rayleigh]\n"
+        "alpha = 0.0\n"
+        f"beta = {RAYLEIGH_BETA!r}\n"
+        "\n[scene]\n"
+        f"inputs = {dofs}\n"
+        f"outputs = {dofs}\n"
+        f"band_hz = [0.0, {float(band)!r}]\n"
+    )
+
+
+def check(K, M, freqs):
+    """Raise unless M is positive definite and exactly 6 modes are rigid."""
+    rigid = int(np.sum(np.abs(freqs) < RIGID_HZ))
+    if rigid != 6:
+        raise RuntimeError(f"{rigid} rigid modes, expected 6: {freqs[:8]}")
+    # Jacobi scaling makes M's spectrum narrow, so Lanczos finds its smallest eigenvalue fast
+    d = 1.0 / np.sqrt(M.diagonal())
+    scaled = sp.diags(d) @ M @ sp.diags(d)
+    lowest = sla.eigsh(scaled, k=1, which="SA", return_eigenvectors=False, tol=1e-6)[0]
+    if not lowest > 0:
+        raise RuntimeError(f"M is not positive definite: scaled lowest eigenvalue {lowest}")
+    return lowest
+
+
+def build(part, h, out, band=None):
+    """Write one model; return a row of the summary table."""
+    start = time.perf_counter()
+    builder, _ = PARTS[part]
+    p, t, points = mesh(builder, h)
+    K, M, nodes = assemble(p, t)
+    built = time.perf_counter() - start
+    freqs = frequencies(K, M, 30)
+    lowest_m = check(K, M, freqs)
+    band = band or band_from(freqs)
+    n = K.shape[0]
+    name = f"{part} tet10 h={h:g}"
+    write_model(out, name, K, M, nodes, scene_dofs(nodes, points), band)
+    elastic = freqs[np.abs(freqs) >= RIGID_HZ]
+    print(f"{out}: N = {n}, tets = {t.shape[1]}, nnz(K) = {K.nnz}, band = 0..{band:g} Hz "
+          f"({int(np.sum(elastic <= band))} elastic modes), built in {built:.1f} s, "
+          f"total {time.perf_counter() - start:.1f} s; min eig of Jacobi-scaled M {lowest_m:.3g}")
+    print("  rigid (Hz):  ", " ".join(f"{f:.3g}" for f in freqs[np.abs(freqs) < RIGID_HZ]))
+    print("  elastic (Hz):", " ".join(f"{f:.1f}" for f in elastic))
+    return part, out, n, K.nnz, band, elastic, built, time.perf_counter() - start
+
+
+def all_parts(root):
+    rows = []
+    for part, (_, sizes) in PARTS.items():
+        band = None
+        for h in sizes:
+            # the directory name needs N, known only once built
+            tmp = root / f"{part}-building"
+            row = build(part, h, tmp, band)
+            band = row[4]
+            final = root / f"{part}-{row[2]}"
+            if final.exists():
+                for f in final.iterdir():
+                    f.unlink()
+                final.rmdir()
+            tmp.rename(final)
+            rows.append((row[0], final) + row[2:])
+    print()
+    print("| part | model | N | nnz(K) | band Hz | build s | total s | first elastic Hz |")
+    print("|---|---|---|---|---|---|---|---|")
+    for part, out, n, nnz, band, elastic, built, total in rows:
+        first = ", ".join(f"{f:.1f}" for f in elastic[:6])
+        print(f"| {part} | {out} | {n} | {nnz} | {band:g} | {built:.1f} | {total:.1f} | {first} |")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("part", choices=[*PARTS, "all"])
+    ap.add_argument("--size", type=float, help="target element size in m (one part)")
+    ap.add_argument("--out", type=pathlib.Path, help="model directory (one part)")
+    ap.add_argument("--band", type=float, help="upper end of the band in Hz (one part)")
+    ap.add_argument("--out-root", type=pathlib.Path, help="folder for `all`")
+    args = ap.parse_args()
+    if args.part == "all":
+        if args.out_root is None:
+            ap.error("all needs --out-root")
+        all_parts(args.out_root)
+    else:
+        if args.size is None or args.out is None:
+            ap.error("one part needs --size and --out")
+        build(args.part, args.size, args.out, args.band)
+
+
+if __name__ == "__main__":
+    main()
