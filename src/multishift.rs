@@ -442,6 +442,38 @@ impl<'a> ShiftedSpace<'a> {
         })
     }
 
+    /// The response at the rows `rows` (the outputs) at each of `freqs_hz`, from the space
+    /// without lifting it to N rows: C Q Z (I − τΘ)⁻¹ ZᵀE₁R₀ / (1 + iωβ), O(q k p) per
+    /// frequency after one q × k product. `None` where the estimated residual is above
+    /// 100 × [`GROW_TO`] (grow the space for those frequencies first). Not certified: the
+    /// sampling loop uses it to find where the ROM's error is largest, and certifies the
+    /// responses it keeps.
+    pub fn rows_at(&self, freqs_hz: &[f64], rows: &[usize]) -> Vec<Option<Mat<c64>>> {
+        let Some(ritz) = &self.ritz else {
+            return vec![None; freqs_hz.len()];
+        };
+        let k = self.dim();
+        let qz = Mat::<f64>::from_fn(rows.len(), k, |i, j| self.q[(rows[i], j)]) * &ritz.z;
+        freqs_hz
+            .iter()
+            .map(|&f| {
+                if !(self.estimate(f) <= 100.0 * GROW_TO) {
+                    return None;
+                }
+                let (tau, scale) = self.shift(hz_to_omega(f));
+                let inv = scale.inv();
+                let d: Vec<c64> = ritz
+                    .theta
+                    .iter()
+                    .map(|&th| (c64::new(1.0, 0.0) - tau * th).inv() * inv)
+                    .collect();
+                Some(Mat::from_fn(rows.len(), ritz.c.ncols(), |i, c| {
+                    (0..k).map(|j| d[j] * (qz[(i, j)] * ritz.c[(j, c)])).sum()
+                }))
+            })
+            .collect()
+    }
+
     /// X = Q y / (1 + iωβ), rigid-free, and its certificate.
     fn lift(&self, omega: f64, y: Mat<c64>, scale: c64, par: Par) -> (Mat<c64>, Certificate) {
         let (n, p) = (self.q.nrows(), y.ncols());

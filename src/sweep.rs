@@ -243,6 +243,12 @@ impl SolveAccuracy {
         self.frequencies - self.from_krylov + self.shift_factorizations
     }
 
+    /// Adds (factorizations, block solves) spent on a shifted Krylov space.
+    pub(crate) fn add_space_cost(&mut self, (factorizations, block_solves): (usize, usize)) {
+        self.shift_factorizations += factorizations;
+        self.krylov_block_solves += block_solves;
+    }
+
     pub(crate) fn add(&mut self, s: &FreqStats) {
         self.frequencies += 1;
         if s.from_krylov() {
@@ -250,8 +256,7 @@ impl SolveAccuracy {
             self.krylov_dim = self.krylov_dim.max(s.krylov_dim);
             self.relative_residual_max = self.relative_residual_max.max(s.relative_residual);
         }
-        self.shift_factorizations += s.space_cost.0;
-        self.krylov_block_solves += s.space_cost.1;
+        self.add_space_cost(s.space_cost);
         self.probe_error_max = self.probe_error_max.max(s.probe_error);
         self.backward_error_max = self.backward_error_max.max(s.backward_error);
         self.refined += usize::from(s.refinement_steps > 0);
@@ -828,6 +833,37 @@ impl<'a> Solver<'a> {
             cost.1 += s.block_solves() - before;
         }
         Ok(cost)
+    }
+
+    /// The response at the rows `rows` at each of `freqs_hz` from the shifted Krylov space
+    /// (made and grown for them if needed; [`ShiftedSpace::rows_at`]), not certified: `None`
+    /// when this solver has no space, `None` entries where the space does not answer. Also
+    /// returns what growing the space cost (factorizations, block solves), which is added to
+    /// [`Self::accuracy`].
+    ///
+    /// # Errors
+    /// The space's factorization and growth errors.
+    #[allow(clippy::type_complexity)]
+    pub(crate) fn rows_from_space(
+        &self,
+        freqs_hz: &[f64],
+        rows: &[usize],
+    ) -> Result<(Option<Vec<Option<Mat<c64>>>>, (usize, usize))> {
+        let Some(cell) = &self.space else {
+            return Ok((None, (0, 0)));
+        };
+        let mut space = cell.lock().unwrap_or_else(|p| p.into_inner());
+        let wanted: Vec<f64> = freqs_hz.iter().copied().filter(|&f| f > 0.0).collect();
+        let cost = self.grow_space(&mut space, &wanted, GROW_TO)?;
+        self.accuracy
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .add_space_cost(cost);
+        let rows = match &*space {
+            Space::Made(s) => Some(s.rows_at(freqs_hz, rows)),
+            _ => None,
+        };
+        Ok((rows, cost))
     }
 
     /// The response at `f` from the Krylov space, when the answer passes its certificate and

@@ -94,6 +94,27 @@ impl<'a> Engine<'a> {
         crate::sweep::krylov_applies(self.body, response, self.opts.method)
     }
 
+    /// `response` at the rows `outputs` at each of `freqs` from this process's shifted Krylov
+    /// space ([`Solver::rows_from_space`], not certified): `None` on a cluster or when no
+    /// space answers this response.
+    ///
+    /// # Errors
+    /// The solver's and the space's errors.
+    pub fn rows_from_space(
+        &mut self,
+        response: Response,
+        inputs: &[usize],
+        outputs: &[usize],
+        freqs: &[f64],
+    ) -> Result<Option<Vec<Option<Mat<c64>>>>> {
+        if self.ranks() > 1 || !self.krylov(response) {
+            return Ok(None);
+        }
+        let (rows, cost) = self.solver(response, inputs)?.rows_from_space(freqs, outputs)?;
+        self.accuracy.add_space_cost(cost);
+        Ok(rows)
+    }
+
     /// Number of ranks on this machine (sharing its memory).
     pub fn node_ranks(&self) -> usize {
         self.cluster().map_or(1, |c| c.node_size().max(1))
