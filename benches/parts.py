@@ -273,7 +273,7 @@ def write_model(out, name, K, M, nodes, dofs, band):
     )
 
 
-def check(K, M, freqs):
+def check(M, freqs):
     """Raise unless M is positive definite and exactly 6 modes are rigid."""
     rigid = int(np.sum(np.abs(freqs) < RIGID_HZ))
     if rigid != 6:
@@ -287,26 +287,30 @@ def check(K, M, freqs):
     return lowest
 
 
-def build(part, h, out, band=None):
-    """Write one model; return a row of the summary table."""
+def build(part, h, out_for, band=None):
+    """Write one model into out_for(N); return a row of the summary table."""
     start = time.perf_counter()
     builder, _ = PARTS[part]
     p, t, points = mesh(builder, h)
     K, M, nodes = assemble(p, t)
     built = time.perf_counter() - start
     freqs = frequencies(K, M, 30)
-    lowest_m = check(K, M, freqs)
+    lowest_m = check(M, freqs)
     band = band or band_from(freqs)
     n = K.shape[0]
-    name = f"{part} tet10 h={h:g}"
-    write_model(out, name, K, M, nodes, scene_dofs(nodes, points), band)
+    out = out_for(n)
+    dofs = scene_dofs(nodes, points)
+    write_model(out, f"{part} tet10 h={h:g}", K, M, nodes, dofs, band)
+    total = time.perf_counter() - start
     elastic = freqs[np.abs(freqs) >= RIGID_HZ]
     print(f"{out}: N = {n}, tets = {t.shape[1]}, nnz(K) = {K.nnz}, band = 0..{band:g} Hz "
           f"({int(np.sum(elastic <= band))} elastic modes), built in {built:.1f} s, "
-          f"total {time.perf_counter() - start:.1f} s; min eig of Jacobi-scaled M {lowest_m:.3g}")
+          f"total {total:.1f} s; min eig of Jacobi-scaled M {lowest_m:.3g}")
+    for q, i in zip(points, dofs[::3]):
+        print(f"  scene node {i // 3} at {np.round(nodes[i // 3], 4)} for {q}")
     print("  rigid (Hz):  ", " ".join(f"{f:.3g}" for f in freqs[np.abs(freqs) < RIGID_HZ]))
     print("  elastic (Hz):", " ".join(f"{f:.1f}" for f in elastic))
-    return part, out, n, K.nnz, band, elastic, built, time.perf_counter() - start
+    return part, out, n, K.nnz, band, elastic, built, total
 
 
 def all_parts(root):
@@ -314,17 +318,10 @@ def all_parts(root):
     for part, (_, sizes) in PARTS.items():
         band = None
         for h in sizes:
-            # the directory name needs N, known only once built
-            tmp = root / f"{part}-building"
-            row = build(part, h, tmp, band)
+            row = build(part, h, lambda n: root / f"{part}-{n}", band)
+            # the fine model keeps the coarse one's band, so both hold the same modes
             band = row[4]
-            final = root / f"{part}-{row[2]}"
-            if final.exists():
-                for f in final.iterdir():
-                    f.unlink()
-                final.rmdir()
-            tmp.rename(final)
-            rows.append((row[0], final) + row[2:])
+            rows.append(row)
     print()
     print("| part | model | N | nnz(K) | band Hz | build s | total s | first elastic Hz |")
     print("|---|---|---|---|---|---|---|---|")
@@ -348,7 +345,7 @@ def main():
     else:
         if args.size is None or args.out is None:
             ap.error("one part needs --size and --out")
-        build(args.part, args.size, args.out, args.band)
+        build(args.part, args.size, lambda n: args.out, args.band)
 
 
 if __name__ == "__main__":
