@@ -45,10 +45,10 @@
 
 use crate::dense::sym_eigen;
 use crate::eigen::ShiftInvert;
-use crate::units::hz_to_omega;
 use crate::factor::{certify, Certificate};
 use crate::pencil::{Coefficient, Pencil};
 use crate::rigid::RigidBody;
+use crate::units::hz_to_omega;
 use crate::{Error, Result};
 use faer::linalg::matmul::matmul;
 use faer::{c64, Accum, Mat, MatRef, Par};
@@ -95,7 +95,8 @@ pub(crate) struct Response {
 impl Response {
     /// The response passes ([`CERTIFIED_BACKWARD_ERROR`] or [`CERTIFIED_RELATIVE_RESIDUAL`] per column).
     pub fn certified(&self) -> bool {
-        self.certificate.passes(CERTIFIED_BACKWARD_ERROR, CERTIFIED_RELATIVE_RESIDUAL)
+        self.certificate
+            .passes(CERTIFIED_BACKWARD_ERROR, CERTIFIED_RELATIVE_RESIDUAL)
     }
 
     /// An estimate of the relative forward error: the worst componentwise backward error
@@ -350,18 +351,12 @@ impl<'a> ShiftedSpace<'a> {
 
     /// y(τ) restricted to the rows `rows` of the basis (k × p complex over those rows).
     fn coefficients(ritz: &Ritz, tau: c64, rows: std::ops::Range<usize>) -> Mat<c64> {
-        let p = ritz.c.ncols();
         let d: Vec<c64> = ritz
             .theta
             .iter()
             .map(|&th| (c64::new(1.0, 0.0) - tau * th).inv())
             .collect();
-        let z = ritz.z.subrows(rows.start, rows.len());
-        Mat::from_fn(rows.len(), p, |i, c| {
-            (0..d.len())
-                .map(|j| d[j] * (z[(i, j)] * ritz.c[(j, c)]))
-                .sum()
-        })
+        scaled_product(ritz.z.subrows(rows.start, rows.len()), &d, ritz.c.as_ref())
     }
 
     /// The estimated relative residual ‖(I − τS)x − b₀‖_M/‖b₀‖_M (worst column) of the
@@ -467,9 +462,7 @@ impl<'a> ShiftedSpace<'a> {
                     .iter()
                     .map(|&th| (c64::new(1.0, 0.0) - tau * th).inv() * inv)
                     .collect();
-                Some(Mat::from_fn(rows.len(), ritz.c.ncols(), |i, c| {
-                    (0..k).map(|j| d[j] * (qz[(i, j)] * ritz.c[(j, c)])).sum()
-                }))
+                Some(scaled_product(qz.as_ref(), &d, ritz.c.as_ref()))
             })
             .collect()
     }
@@ -482,8 +475,22 @@ impl<'a> ShiftedSpace<'a> {
         let yi = Mat::from_fn(y.nrows(), p, |i, c| (y[(i, c)] * inv).im);
         let mut xr = Mat::<f64>::zeros(n, p);
         let mut xi = Mat::<f64>::zeros(n, p);
-        matmul(xr.as_mut(), Accum::Replace, self.q.as_ref(), yr.as_ref(), 1.0, par);
-        matmul(xi.as_mut(), Accum::Replace, self.q.as_ref(), yi.as_ref(), 1.0, par);
+        matmul(
+            xr.as_mut(),
+            Accum::Replace,
+            self.q.as_ref(),
+            yr.as_ref(),
+            1.0,
+            par,
+        );
+        matmul(
+            xi.as_mut(),
+            Accum::Replace,
+            self.q.as_ref(),
+            yi.as_ref(),
+            1.0,
+            par,
+        );
         let mut x = Mat::from_fn(n, p, |i, c| c64::new(xr[(i, c)], xi[(i, c)]));
         if let Some(rb) = self.rigid {
             rb.project_response(x.as_mut());
@@ -491,6 +498,16 @@ impl<'a> ShiftedSpace<'a> {
         let certificate = certify(self.pencil, omega, self.load.as_ref(), x.as_ref(), par);
         (x, certificate)
     }
+}
+
+/// A diag(d) C for real A (m × k), C (k × p) and complex d: two real products.
+fn scaled_product(a: MatRef<'_, f64>, d: &[c64], c: MatRef<'_, f64>) -> Mat<c64> {
+    let re = Mat::from_fn(c.nrows(), c.ncols(), |j, col| d[j].re * c[(j, col)]);
+    let im = Mat::from_fn(c.nrows(), c.ncols(), |j, col| d[j].im * c[(j, col)]);
+    let (yr, yi) = (a * &re, a * &im);
+    Mat::from_fn(a.nrows(), c.ncols(), |i, col| {
+        c64::new(yr[(i, col)], yi[(i, col)])
+    })
 }
 
 #[cfg(test)]
@@ -553,7 +570,8 @@ mod tests {
             assert!(s.from_krylov(), "{} Hz was factored", s.freq_hz);
             assert!(s.krylov_dim < body.n() / 2, "dimension {}", s.krylov_dim);
             assert!(
-                s.backward_error <= CERTIFIED_BACKWARD_ERROR || s.relative_residual <= CERTIFIED_RELATIVE_RESIDUAL
+                s.backward_error <= CERTIFIED_BACKWARD_ERROR
+                    || s.relative_residual <= CERTIFIED_RELATIVE_RESIDUAL
             );
         }
         x.iter()

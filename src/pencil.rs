@@ -189,32 +189,42 @@ impl Pencil {
     }
 
     /// y ← X·x for X ∈ {M, K, D} symmetric, stored by its lower triangle: each off-diagonal
-    /// entry a_ij (i > j) adds a_ij x_j to y_i and a_ij x_i to y_j. Cost O(nnz · columns);
-    /// a strided column goes through a contiguous copy, a contiguous one is used in place (the
-    /// eigensolver's M x, once per Krylov step, then allocates nothing).
+    /// entry a_ij (i > j) adds a_ij x_j to y_i and a_ij x_i to y_j. Cost O(nnz · columns),
+    /// the columns on rayon's threads (the projection's M V and K V, the Krylov space's M W).
     pub fn mul_to(&self, which: Coefficient, x: MatRef<'_, f64>, mut y: MatMut<'_, f64>) {
+        use rayon::prelude::*;
         let vals = self.values(which);
-        let (mut xc, mut yc) = (Vec::new(), Vec::new());
-        for col in 0..x.ncols() {
-            let xs = match x.col(col).try_as_col_major() {
-                Some(c) => c.as_slice(),
-                None => {
-                    xc.clear();
-                    xc.extend(x.col(col).iter().copied());
-                    &xc[..]
-                }
-            };
-            match y.as_mut().col_mut(col).try_as_col_major_mut() {
-                Some(c) => self.symmetric_product(&vals, xs, c.as_slice_mut()),
-                None => {
-                    yc.resize(self.n, 0.0);
-                    self.symmetric_product(&vals, xs, &mut yc);
-                    y.as_mut()
-                        .col_mut(col)
-                        .iter_mut()
-                        .zip(&yc)
-                        .for_each(|(d, s)| *d = *s);
-                }
+        // one contiguous column (the eigensolver's M x, once per Krylov step): in place
+        if let (1, Some(xc)) = (x.ncols(), x.col(0).try_as_col_major()) {
+            if let Some(yc) = y.as_mut().col_mut(0).try_as_col_major_mut() {
+                self.symmetric_product(&vals, xc.as_slice(), yc.as_slice_mut());
+                return;
+            }
+        }
+        // columns in parallel, as many at a time as rayon has threads (each into its own
+        // buffer, so the extra memory is N per thread; every column's sums are the same)
+        let width = rayon::current_num_threads().max(1);
+        for c0 in (0..x.ncols()).step_by(width) {
+            let cols: Vec<Vec<f64>> = (c0..(c0 + width).min(x.ncols()))
+                .into_par_iter()
+                .map(|col| {
+                    let mut out = vec![0.0; self.n];
+                    match x.col(col).try_as_col_major() {
+                        Some(c) => self.symmetric_product(&vals, c.as_slice(), &mut out),
+                        None => {
+                            let xc: Vec<f64> = x.col(col).iter().copied().collect();
+                            self.symmetric_product(&vals, &xc, &mut out);
+                        }
+                    }
+                    out
+                })
+                .collect();
+            for (k, yc) in cols.iter().enumerate() {
+                y.as_mut()
+                    .col_mut(c0 + k)
+                    .iter_mut()
+                    .zip(yc)
+                    .for_each(|(d, s)| *d = *s);
             }
         }
     }

@@ -350,6 +350,9 @@ pub struct TradeoffRow {
     pub seconds: f64,
     /// Factorizations it spent.
     pub factorizations: usize,
+    /// Full solves at frequencies (line-fitting: the sampling loop's; `None` for methods that
+    /// solve none).
+    pub solves: Option<usize>,
     /// ROM order.
     pub order: usize,
     /// Verified max elastic ε (eq. 23) on the fine grid.
@@ -358,15 +361,25 @@ pub struct TradeoffRow {
 
 impl TradeoffRow {
     /// The CSV header line.
-    pub const CSV_HEADER: &'static str = "method,setting,seconds,factorizations,order,max_eps";
+    pub const CSV_HEADER: &'static str =
+        "method,setting,seconds,factorizations,order,max_eps,solves";
+
+    /// The header of files written before the `solves` column.
+    const CSV_HEADER_V1: &'static str = "method,setting,seconds,factorizations,order,max_eps";
 
     /// `rows` as CSV (header + one line each, floats round-trip exactly).
     pub fn to_csv(rows: &[TradeoffRow]) -> String {
         let mut s = format!("{}\n", Self::CSV_HEADER);
         for r in rows {
             s.push_str(&format!(
-                "{},{},{:?},{},{},{:?}\n",
-                r.method, r.setting, r.seconds, r.factorizations, r.order, r.max_eps
+                "{},{},{:?},{},{},{:?},{}\n",
+                r.method,
+                r.setting,
+                r.seconds,
+                r.factorizations,
+                r.order,
+                r.max_eps,
+                r.solves.map_or(String::new(), |n| n.to_string())
             ));
         }
         s
@@ -386,8 +399,9 @@ impl TradeoffRow {
             .lines()
             .enumerate()
             .filter(|(_, l)| !l.trim().is_empty());
-        match lines.next() {
-            Some((_, h)) if h.trim() == Self::CSV_HEADER => {}
+        let fields = match lines.next() {
+            Some((_, h)) if h.trim() == Self::CSV_HEADER => 7,
+            Some((_, h)) if h.trim() == Self::CSV_HEADER_V1 => 6,
             _ => {
                 return Err(err(
                     1,
@@ -397,13 +411,13 @@ impl TradeoffRow {
                     ),
                 ))
             }
-        }
+        };
         lines
             .map(|(k, l)| {
                 let f: Vec<&str> = l.split(',').map(str::trim).collect();
                 let bad = |what: &str| err(k + 1, format!("{what} in '{l}'"));
-                if f.len() != 6 {
-                    return Err(bad("expected 6 comma-separated fields"));
+                if f.len() != fields {
+                    return Err(bad(&format!("expected {fields} comma-separated fields")));
                 }
                 Ok(TradeoffRow {
                     method: f[0].to_string(),
@@ -412,6 +426,10 @@ impl TradeoffRow {
                     factorizations: f[3].parse().map_err(|_| bad("bad factorizations"))?,
                     order: f[4].parse().map_err(|_| bad("bad order"))?,
                     max_eps: f[5].parse().map_err(|_| bad("bad max_eps"))?,
+                    solves: match f.get(6) {
+                        None | Some(&"") => None,
+                        Some(n) => Some(n.parse().map_err(|_| bad("bad solves"))?),
+                    },
                 })
             })
             .collect()
@@ -472,6 +490,7 @@ mod tests {
                 setting: "tol 1e-2".into(),
                 seconds: 0.25,
                 factorizations: 12,
+                solves: Some(20),
                 order: 14,
                 max_eps: 3.5e-3,
             },
@@ -480,6 +499,7 @@ mod tests {
                 setting: "9 modes".into(),
                 seconds: 0.5,
                 factorizations: 1,
+                solves: None,
                 order: 9,
                 max_eps: 0.1,
             },
@@ -489,6 +509,11 @@ mod tests {
         assert_eq!(back, rows);
         let svg = tradeoff_svg("t", &rows).unwrap();
         assert!(svg.starts_with("<svg") && svg.contains("tol 1e-2") && svg.contains("SEREP"));
+        // a file written before the solves column reads back without them
+        let old =
+            "method,setting,seconds,factorizations,order,max_eps\nserep,9 modes,0.5,1,9,0.1\n";
+        let back = TradeoffRow::parse_csv(old, Path::new("t.csv")).unwrap();
+        assert_eq!(back, rows[1..]);
         let e = TradeoffRow::parse_csv("a,b\n", Path::new("t.csv")).unwrap_err();
         assert!(e.to_string().contains("header"), "{e}");
     }

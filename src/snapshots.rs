@@ -348,7 +348,11 @@ mod tests {
         for spill in [false, true] {
             let mut store = SnapshotStore::new(spill).unwrap();
             store.extend(snaps.iter().cloned()).unwrap();
-            assert_eq!(store.qdeim_next(&interface, 3).unwrap(), want, "spill {spill}");
+            assert_eq!(
+                store.qdeim_next(&interface, 3).unwrap(),
+                want,
+                "spill {spill}"
+            );
         }
     }
 }

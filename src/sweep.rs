@@ -376,7 +376,7 @@ impl<S, I, F> Run<'_, S, I, F> {
 enum Space<'a> {
     /// Not made yet.
     Unmade,
-    Made(ShiftedSpace<'a>),
+    Made(Box<ShiftedSpace<'a>>),
     /// K − σM could not be factored (M not positive definite?): every frequency is factored.
     Failed,
 }
@@ -635,7 +635,7 @@ impl<'a> Solver<'a> {
                 };
                 let f = run.freqs_hz[k];
                 let r = match space {
-                    Some(sp) => match self.from_space(sp, f, par()) {
+                    Some(sp) => match self.space_response(sp, f, par()) {
                         Ok((x, st)) => (run.step)(
                             &mut state,
                             Snapshot {
@@ -653,19 +653,17 @@ impl<'a> Solver<'a> {
                             Ok(None)
                         }
                     },
-                    None => self
-                        .factored(&mut factored, f, par)
-                        .and_then(|(x, st)| {
-                            (run.step)(
-                                &mut state,
-                                Snapshot {
-                                    index: k,
-                                    freq_hz: f,
-                                    x,
-                                },
-                            )?;
-                            Ok(Some(st))
-                        }),
+                    None => self.factored(&mut factored, f, par).and_then(|(x, st)| {
+                        (run.step)(
+                            &mut state,
+                            Snapshot {
+                                index: k,
+                                freq_hz: f,
+                                x,
+                            },
+                        )?;
+                        Ok(Some(st))
+                    }),
                 };
                 match r {
                     Ok(Some(st)) => run.finished(k, st),
@@ -822,7 +820,7 @@ impl<'a> Solver<'a> {
             })? {
                 Ok(s) => {
                     cost = (1, s.block_solves());
-                    Space::Made(s)
+                    Space::Made(Box::new(s))
                 }
                 Err(_) => Space::Failed,
             };
@@ -870,7 +868,7 @@ impl<'a> Solver<'a> {
     /// its forward error estimate is within the probe tolerance (else the frequency is
     /// factored, where the probe decides: at an undamped eigenfrequency it is refused as
     /// singular).
-    fn from_space(
+    fn space_response(
         &self,
         space: &ShiftedSpace<'_>,
         f: f64,

@@ -28,12 +28,12 @@ pub struct TradeoffArgs {
     /// Tolerances of the sampling loop.
     #[arg(long, default_value = "1e-1,1e-2,1e-3,1e-4")]
     tols: String,
-    /// Initial interface: outputs + K spread DoFs.
-    #[arg(long, default_value_t = 5)]
-    extra_interface: usize,
-    /// Largest order the sampling loop may grow to.
-    #[arg(long, default_value_t = 40)]
-    max_order: usize,
+    /// Initial interface: outputs + K spread DoFs (default: as `reduce --tol`).
+    #[arg(long)]
+    extra_interface: Option<usize>,
+    /// Largest order the sampling loop may grow to (default: as `reduce --tol`).
+    #[arg(long)]
+    max_order: Option<usize>,
     /// Budget of full solves per tolerance (default: as `reduce --tol`).
     #[arg(long)]
     max_points: Option<usize>,
@@ -54,7 +54,7 @@ pub struct TradeoffArgs {
     /// Worker threads (0 = all cores).
     #[arg(long, default_value_t = 0)]
     threads: usize,
-    /// CSV output: method,setting,seconds,factorizations,order,max_eps.
+    /// CSV output: method,setting,seconds,factorizations,order,max_eps,solves.
     #[arg(long)]
     csv: Option<PathBuf>,
     /// SVG plot output.
@@ -87,14 +87,14 @@ pub fn tradeoff(a: &TradeoffArgs) -> Result<()> {
     let mut rows: Vec<TradeoffRow> = Vec::new();
     for &tol in &tols {
         let mut s = SamplingOptions::new(tol);
-        s.max_order = Some(a.max_order);
+        s.max_order = a.max_order;
         s.max_points = a.max_points;
         // verified below on the common grid
         s.verify_points = Some(0);
-        let mut o = LineFitOptions::new(
-            Interface::OutputsPlus(a.extra_interface),
-            References::Tolerance(s),
-        );
+        let interface = a
+            .extra_interface
+            .map_or(Interface::Auto, Interface::OutputsPlus);
+        let mut o = LineFitOptions::new(interface, References::Tolerance(s));
         o.sweep = sweep.clone();
         let t = Instant::now();
         let rom = reduce(&body, &scene, &Reductor::LineFit(o), &Context::default())?;
@@ -108,6 +108,7 @@ pub fn tradeoff(a: &TradeoffArgs) -> Result<()> {
             setting: format!("tol {tol:.0e}"),
             seconds: secs,
             factorizations: report.factorizations,
+            solves: Some(report.solves),
             order: rom.order(),
             max_eps: e,
         });
@@ -136,6 +137,7 @@ pub fn tradeoff(a: &TradeoffArgs) -> Result<()> {
             setting: format!("{c} modes"),
             seconds: secs,
             factorizations: 1,
+            solves: None,
             order: rom.order(),
             max_eps: e,
         });
@@ -162,19 +164,26 @@ pub fn tradeoff(a: &TradeoffArgs) -> Result<()> {
             seconds: secs,
             // K_ii, and K_ii − σM_ii of the eigensolver when c > 0
             factorizations: if c == 0 { 1 } else { 2 },
+            solves: None,
             order: rom.order(),
             max_eps: e,
         });
     }
     println!(
-        "| method | setting | wall s | factorizations | order | verified max eps ({} points) |",
+        "| method | setting | wall s | factorizations | full solves | order | verified max eps ({} points) |",
         grid.len()
     );
-    println!("|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|");
     for r in &rows {
         println!(
-            "| {} | {} | {:.3} | {} | {} | {:.2e} |",
-            r.method, r.setting, r.seconds, r.factorizations, r.order, r.max_eps
+            "| {} | {} | {:.3} | {} | {} | {} | {:.2e} |",
+            r.method,
+            r.setting,
+            r.seconds,
+            r.factorizations,
+            r.solves.map_or("—".to_string(), |n| n.to_string()),
+            r.order,
+            r.max_eps
         );
     }
     if let Some(path) = &a.csv {

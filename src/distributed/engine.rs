@@ -110,7 +110,9 @@ impl<'a> Engine<'a> {
         if self.ranks() > 1 || !self.krylov(response) {
             return Ok(None);
         }
-        let (rows, cost) = self.solver(response, inputs)?.rows_from_space(freqs, outputs)?;
+        let (rows, cost) = self
+            .solver(response, inputs)?
+            .rows_from_space(freqs, outputs)?;
         self.accuracy.add_space_cost(cost);
         Ok(rows)
     }

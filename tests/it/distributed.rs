@@ -242,7 +242,12 @@ fn sampling_loop_over_ranks_meets_its_tolerance() {
     let verified = s.verified.expect("verification ran");
     println!(
         "2 ranks, tol {tol:.0e}: {:?}, error {:.2e}, verified {:.2e} on {} points, order {}, {}",
-        s.outcome, s.error, verified.error, verified.points, rom.order(), s.cost()
+        s.outcome,
+        s.error,
+        verified.error,
+        verified.points,
+        rom.order(),
+        s.cost()
     );
     assert!(s.outcome.reached(), "{:?}", s.outcome);
     assert!(s.error <= tol && verified.error <= tol);

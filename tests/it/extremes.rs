@@ -522,7 +522,10 @@ fn one_node_n_equals_3() {
     let rom = linefit_explicit(&model, &scene, vec![0, 1, 2], &[3.0, 20.0]).unwrap();
     let er = rom_eps(&model, &scene, &rom, &freqs[1..]);
     println!("ROW one node (N = 3): sweep {e:.1e} (factored), {ek:.1e} (Krylov) vs analytic, line-fitting ROM (V = I) {er:.1e}");
-    assert!(e <= 1e-14 && ek <= 1e-12 && er <= 1e-12, "{e:.2e} {ek:.2e} {er:.2e}");
+    assert!(
+        e <= 1e-14 && ek <= 1e-12 && er <= 1e-12,
+        "{e:.2e} {ek:.2e} {er:.2e}"
+    );
     // a single FREE node: K = 0, its rotations are no motion at all
     let free = Model::new(
         "free node".into(),

@@ -39,17 +39,17 @@
 use super::fit::{check_rows, Partition};
 use super::indicator::Indicator;
 use super::options::{Growth, LineFitOptions, SamplingOptions};
-use super::Interface;
-use crate::factor::count_eigenvalues_below_with;
-use crate::units::hz_to_lambda;
 use super::report::{Outcome, SamplingReport, Step, Verified};
+use super::Interface;
 use crate::body::Body;
 use crate::distributed::{Engine, Keep};
+use crate::factor::count_eigenvalues_below_with;
 use crate::grid::linspace;
 use crate::lsq::StreamedQr;
 use crate::reduce::rom::{Provenance, Rom, Timing};
 use crate::scene::{positive_band, Scene};
 use crate::sweep::{ProgressFn, Response};
+use crate::units::hz_to_lambda;
 use crate::{Error, Result};
 use faer::{c64, Mat};
 use std::time::Instant;
@@ -69,6 +69,9 @@ fn elastic_modes_below(body: &Body, f_hz: f64) -> Result<usize> {
     Ok(below.saturating_sub(rigid))
 }
 
+/// A verification pass: its summary and the error at each point (frequency, ε).
+type Verification = (Verified, Vec<(f64, f64)>);
+
 /// The verification pass of `rom`: full solves at `points` frequencies spread evenly over
 /// the band (ends included); [`Verified`] and the error at each point, or `None` for
 /// `points` = 0.
@@ -78,7 +81,7 @@ fn verification(
     points: usize,
     rom: &Rom,
     progress: ProgressFn<'_>,
-) -> Result<Option<(Verified, Vec<(f64, f64)>)>> {
+) -> Result<Option<Verification>> {
     if points == 0 {
         return Ok(None);
     }
@@ -599,7 +602,10 @@ impl<'a> Loop<'a> {
             self.candidates
                 .iter()
                 .zip(&h)
-                .map(|(&f, h)| h.as_ref().map_or(f64::INFINITY, |h| rel_err(&self.rom, f, h)))
+                .map(|(&f, h)| {
+                    h.as_ref()
+                        .map_or(f64::INFINITY, |h| rel_err(&self.rom, f, h))
+                })
                 .collect(),
         ))
     }
@@ -676,14 +682,8 @@ impl<'a> Loop<'a> {
         };
         let verified = match self.verified {
             Some(v) if outcome == Outcome::Converged => Some(v),
-            _ => verification(
-                &mut self.engine,
-                self.scene,
-                points,
-                &rom,
-                self.progress,
-            )?
-            .map(|(v, _)| v),
+            _ => verification(&mut self.engine, self.scene, points, &rom, self.progress)?
+                .map(|(v, _)| v),
         };
         let within = |e: f64| e <= self.sampling.tol;
         let outcome = match (&outcome, verified) {
