@@ -75,28 +75,35 @@ fn bar(dir: &Path) {
 fn mpirun_linefit_rom_equals_the_one_process_rom() {
     let dir = scratch("linefit");
     bar(&dir);
-    let common = [
-        "reduce",
-        "bar",
-        "--method",
-        "linefit",
-        "--extra-interface",
-        "5",
-        "--ref-freqs",
-        "50,100,200,400,600,800,1000",
-        "--threads",
-        "1",
-    ];
-    ok(&dir, &[&common[..], &["--out", "one"]].concat());
-    mpirun_ok(&dir, 2, &[&common[..], &["--out", "two"]].concat());
-    let one = rom_dir::read(&dir.join("one")).unwrap();
-    let two = rom_dir::read(&dir.join("two")).unwrap();
-    for ((name, a), (_, b)) in two.matrices().iter().zip(one.matrices()) {
-        let d = (*a - b).norm_l2() / b.norm_l2();
-        println!("{name}: relative difference {d:.1e}");
-        assert!(d <= 1e-12, "{name}: {d:.2e}");
+    // factored, the ranks' ROM differs by the TSQR merge's rounding; from the Krylov space
+    // each rank grows its own space, and the ROMs agree to the responses' certificates
+    for (solve, tol) in [("factor", 1e-12), ("auto", 1e-10)] {
+        let common = [
+            "reduce",
+            "bar",
+            "--method",
+            "linefit",
+            "--extra-interface",
+            "5",
+            "--ref-freqs",
+            "50,100,200,400,600,800,1000",
+            "--threads",
+            "1",
+            "--solve",
+            solve,
+        ];
+        let (one, two) = (format!("one-{solve}"), format!("two-{solve}"));
+        ok(&dir, &[&common[..], &["--out", &one]].concat());
+        mpirun_ok(&dir, 2, &[&common[..], &["--out", &two]].concat());
+        let one = rom_dir::read(&dir.join(one)).unwrap();
+        let two = rom_dir::read(&dir.join(two)).unwrap();
+        for ((name, a), (_, b)) in two.matrices().iter().zip(one.matrices()) {
+            let d = (*a - b).norm_l2() / b.norm_l2();
+            println!("{solve}, {name}: relative difference {d:.1e}");
+            assert!(d <= tol, "{solve}, {name}: {d:.2e}");
+        }
+        assert_eq!(two.fit().unwrap().solves.frequencies, 7);
     }
-    assert_eq!(two.fit().unwrap().solves.frequencies, 7);
 }
 
 #[test]
