@@ -12,9 +12,12 @@
 //!    span of the interface rows {u_i : i ∈ I}, score_j = ‖u_j‖² − ‖Qᵀu_j‖² is the squared
 //!    part of u_j that the interface does not already capture; the DoF of largest score is
 //!    the next interface DoF. This is the next pivot of a column-pivoted QR of Uᵀ whose
-//!    first pivots are the current interface (Q-DEIM continued from the interface).
+//!    first pivots are the current interface (Q-DEIM continued from the interface). For
+//!    several DoFs at once the rows of the largest scores are kept (8 per DoF, at least 64)
+//!    with their parts outside the span, and the pivoted QR goes on among them (pivoted
+//!    Gram–Schmidt).
 //!
-//! Memory: O(block · 2pz + (2pz)²) besides the stored snapshots.
+//! Memory: O(block · 2pz + (2pz)² + kept rows · 2pz) besides the stored snapshots.
 
 use crate::{Error, Result};
 use faer::{c64, Mat, MatRef};

@@ -2,33 +2,38 @@
 //! finds the reference frequencies (and, if allowed, grows the interface).
 //!
 //! 1. Seeds: ⌈n/2p⌉ (at least 2) points spread over the band, both ends included (a band that
-//!    starts at 0 starts at [`crate::scene::positive_band`]'s f_lo > 0), plus user seeds.
+//!    starts at 0 starts at [`crate::scene::positive_band`]'s f_lo > 0), plus user seeds. When
+//!    a default needs them, the elastic modes in the band are counted (inertia): the default
+//!    interface is the outputs + max(⌈q/2⌉, ⌈c/2⌉) spread DoFs, the default order cap
+//!    [`SamplingOptions::auto_max_order`].
 //! 2. ROM from the current set: the streamed QR has absorbed every solved frequency once.
-//! 3. The residual indicator Δ(s) ([`super::indicator::Indicator`]) on a fine candidate grid, at a cost
-//!    independent of N.
-//! 4. The largest local maxima of Δ (as many as there are threads; sampled points and their
-//!    grid neighbours excluded; with none there, before the first measurement or after a
-//!    step within tol, the largest Δ away from them) are factored in parallel; the TRUE
-//!    elastic error of the current ROM is measured there (the snapshots give H1 at the
-//!    outputs), then they are absorbed — no earlier frequency is ever factored again.
-//! 5. Stop when the true error at every new point AND at every earlier sampled point is ≤ tol
-//!    on two consecutive steps ([`Outcome::Converged`]; the ROM verified at the last step's
-//!    points is returned). One step can be fooled: measured on the bar, the ROM of the two
-//!    seeds has its indicator maximum at 175 Hz with true error 0.037 while the true maximum
-//!    is 0.58 at 396 Hz. The error at
-//!    sampled points costs nothing (their H1 at the outputs is kept) and matters: the fit is a
-//!    least-squares compromise, not an interpolation, and measured on the bar the largest
-//!    error of a ROM often sits at a sampled point (e.g. the band end). Otherwise stop when
-//!    the factorization budget is spent, or on stagnation (the step's error did not drop
-//!    below 0.9× the best of the previous max(3, ⌈6/threads⌉) steps, about 6 factorizations).
-//!    On stagnation, if `max_order` allows, the interface grows by one DoF ([`Growth`]) and
-//!    the fit is redone from the stored snapshots. A loop stopped so whose best ROM was within
-//!    tol on one step is [`Outcome::Confirmed`] when the verification pass measures it within
-//!    tol too.
+//! 3. On a fine candidate grid: the ROM's true error, from the shifted Krylov space's
+//!    responses at the outputs, when one answers (docs/design.md §3.10); else the residual
+//!    indicator Δ(s) ([`super::indicator::Indicator`]), at a cost independent of N.
+//! 4. The largest local maxima (as many as there are threads, at least 4 with a Krylov space;
+//!    sampled points and their grid neighbours excluded; with none there, before the first
+//!    measurement or after a step within tol, the largest value away from them) are solved in
+//!    parallel; the TRUE elastic error of the current ROM is measured there (the snapshots
+//!    give H1 at the outputs), then they are absorbed — no frequency is ever solved twice.
+//! 5. Stop when the true error is ≤ tol at every candidate of the Krylov space's grid and
+//!    every sampled point, or (indicator) at every new point AND every earlier sampled point
+//!    on two consecutive steps ([`Outcome::Converged`]; the ROM measured is returned, and it
+//!    must pass the verification pass, else the loop goes on from the verification's points
+//!    above tol). One step can be fooled: measured on the bar, the ROM of the two seeds has its
+//!    indicator maximum at 175 Hz with true error 0.037 while the true maximum is 0.58 at
+//!    396 Hz. The error at sampled points costs nothing (their H1 at the outputs is kept) and
+//!    matters: the fit is a least-squares compromise, not an interpolation, and measured on
+//!    the bar the largest error of a ROM often sits at a sampled point (e.g. the band end).
+//!    Otherwise stop when the budget of full solves is spent, or on stagnation (the step's
+//!    error did not drop below 0.9× the best of the previous max(3, ⌈6/threads⌉) steps). On
+//!    stagnation, if `max_order` allows, the interface grows by a tenth of its order (at least
+//!    one DoF, [`Growth`]) and the fit is redone from the stored snapshots. A loop stopped so
+//!    whose best ROM was within tol on one step is [`Outcome::Confirmed`] when the
+//!    verification pass measures it within tol too.
 //!
 //! The loop is a small state machine over [`Loop`]: [`Loop::seed`] solves the seeds and
-//! fits; [`Loop::refine`] evaluates the indicator, solves at its maxima and decides what
-//! comes next ([`Next`]); [`Loop::grow`] adds an interface DoF and refits from the kept
+//! fits; [`Loop::refine`] evaluates the grid or the indicator, solves at its maxima and
+//! decides what comes next ([`Next`]); [`Loop::grow`] adds interface DoFs and refits from the kept
 //! snapshots; [`Loop::report`] returns the ROM with its [`SamplingReport`]. Why the loop
 //! stopped is returned as data ([`Outcome`]); front ends word the hints.
 //!
