@@ -138,6 +138,9 @@ pub(crate) struct ShiftedSpace<'a> {
     next: Mat<f64>,
     /// G = RᵀMR.
     next_gram: Mat<f64>,
+    /// The M-norm of each column of the block image R came from (of b₀ for the first block):
+    /// the scale of the deflation test ([`DEFLATE`]).
+    next_scale: Vec<f64>,
     ritz: Option<Ritz>,
     max_dim: usize,
     block_solves: usize,
@@ -188,13 +191,14 @@ impl<'a> ShiftedSpace<'a> {
             last: 0,
             next: Mat::zeros(n, 0),
             next_gram: Mat::zeros(0, 0),
+            next_scale: Vec::new(),
             ritz: None,
             max_dim: max_dim.min(n),
             block_solves: 0,
             par,
         };
         space.apply_s(b0.as_mut(), false);
-        space.next = b0;
+        space.set_next(b0, None);
         space.extend();
         Ok(space)
     }
@@ -234,12 +238,10 @@ impl<'a> ShiftedSpace<'a> {
         if self.next.ncols() == 0 || k >= self.max_dim {
             return false;
         }
-        let scale = self.m_norms(self.next.as_ref());
-        let (qn, mqn, coef) = self.orthonormalize(self.next.as_ref(), &scale);
+        let (qn, mqn, coef) = self.orthonormalize(self.next.as_ref(), &self.next_scale);
         let bn = qn.ncols().min(self.max_dim - k);
         if bn == 0 {
-            self.next = Mat::zeros(n, 0);
-            self.next_gram = Mat::zeros(0, 0);
+            self.set_next(Mat::zeros(n, 0), None);
             return false;
         }
         let kn = k + bn;
@@ -280,20 +282,26 @@ impl<'a> ShiftedSpace<'a> {
             let mut tc = self.t.as_mut().subcols_mut(k, bn);
             tc += &c;
         }
-        let mw = self.pencil.mul(Coefficient::Mass, w.as_ref());
-        self.next_gram = w.transpose() * &mw;
-        self.next = w;
+        let image = self.t.as_ref().subcols(k, bn).to_owned();
+        self.set_next(w, Some(image.as_ref()));
         self.ritz = None;
         true
     }
 
-    /// The M-norm of each column.
-    fn m_norms(&self, x: MatRef<'_, f64>) -> Vec<f64> {
-        let mx = self.pencil.mul(Coefficient::Mass, x);
-        (0..x.ncols())
-            .map(|c| x.col(c).transpose() * mx.col(c))
-            .map(|v: f64| v.max(0.0).sqrt())
-            .collect()
+    /// Makes `w` the part of the next block outside the space: its M-Gram matrix G = wᵀMw
+    /// and the scale of each column, the M-norm of the image it came from,
+    /// ‖W e_j‖_M² = ‖coefficients_j‖² + G_jj (W = Q C + w with Q M-orthonormal and w
+    /// M-orthogonal to Q; `coefficients` C = None for b₀, which is its own image).
+    fn set_next(&mut self, w: Mat<f64>, coefficients: Option<MatRef<'_, f64>>) {
+        let mw = self.pencil.mul(Coefficient::Mass, w.as_ref());
+        self.next_gram = w.transpose() * &mw;
+        self.next_scale = (0..w.ncols())
+            .map(|j| {
+                let inside = coefficients.map_or(0.0, |c| c.col(j).squared_norm_l2());
+                (inside + self.next_gram[(j, j)].max(0.0)).sqrt()
+            })
+            .collect();
+        self.next = w;
     }
 
     /// M-orthonormalizes the columns of `w` against the basis and each other (two
