@@ -18,6 +18,7 @@ use crate::model::{Damping, Model};
 use crate::sparse::{from_parts, lower_triangle, mirror_lower, Csc};
 use faer::{c64, Mat, MatMut, MatRef};
 use std::borrow::Cow;
+use std::sync::OnceLock;
 
 /// One coefficient matrix of the pencil A(s) = s²M + sD + K.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -39,6 +40,79 @@ pub struct Pencil {
     m: Vec<f64>,
     k: Vec<f64>,
     d: DampingValues,
+    /// M by rows on its own nonzeros (built at the first product with M).
+    mass_rows: OnceLock<Option<Rows>>,
+}
+
+/// A symmetric matrix in full storage by rows, its nonzeros only, columns ascending in each
+/// row: y = X x is one gather per row. M's own pattern is a third of the union pattern on
+/// elasticity models (its three displacement components do not couple: the 10⁵-DoF tet10
+/// shaft has 2.5 M nonzeros of M against 7.5 M of K), and the product is the eigensolver's
+/// and the shifted Krylov space's most frequent one.
+#[derive(Clone, Debug)]
+struct Rows {
+    ptr: Vec<usize>,
+    col: Vec<u32>,
+    val: Vec<f64>,
+}
+
+impl Rows {
+    /// The nonzeros of the symmetric matrix whose lower triangle is `vals` on the pattern
+    /// (`col_ptr`, `row_idx`), or `None` when N does not fit 32-bit column indices.
+    fn new(n: usize, col_ptr: &[usize], row_idx: &[usize], vals: &[f64]) -> Option<Rows> {
+        u32::try_from(n).ok()?;
+        // row i: its entries left of the diagonal (from the columns j < i), the diagonal,
+        // then the ones right of it (column i's entries below the diagonal)
+        let mut left = vec![0usize; n];
+        let mut ptr = vec![0usize; n + 1];
+        for j in 0..n {
+            for p in col_ptr[j]..col_ptr[j + 1] {
+                if vals[p] != 0.0 {
+                    let i = row_idx[p];
+                    ptr[j + 1] += 1;
+                    if i != j {
+                        ptr[i + 1] += 1;
+                        left[i] += 1;
+                    }
+                }
+            }
+        }
+        for i in 0..n {
+            ptr[i + 1] += ptr[i];
+        }
+        let mut col = vec![0u32; ptr[n]];
+        let mut val = vec![0.0; ptr[n]];
+        // the next free place left of the diagonal in each row
+        let mut next: Vec<usize> = ptr[..n].to_vec();
+        for j in 0..n {
+            // row j's own part starts after its left entries, which columns < j have filled
+            let mut own = ptr[j] + left[j];
+            for p in col_ptr[j]..col_ptr[j + 1] {
+                if vals[p] == 0.0 {
+                    continue;
+                }
+                let i = row_idx[p];
+                (col[own], val[own]) = (i as u32, vals[p]);
+                own += 1;
+                if i != j {
+                    (col[next[i]], val[next[i]]) = (j as u32, vals[p]);
+                    next[i] += 1;
+                }
+            }
+        }
+        Some(Rows { ptr, col, val })
+    }
+
+    /// y ← X x, each row summed in ascending columns.
+    fn product(&self, x: &[f64], y: &mut [f64]) {
+        for (i, yi) in y.iter_mut().enumerate() {
+            let r = self.ptr[i]..self.ptr[i + 1];
+            *yi = self.col[r.clone()]
+                .iter()
+                .zip(&self.val[r])
+                .fold(0.0, |s, (&c, &a)| s + a * x[c as usize]);
+        }
+    }
 }
 
 #[derive(Clone, Debug)]
@@ -119,6 +193,7 @@ impl Pencil {
             m,
             k,
             d,
+            mass_rows: OnceLock::new(),
         }
     }
 
@@ -197,7 +272,7 @@ impl Pencil {
         // one contiguous column (the eigensolver's M x, once per Krylov step): in place
         if let (1, Some(xc)) = (x.ncols(), x.col(0).try_as_col_major()) {
             if let Some(yc) = y.as_mut().col_mut(0).try_as_col_major_mut() {
-                self.symmetric_product(&vals, xc.as_slice(), yc.as_slice_mut());
+                self.symmetric_product(which, &vals, xc.as_slice(), yc.as_slice_mut());
                 return;
             }
         }
@@ -210,10 +285,10 @@ impl Pencil {
                 .map(|col| {
                     let mut out = vec![0.0; self.n];
                     match x.col(col).try_as_col_major() {
-                        Some(c) => self.symmetric_product(&vals, c.as_slice(), &mut out),
+                        Some(c) => self.symmetric_product(which, &vals, c.as_slice(), &mut out),
                         None => {
                             let xc: Vec<f64> = x.col(col).iter().copied().collect();
-                            self.symmetric_product(&vals, &xc, &mut out);
+                            self.symmetric_product(which, &vals, &xc, &mut out);
                         }
                     }
                     out
@@ -230,8 +305,23 @@ impl Pencil {
     }
 
     /// y ← X x for one contiguous column, X given by its lower values `vals`: row j of X is
-    /// summed in ascending columns, as a product with both triangles would sum it.
-    fn symmetric_product(&self, vals: &[f64], x: &[f64], y: &mut [f64]) {
+    /// summed in ascending columns, as a product with both triangles would sum it. M is
+    /// multiplied by its own rows ([`Rows`]; the same sums without the union pattern's zeros).
+    fn symmetric_product(&self, which: Coefficient, vals: &[f64], x: &[f64], y: &mut [f64]) {
+        if which == Coefficient::Mass {
+            let rows = self
+                .mass_rows
+                .get_or_init(|| Rows::new(self.n, &self.col_ptr, &self.row_idx, &self.m));
+            if let Some(rows) = rows {
+                rows.product(x, y);
+                return;
+            }
+        }
+        self.scatter_product(vals, x, y);
+    }
+
+    /// y ← X x on the union pattern's lower triangle: each entry adds to two rows.
+    fn scatter_product(&self, vals: &[f64], x: &[f64], y: &mut [f64]) {
         y.fill(0.0);
         for j in 0..self.n {
             let xj = x[j];
@@ -330,6 +420,7 @@ impl Pencil {
             m,
             k,
             d: DampingValues::Zero,
+            mass_rows: OnceLock::new(),
         }
     }
 
@@ -490,6 +581,15 @@ mod tests {
             let x = Mat::from_fn(n, cols, |i, j| {
                 (((i * 7 + j * 13) as u64 + seed) % 17) as f64 - 8.0
             });
+            // M by its own rows: the union pattern's sums without its zeros, to the bit
+            let (xc, mut by_rows, mut scattered) = (x.col(0).to_owned(), vec![0.0; n], vec![0.0; n]);
+            let xs: Vec<f64> = xc.iter().copied().collect();
+            pencil.symmetric_product(Coefficient::Mass, &pencil.m, &xs, &mut by_rows);
+            pencil.scatter_product(&pencil.m, &xs, &mut scattered);
+            prop_assert_eq!(by_rows, scattered);
+            // the rows skip the union pattern's zeros of M (its components do not couple)
+            let full = 2 * pencil.nnz() - n;
+            prop_assert!(pencil.mass_rows.get().unwrap().as_ref().unwrap().val.len() < full);
             for which in [Coefficient::Mass, Coefficient::Stiffness, Coefficient::Damping] {
                 let want = dense(&model, which);
                 let y = pencil.mul(which, x.as_ref());

@@ -11,10 +11,9 @@
 //!
 //! Each restart sorts the Ritz values by |θ| (nearest to σ first), locks the leading run of
 //! converged ones, keeps the next best (thick restart) and expands the basis again. M Q is
-//! kept beside Q, so a step costs one solve, one product with M and the Gram–Schmidt passes
-//! (classical, a second pass only when the first cancelled more than half the norm — the
-//! DGKS criterion; the first pass against the columns before a block runs for the whole block
-//! at once, two matrix products instead of one per vector).
+//! kept beside Q, so a step costs one solve, one product with M and the Gram–Schmidt passes:
+//! classical, twice (CGS2), for the whole block at once against the columns before it (Q and
+//! MQ read twice per block of b vectors), then among the block's own columns.
 //!
 //! **Convergence.** The pair i is converged when |b_aᵀ y_i| ≤ tol·|θ_i| + 4ε·θ_max, θ_max the
 //! largest active |θ| (the norm of S deflated of the locked pairs, on the Krylov space). The first term is ARPACK's
@@ -288,8 +287,10 @@ impl Basis {
     }
 
     /// Expands from column `start` in blocks of b: the b columns j..j+b go through one block
-    /// solve S Q_j, each result is M-orthogonalized against all previous columns (locked ones
-    /// included; coefficients recorded from column `nl` on) and becomes column j + b + c.
+    /// solve S Q_j; the block is M-orthogonalized against all previous columns (locked ones
+    /// included; coefficients recorded from column `nl` on) by two classical Gram–Schmidt
+    /// passes for the whole block at once (CGS2: Q and MQ are read twice per block, not twice
+    /// per vector), then its columns against each other, and column c becomes j + b + c.
     /// Stops at m_e = start + b⌊(m − start)/b⌋; returns (solves, m_e).
     fn expand(
         &mut self,
@@ -299,31 +300,44 @@ impl Basis {
     ) -> Result<(usize, usize)> {
         let (n, m, bs) = (op.n(), self.m(), self.block);
         let me = start + bs * ((m - start) / bs);
+        let mut mw = Mat::<f64>::zeros(n, 1);
         for j in (start..me).step_by(bs) {
             let mut w = self.mq.as_ref().subcols(j, bs).to_owned();
             op.solve_in_place(w.as_mut());
-            // the first Gram–Schmidt pass against the columns before this block's results,
-            // for the whole block at once: Q and MQ are read once per block, not per vector
             let base = j + bs;
-            let done = self.mq.as_ref().subcols(0, base).transpose() * &w;
-            w -= self.q.as_ref().subcols(0, base) * &done;
+            let coef = project_out(
+                self.q.as_ref().subcols(0, base),
+                self.mq.as_ref().subcols(0, base),
+                &mut w,
+            );
             for c in 0..bs {
-                let mut wc = w.as_ref().subcols(c, 1).to_owned();
                 let top = base + c;
-                let pre: Vec<f64> = done.col(c).iter().copied().collect();
-                let (coef, norm0, beta, mw) = orthogonalize(
-                    op,
-                    self.q.as_ref().subcols(0, top),
-                    self.mq.as_ref().subcols(0, top),
-                    &pre,
-                    &mut wc,
-                );
-                for i in nl..top {
-                    self.h[(i, j + c)] = coef[i];
+                // against the block's earlier columns, twice (they are few)
+                let mut inner = vec![0.0; c];
+                for _ in 0..2 {
+                    for (d, x) in inner.iter_mut().enumerate() {
+                        let r = self.mq.col(base + d).transpose() * w.col(c);
+                        w.col_mut(c)
+                            .iter_mut()
+                            .zip(self.q.col(base + d).iter())
+                            .for_each(|(a, b)| *a -= r * b);
+                        *x += r;
+                    }
+                }
+                op.mass_mul(w.as_ref().subcols(c, 1), mw.as_mut());
+                let beta = (w.col(c).transpose() * mw.col(0)).max(0.0).sqrt();
+                let projected =
+                    coef.col(c).squared_norm_l2() + inner.iter().map(|x| x * x).sum::<f64>();
+                let norm0 = (projected + beta * beta).sqrt();
+                for i in nl..base {
+                    self.h[(i, j + c)] = coef[(i, c)];
+                }
+                for (d, x) in inner.iter().enumerate() {
+                    self.h[(base + d, j + c)] = *x;
                 }
                 if beta > 1e-12 * norm0 {
                     self.h[(top, j + c)] = beta;
-                    self.q.as_mut().col_mut(top).copy_from(wc.col(0) / beta);
+                    self.q.as_mut().col_mut(top).copy_from(w.col(c) / beta);
                     self.mq.as_mut().col_mut(top).copy_from(mw.col(0) / beta);
                 } else {
                     // S q ∈ span Q: an invariant subspace; go on from a fresh direction
@@ -379,13 +393,10 @@ fn fresh_vector(
     seed: u64,
 ) -> Result<()> {
     let mut w = random_vector(op.n(), seed);
-    let (_, _, beta, mw) = orthogonalize(
-        op,
-        q.as_ref().subcols(0, j),
-        mq.as_ref().subcols(0, j),
-        &[],
-        &mut w,
-    );
+    project_out(q.as_ref().subcols(0, j), mq.as_ref().subcols(0, j), &mut w);
+    let mut mw = Mat::<f64>::zeros(w.nrows(), 1);
+    op.mass_mul(w.as_ref(), mw.as_mut());
+    let beta = (w.col(0).transpose() * mw.col(0)).max(0.0).sqrt();
     if !(beta > 0.0) {
         return Err(Error::NotConverged(
             "no start vector M-orthogonal to the converged modes is left (the basis spans R^N)"
@@ -397,44 +408,17 @@ fn fresh_vector(
     Ok(())
 }
 
-/// Classical Gram–Schmidt in the M-inner product against the M-orthonormal columns of `q`
-/// (with `mq` = M q): w ← w − Q c, c = (MQ)ᵀ w, a second pass when ‖w‖_M fell below 1/√2 of
-/// its size (DGKS). The first pass against the leading `done.len()` columns has already been
-/// made (by the caller, for a whole block), with coefficients `done`; this one continues it
-/// against the rest, and the second pass, when needed, runs against all. Returns (c summed over
-/// the passes, ‖w‖_M before, ‖w‖_M after, M w).
-fn orthogonalize(
-    op: &ShiftInvert<'_>,
-    q: MatRef<'_, f64>,
-    mq: MatRef<'_, f64>,
-    done: &[f64],
-    w: &mut Mat<f64>,
-) -> (Vec<f64>, f64, f64, Mat<f64>) {
-    let k = q.ncols();
-    let mut mw = Mat::<f64>::zeros(w.nrows(), 1);
-    let mut total = vec![0.0; k];
-    total[..done.len()].copy_from_slice(done);
-    let pass = |from: usize, w: &mut Mat<f64>, total: &mut Vec<f64>| {
-        let c = mq.subcols(from, k - from).transpose() * &*w;
-        *w -= q.subcols(from, k - from) * &c;
-        for (t, i) in total[from..].iter_mut().zip(0..) {
-            *t += c[(i, 0)];
-        }
-    };
-    let m_norm = |w: &Mat<f64>, mw: &mut Mat<f64>| {
-        op.mass_mul(w.as_ref(), mw.as_mut());
-        (w.transpose() * &*mw)[(0, 0)].max(0.0).sqrt()
-    };
-    if k > done.len() {
-        pass(done.len(), w, &mut total);
-    }
-    let mut beta = m_norm(w, &mut mw);
-    let norm0 = (total.iter().map(|c| c * c).sum::<f64>() + beta * beta).sqrt();
-    if k > 0 && beta < std::f64::consts::FRAC_1_SQRT_2 * norm0 {
-        pass(0, w, &mut total);
-        beta = m_norm(w, &mut mw);
-    }
-    (total, norm0, beta, mw)
+/// W ← W − Q (MQ)ᵀ W, twice: classical Gram–Schmidt in the M-inner product against the
+/// M-orthonormal columns of Q (MQ = M Q), with the second pass that makes it as accurate as
+/// the modified one (CGS2); returns the coefficients summed over both passes. Each pass reads
+/// Q and MQ once for all the columns of W.
+fn project_out(q: MatRef<'_, f64>, mq: MatRef<'_, f64>, w: &mut Mat<f64>) -> Mat<f64> {
+    let mut coef = mq.transpose() * &*w;
+    *w -= q * &coef;
+    let again = mq.transpose() * &*w;
+    *w -= q * &again;
+    coef += &again;
+    coef
 }
 
 /// A deterministic pseudo-random vector (xorshift, uniform in [−½, ½)); `seed` 0 is the start

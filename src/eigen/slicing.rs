@@ -4,12 +4,15 @@
 //! - **Counts.** ν(x) = #{λ < x} is the number of negative pivots of an LBLᵀ factor of
 //!   K − xM (Sylvester). A slice (a, b] holds ν(b) − ν(a) eigenvalues; a bound that is an
 //!   eigenvalue to working precision (zero pivot) is moved by 10⁻⁷ relative.
-//! - **Bounds.** The count of a 3-D elastic body grows like λ^{3/2} (Weyl's law), so the
-//!   interior bounds are first placed at equal steps of λ^{3/2} (for a number of slices
-//!   rounded up to a multiple of the workers), then counted; a slice that
-//!   holds more than 5/4 of the target size is halved (in λ^{3/2}) and recounted, adjacent
-//!   slices that hold together no more than the target are merged, empty ones dropped. Other
-//!   geometries (bars, plates) only cost a few extra counts.
+//! - **Bounds.** The slices hold equal shares of the modes (their number rounded up to a
+//!   multiple of the workers, so that they finish together). Each bound is placed where the
+//!   counts known so far say ν reaches its share: interpolated between the two counted points
+//!   that bracket it, linearly in λ^{3/2} (Weyl's law of a 3-D body), then counted. A bound
+//!   more than an eighth of a slice off its share is placed again from the new counts, which
+//!   bracket it more tightly (at most four rounds, all bounds of a round counted in
+//!   parallel); the counted point nearest each share becomes the bound. No growth law is
+//!   assumed beyond the interpolation inside a bracket: bars, plates and parts of any shape
+//!   only change how many rounds it takes.
 //! - **Shifts.** The bottom slice (−∞, b] is solved below the spectrum (σ = −b/100, a
 //!   Cholesky factor) where its eigenvalues are exactly the ones nearest σ; an interior slice
 //!   (a, b] at its midpoint, where the eigenvalues within (b − a)/2 of σ are exactly the
@@ -147,51 +150,52 @@ impl<'b> Slicer<'b> {
     }
 
     /// Slices of (lower, upper] (λ; `lower` = None: from below the spectrum) with the counts
-    /// ν(lower) and ν(upper) known: bounds placed, counted, refined (see the module doc).
+    /// ν(lower) and ν(upper) known, holding equal shares of the modes: bounds placed by
+    /// interpolating the counts, counted, placed again (see the module doc).
     pub(super) fn split(
         &self,
         lower: Option<(f64, usize)>,
         upper: (f64, usize),
     ) -> Result<Vec<Target>> {
-        let size = self.size;
         let (lo, nu_lo) = lower.map_or((0.0, 0), |(l, c)| (l.max(0.0), c));
         let total = upper.1.saturating_sub(nu_lo);
         // a multiple of the workers' count of slices: a slice left over for a second round
         // would keep one worker busy while the others idle
-        let mut parts = total.div_ceil(size).max(1);
+        let mut parts = total.div_ceil(self.size).max(1);
         if parts > 1 {
             parts = parts.next_multiple_of(self.threads.max(1));
         }
-        let interior: Vec<f64> = (1..parts)
-            .map(|k| weyl_between(lo, upper.0, k as f64 / parts as f64))
+        // the counts ν at which the slices should end, and how far a bound may miss one
+        let want: Vec<f64> = (1..parts)
+            .map(|k| nu_lo as f64 + (total * k) as f64 / parts as f64)
             .collect();
-        // (bound, ν) ascending, ends included; the lower end is −∞ when None
-        let mut bounds = vec![lower.unwrap_or((f64::NEG_INFINITY, 0))];
-        bounds.extend(self.count(&interior)?);
-        bounds.push(upper);
-        for _ in 0..6 {
-            let crowded: Vec<f64> = bounds
-                .windows(2)
-                .filter(|w| w[1].1 - w[0].1 > size + size / 4)
-                .map(|w| weyl_between(w[0].0, w[1].0, 0.5))
-                .collect();
-            if crowded.is_empty() {
+        let slack = (total as f64 / parts as f64 / 8.0).max(1.0);
+        // counted points (λ, ν), ascending; the lower end of a bottom band as (0, 0), for
+        // the interpolation only
+        let mut known = vec![(lo, nu_lo), upper];
+        let mut guesses: Vec<f64> = want.iter().map(|&w| interpolate(&known, w)).collect();
+        for _ in 0..COUNT_ROUNDS {
+            guesses.retain(|g| known.iter().all(|k| k.0 != *g));
+            if guesses.is_empty() {
                 break;
             }
-            bounds.extend(self.count(&crowded)?);
-            bounds.sort_by(|a, b| a.0.total_cmp(&b.0));
+            known.extend(self.count(&guesses)?);
+            known.sort_by(|a, b| a.0.total_cmp(&b.0));
+            guesses = want
+                .iter()
+                .filter(|&&w| (nearest(&known, w).1 as f64 - w).abs() > slack)
+                .map(|&w| interpolate(&known, w))
+                .collect();
         }
-        // end a slice at a bound only when the next segment would overfill it (merges
-        // neighbours that together stay within the target size)
-        let mut kept = vec![bounds[0]];
-        for i in 1..bounds.len() - 1 {
-            let start = kept[kept.len() - 1];
-            if bounds[i + 1].1 - start.1 > size && bounds[i].1 > start.1 {
-                kept.push(bounds[i]);
+        let mut bounds = vec![lower.unwrap_or((f64::NEG_INFINITY, 0))];
+        for &w in &want {
+            let b = nearest(&known, w);
+            if b.1 > bounds[bounds.len() - 1].1 && b.1 < upper.1 {
+                bounds.push(b);
             }
         }
-        kept.push(upper);
-        Ok(kept
+        bounds.push(upper);
+        Ok(bounds
             .windows(2)
             .filter(|w| w[1].1 > w[0].1)
             .map(|w| Target {
@@ -394,6 +398,41 @@ impl<'b> Slicer<'b> {
             },
         })
     }
+}
+
+/// Rounds of counts that place the slice bounds (each round counts the bounds still off their
+/// share by more than an eighth of a slice, in parallel).
+const COUNT_ROUNDS: usize = 4;
+
+/// Where ν reaches `want`, interpolated between the counted points (ascending λ) that bracket
+/// it, linearly in λ^{3/2} (Weyl's law for a 3-D body; on other bodies the next round's count
+/// corrects it, the bracket shrinking each round).
+fn interpolate(known: &[(f64, usize)], want: f64) -> f64 {
+    let above = known
+        .iter()
+        .position(|k| k.1 as f64 >= want)
+        .unwrap_or(known.len() - 1);
+    let below = above.saturating_sub(1);
+    let ((la, na), (lb, nb)) = (known[below], known[above]);
+    if nb <= na {
+        return 0.5 * (la + lb);
+    }
+    let t = ((want - na as f64) / (nb - na) as f64).clamp(0.0, 1.0);
+    // strictly inside the bracket: a bound on a counted point adds nothing
+    weyl_between(la, lb, t.clamp(0.05, 0.95))
+}
+
+/// The counted point whose ν is nearest `want` (the lowest λ among equals).
+fn nearest(known: &[(f64, usize)], want: f64) -> (f64, usize) {
+    known
+        .iter()
+        .copied()
+        .min_by(|a, b| {
+            (a.1 as f64 - want)
+                .abs()
+                .total_cmp(&(b.1 as f64 - want).abs())
+        })
+        .unwrap_or((0.0, 0))
 }
 
 /// The point a fraction `t` of the way from λ = `a` to `b` in λ^{3/2} (negative λ as 0): where
