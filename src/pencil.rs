@@ -20,6 +20,19 @@ use faer::{c64, Mat, MatMut, MatRef};
 use std::borrow::Cow;
 use std::sync::OnceLock;
 
+/// Columns per pass of [`Pencil::mul_to`] over the matrix.
+const BLOCK: usize = 4;
+
+/// A column as a block of width 1.
+fn cast(x: &[f64]) -> &[[f64; 1]] {
+    bytemuck::cast_slice(x)
+}
+
+/// A column as a block of width 1, to write.
+fn cast_mut(y: &mut [f64]) -> &mut [[f64; 1]] {
+    bytemuck::cast_slice_mut(y)
+}
+
 /// One coefficient matrix of the pencil A(s) = s²M + sD + K.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Coefficient {
@@ -103,14 +116,18 @@ impl Rows {
         Some(Rows { ptr, col, val })
     }
 
-    /// y ← X x, each row summed in ascending columns.
-    fn product(&self, x: &[f64], y: &mut [f64]) {
+    /// y ← X x for W interleaved columns, each row summed in ascending columns.
+    fn product<const W: usize>(&self, x: &[[f64; W]], y: &mut [[f64; W]]) {
         for (i, yi) in y.iter_mut().enumerate() {
             let r = self.ptr[i]..self.ptr[i + 1];
-            *yi = self.col[r.clone()]
-                .iter()
-                .zip(&self.val[r])
-                .fold(0.0, |s, (&c, &a)| s + a * x[c as usize]);
+            let mut sum = [0.0; W];
+            for (&c, &a) in self.col[r.clone()].iter().zip(&self.val[r]) {
+                let xc = x[c as usize];
+                for k in 0..W {
+                    sum[k] += a * xc[k];
+                }
+            }
+            *yi = sum;
         }
     }
 }
@@ -264,50 +281,62 @@ impl Pencil {
     }
 
     /// y ← X·x for X ∈ {M, K, D} symmetric, stored by its lower triangle: each off-diagonal
-    /// entry a_ij (i > j) adds a_ij x_j to y_i and a_ij x_i to y_j. Cost O(nnz · columns),
-    /// the columns on rayon's threads (the projection's M V and K V, the Krylov space's M W).
+    /// entry a_ij (i > j) adds a_ij x_j to y_i and a_ij x_i to y_j. Cost O(nnz · columns):
+    /// the columns go [`BLOCK`] at a time through one pass over the matrix, the blocks on
+    /// rayon's threads (the projection's M V and K V, the eigenpairs' residuals, the Krylov
+    /// space's M W). Every column's sums are those of a product with that column alone.
     pub fn mul_to(&self, which: Coefficient, x: MatRef<'_, f64>, mut y: MatMut<'_, f64>) {
         use rayon::prelude::*;
         let vals = self.values(which);
         // one contiguous column (the eigensolver's M x, once per Krylov step): in place
         if let (1, Some(xc)) = (x.ncols(), x.col(0).try_as_col_major()) {
             if let Some(yc) = y.as_mut().col_mut(0).try_as_col_major_mut() {
-                self.symmetric_product(which, &vals, xc.as_slice(), yc.as_slice_mut());
+                let (xs, ys) = (xc.as_slice(), yc.as_slice_mut());
+                self.block_product::<1>(which, &vals, cast(xs), cast_mut(ys));
                 return;
             }
         }
-        // columns in parallel, as many at a time as rayon has threads (each into its own
-        // buffer, so the extra memory is N per thread; every column's sums are the same)
-        let width = rayon::current_num_threads().max(1);
-        for c0 in (0..x.ncols()).step_by(width) {
-            let cols: Vec<Vec<f64>> = (c0..(c0 + width).min(x.ncols()))
-                .into_par_iter()
-                .map(|col| {
-                    let mut out = vec![0.0; self.n];
-                    match x.col(col).try_as_col_major() {
-                        Some(c) => self.symmetric_product(which, &vals, c.as_slice(), &mut out),
-                        None => {
-                            let xc: Vec<f64> = x.col(col).iter().copied().collect();
-                            self.symmetric_product(which, &vals, &xc, &mut out);
+        // as many blocks at a time as rayon has threads, each into its own interleaved
+        // buffers (the extra memory is 2·N·BLOCK per thread)
+        let (n, ncols) = (self.n, x.ncols());
+        let width = BLOCK * rayon::current_num_threads().max(1);
+        for c0 in (0..ncols).step_by(width) {
+            let starts: Vec<usize> = (c0..(c0 + width).min(ncols)).step_by(BLOCK).collect();
+            let blocks: Vec<Vec<[f64; BLOCK]>> = starts
+                .par_iter()
+                .map(|&b0| {
+                    let mut xb = vec![[0.0; BLOCK]; n];
+                    for c in 0..BLOCK.min(ncols - b0) {
+                        for (row, v) in xb.iter_mut().zip(x.col(b0 + c).iter()) {
+                            row[c] = *v;
                         }
                     }
-                    out
+                    let mut yb = vec![[0.0; BLOCK]; n];
+                    self.block_product::<BLOCK>(which, &vals, &xb, &mut yb);
+                    yb
                 })
                 .collect();
-            for (k, yc) in cols.iter().enumerate() {
-                y.as_mut()
-                    .col_mut(c0 + k)
-                    .iter_mut()
-                    .zip(yc)
-                    .for_each(|(d, s)| *d = *s);
+            for (&b0, yb) in starts.iter().zip(&blocks) {
+                for c in 0..BLOCK.min(ncols - b0) {
+                    for (d, s) in y.as_mut().col_mut(b0 + c).iter_mut().zip(yb) {
+                        *d = s[c];
+                    }
+                }
             }
         }
     }
 
-    /// y ← X x for one contiguous column, X given by its lower values `vals`: row j of X is
-    /// summed in ascending columns, as a product with both triangles would sum it. M is
-    /// multiplied by its own rows ([`Rows`]; the same sums without the union pattern's zeros).
-    fn symmetric_product(&self, which: Coefficient, vals: &[f64], x: &[f64], y: &mut [f64]) {
+    /// y ← X x for W interleaved columns (row i of the block is `x[i]`), X given by its lower
+    /// values `vals`: row j of X is summed in ascending columns, as a product with both
+    /// triangles would sum it. M is multiplied by its own rows ([`Rows`]; the same sums
+    /// without the union pattern's zeros).
+    fn block_product<const W: usize>(
+        &self,
+        which: Coefficient,
+        vals: &[f64],
+        x: &[[f64; W]],
+        y: &mut [[f64; W]],
+    ) {
         if which == Coefficient::Mass {
             let rows = self
                 .mass_rows
@@ -321,15 +350,20 @@ impl Pencil {
     }
 
     /// y ← X x on the union pattern's lower triangle: each entry adds to two rows.
-    fn scatter_product(&self, vals: &[f64], x: &[f64], y: &mut [f64]) {
-        y.fill(0.0);
+    fn scatter_product<const W: usize>(&self, vals: &[f64], x: &[[f64; W]], y: &mut [[f64; W]]) {
+        y.fill([0.0; W]);
         for j in 0..self.n {
             let xj = x[j];
             let range = self.col_ptr[j]..self.col_ptr[j + 1];
             for (&i, &a) in self.row_idx[range.clone()].iter().zip(&vals[range]) {
-                y[i] += a * xj;
+                for c in 0..W {
+                    y[i][c] += a * xj[c];
+                }
                 if i != j {
-                    y[j] += a * x[i];
+                    let xi = x[i];
+                    for c in 0..W {
+                        y[j][c] += a * xi[c];
+                    }
                 }
             }
         }
@@ -584,8 +618,8 @@ mod tests {
             // M by its own rows: the union pattern's sums without its zeros, to the bit
             let (xc, mut by_rows, mut scattered) = (x.col(0).to_owned(), vec![0.0; n], vec![0.0; n]);
             let xs: Vec<f64> = xc.iter().copied().collect();
-            pencil.symmetric_product(Coefficient::Mass, &pencil.m, &xs, &mut by_rows);
-            pencil.scatter_product(&pencil.m, &xs, &mut scattered);
+            pencil.block_product(Coefficient::Mass, &pencil.m, cast(&xs), cast_mut(&mut by_rows));
+            pencil.scatter_product(&pencil.m, cast(&xs), cast_mut(&mut scattered));
             prop_assert_eq!(by_rows, scattered);
             // the rows skip the union pattern's zeros of M (its components do not couple)
             let full = 2 * pencil.nnz() - n;

@@ -39,6 +39,10 @@ pub struct BenchArgs {
     /// `modes`: largest N for the SciPy reference (its SuperLU fill grows fast).
     #[arg(long, default_value_t = 50_000)]
     scipy_max_n: usize,
+    /// `modes`: model directories measured after the generated bodies, comma-separated (the
+    /// tet10 parts of `python3 benches/parts.py all --out-root DIR`).
+    #[arg(long, value_delimiter = ',')]
+    models: Vec<std::path::PathBuf>,
 }
 
 struct Case {
@@ -79,7 +83,9 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     match a.what.as_str() {
         "sweep" => {}
         "reduce" => return reduce_table(a),
-        "modes" => return super::bench_modes::run(a.max_n, a.scipy_max_n, &[1, 2]),
+        "modes" => {
+            return super::bench_modes::run(a.max_n, a.scipy_max_n, &a.models, &[1, 2]);
+        }
         w => {
             return Err(Error::InvalidSetting(format!(
                 "bench '{w}': available: sweep, reduce, modes"

@@ -1,5 +1,6 @@
 //! `sparsemor bench modes`: the eigensolver table of docs/design.md §8 — the lowest c modes
-//! of generated bodies (cubes with repeated eigenvalues, the L-shaped bracket, a slender bar),
+//! of generated bodies (cubes with repeated eigenvalues, the L-shaped bracket, a slender bar)
+//! and of model directories given with `--models` (the tet10 parts of `benches/parts.py`),
 //! per phase, with the
 //! peak memory and SciPy's `eigsh` (ARPACK + SuperLU shift-invert, `benches/eigsh_reference.py`)
 //! measured in the same run on the same files. SciPy is a reference, not a dependency: when
@@ -14,7 +15,7 @@ use sparsemor::io::model_dir;
 use sparsemor::model::Model;
 use sparsemor::scene::Scene;
 use sparsemor::{memory, Error, Result};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 /// A generated body of the table.
@@ -83,14 +84,18 @@ struct Reference {
     lambdas: Vec<f64>,
 }
 
-/// Prints the table for every case with N ≤ `max_n`; SciPy runs for N ≤ `scipy_max_n`.
-pub fn run(max_n: usize, scipy_max_n: usize, threads: &[usize]) -> Result<()> {
+/// Modes asked of a model directory given with `--models`.
+const MODEL_COUNTS: [usize; 1] = [306];
+
+/// Prints the table for every case with N ≤ `max_n`, then for the model directories `models`;
+/// SciPy runs for N ≤ `scipy_max_n`.
+pub fn run(max_n: usize, scipy_max_n: usize, models: &[PathBuf], threads: &[usize]) -> Result<()> {
     let scipy = Command::new("python3")
         .args(["-c", "import scipy"])
         .status()
         .is_ok_and(|s| s.success());
-    println!("| model | N | modes | threads | slices | factorizations | inertia counts s | factor s | Krylov s | wall s | peak RSS | SciPy eigsh s | sparsemor ÷ SciPy | max rel. λ diff vs SciPy |");
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("| model | N | modes | threads | slices | factorizations | solves per mode | restarts | inertia counts s | factor s | Krylov s | wall s | peak RSS | SciPy eigsh s | sparsemor ÷ SciPy | max rel. λ diff vs SciPy |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let tmp = std::env::temp_dir().join(format!("sparsemor-bench-modes-{}", std::process::id()));
     for (name, body3d, counts) in CASES {
         let Some((model, scene)) = body3d.generate(max_n)? else {
@@ -102,49 +107,88 @@ pub fn run(max_n: usize, scipy_max_n: usize, threads: &[usize]) -> Result<()> {
             model_dir::write(&dir, &model, &scene)?;
         }
         let body = Body::new(&model)?;
+        let case = Measured {
+            name,
+            body: &body,
+            band_end_hz: scene.band_hz[1],
+            scipy_dir: use_scipy.then_some(dir.as_path()),
+        };
         for &c in counts {
-            let reference = if use_scipy {
-                Some(eigsh(&dir, c)?)
-            } else {
-                None
-            };
-            for &t in threads {
-                memory::reset_peak_rss();
-                // as `modes` does: the first shift from the scene's band end
-                let opts = EigenOptions {
-                    threads: t,
-                    ..EigenOptions::for_band(scene.band_hz[1])
-                };
-                let m = eigenpairs(&body, Request::Lowest(c), &opts)?;
-                let peak = memory::peak_rss_bytes().unwrap_or(0);
-                let st = &m.stats;
-                let (scipy_s, ratio, diff) = match &reference {
-                    Some(r) => (
-                        format!("{:.2}", r.seconds),
-                        format!("{:.3}", st.wall_s / r.seconds),
-                        format!("{:.1e}", max_rel_diff(&m, &r.lambdas)),
-                    ),
-                    None => ("—".into(), "—".into(), "—".into()),
-                };
-                println!(
-                    "| {name} | {} | {c} | {t} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {} | {scipy_s} | {ratio} | {diff} |",
-                    model.n(),
-                    st.slices.len(),
-                    st.factorizations,
-                    st.count_s,
-                    st.factor_s,
-                    st.iterate_s,
-                    st.wall_s,
-                    human_bytes(peak as f64),
-                );
-            }
+            case.rows(c, threads)?;
         }
     }
     let _ = std::fs::remove_dir_all(&tmp);
+    for dir in models {
+        let (body, scene) = model_dir::read_body(dir)?;
+        if body.n() > max_n {
+            continue;
+        }
+        let name = dir.file_name().map_or_else(
+            || dir.display().to_string(),
+            |f| f.to_string_lossy().into_owned(),
+        );
+        let case = Measured {
+            name: &name,
+            body: &body,
+            band_end_hz: scene.band_hz[1],
+            scipy_dir: (scipy && body.n() <= scipy_max_n).then_some(dir.as_path()),
+        };
+        for c in MODEL_COUNTS {
+            case.rows(c, threads)?;
+        }
+    }
     Ok(())
 }
 
-/// Largest relative difference of the deformation eigenvalues (rigid ones excluded).
+/// One body of the table: its name, the body, the scene's band end (the first shift, as
+/// `modes` takes it) and the model directory SciPy reads, if it runs.
+struct Measured<'a> {
+    name: &'a str,
+    body: &'a Body,
+    band_end_hz: f64,
+    scipy_dir: Option<&'a Path>,
+}
+
+impl Measured<'_> {
+    /// The rows of the c lowest modes, one per thread count.
+    fn rows(&self, c: usize, threads: &[usize]) -> Result<()> {
+        let reference = self.scipy_dir.map(|d| eigsh(d, c)).transpose()?;
+        for &t in threads {
+            memory::reset_peak_rss();
+            let opts = EigenOptions {
+                threads: t,
+                ..EigenOptions::for_band(self.band_end_hz)
+            };
+            let m = eigenpairs(self.body, Request::Lowest(c), &opts)?;
+            let peak = memory::peak_rss_bytes().unwrap_or(0);
+            let st = &m.stats;
+            let (scipy_s, ratio, diff) = match &reference {
+                Some(r) => (
+                    format!("{:.2}", r.seconds),
+                    format!("{:.3}", st.wall_s / r.seconds),
+                    format!("{:.1e}", max_rel_diff(&m, &r.lambdas)),
+                ),
+                None => ("—".into(), "—".into(), "—".into()),
+            };
+            println!(
+                "| {} | {} | {c} | {t} | {} | {} | {:.2} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {} | {scipy_s} | {ratio} | {diff} |",
+                self.name,
+                self.body.n(),
+                st.slices.len(),
+                st.factorizations,
+                st.solves as f64 / c as f64,
+                st.restarts,
+                st.count_s,
+                st.factor_s,
+                st.iterate_s,
+                st.wall_s,
+                human_bytes(peak as f64),
+            );
+        }
+        Ok(())
+    }
+}
+
 fn max_rel_diff(m: &Modes, reference: &[f64]) -> f64 {
     (m.rigid..m.lambdas.len().min(reference.len()))
         .map(|k| (m.lambdas[k] - reference[k]).abs() / reference[k].abs())

@@ -40,7 +40,7 @@ use super::options::EigenOptions;
 use crate::dense::sym_eigen;
 use crate::random::Xorshift;
 use crate::{Error, Result};
-use faer::{Mat, MatRef};
+use faer::{Mat, MatRef, Par};
 
 /// The eigenvalues one slice wants: those in (lower, upper] (λ; infinite ends allowed),
 /// `count` of them.
@@ -309,6 +309,7 @@ impl Basis {
                 self.q.as_ref().subcols(0, base),
                 self.mq.as_ref().subcols(0, base),
                 &mut w,
+                op.par,
             );
             for c in 0..bs {
                 let top = base + c;
@@ -393,7 +394,12 @@ fn fresh_vector(
     seed: u64,
 ) -> Result<()> {
     let mut w = random_vector(op.n(), seed);
-    project_out(q.as_ref().subcols(0, j), mq.as_ref().subcols(0, j), &mut w);
+    project_out(
+        q.as_ref().subcols(0, j),
+        mq.as_ref().subcols(0, j),
+        &mut w,
+        op.par,
+    );
     let mut mw = Mat::<f64>::zeros(w.nrows(), 1);
     op.mass_mul(w.as_ref(), mw.as_mut());
     let beta = (w.col(0).transpose() * mw.col(0)).max(0.0).sqrt();
@@ -411,12 +417,24 @@ fn fresh_vector(
 /// W ← W − Q (MQ)ᵀ W, twice: classical Gram–Schmidt in the M-inner product against the
 /// M-orthonormal columns of Q (MQ = M Q), with the second pass that makes it as accurate as
 /// the modified one (CGS2); returns the coefficients summed over both passes. Each pass reads
-/// Q and MQ once for all the columns of W.
-fn project_out(q: MatRef<'_, f64>, mq: MatRef<'_, f64>, w: &mut Mat<f64>) -> Mat<f64> {
-    let mut coef = mq.transpose() * &*w;
-    *w -= q * &coef;
-    let again = mq.transpose() * &*w;
-    *w -= q * &again;
+/// Q and MQ once for all the columns of W, on the threads `par` (one per slice when slices
+/// run side by side: nested parallel products only contend).
+fn project_out(q: MatRef<'_, f64>, mq: MatRef<'_, f64>, w: &mut Mat<f64>, par: Par) -> Mat<f64> {
+    use faer::linalg::matmul::matmul;
+    use faer::Accum;
+    let mut coef = Mat::<f64>::zeros(q.ncols(), w.ncols());
+    let mut again = Mat::<f64>::zeros(q.ncols(), w.ncols());
+    for c in [&mut coef, &mut again] {
+        matmul(
+            c.as_mut(),
+            Accum::Replace,
+            mq.transpose(),
+            w.as_ref(),
+            1.0,
+            par,
+        );
+        matmul(w.as_mut(), Accum::Add, q, c.as_ref(), -1.0, par);
+    }
     coef += &again;
     coef
 }

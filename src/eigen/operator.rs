@@ -25,6 +25,8 @@ pub(crate) struct ShiftInvert<'a> {
     factor: Factor<'a>,
     pencil: &'a Pencil,
     pub(crate) sigma: f64,
+    /// The threads of the factorization, also those of the iteration's dense products.
+    pub(crate) par: Par,
 }
 
 impl<'a> ShiftInvert<'a> {
@@ -57,6 +59,7 @@ impl<'a> ShiftInvert<'a> {
             factor,
             pencil,
             sigma,
+            par,
         })
     }
 

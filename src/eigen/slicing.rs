@@ -23,8 +23,9 @@
 //! - **Across slices.** Vectors of one slice are M-orthonormal by construction; two
 //!   eigenvalues on either side of a bound come from different factorizations, so their
 //!   vectors are M-orthogonal only to the accuracy of the pair (residual / gap). Where the
-//!   M-Gram block of two neighbouring slices exceeds 10⁻¹³, a Rayleigh–Ritz step on the union
-//!   of their vectors restores M-orthonormality and sharpens the pairs.
+//!   M-Gram block of two neighbouring slices exceeds 10⁻¹³, a Rayleigh–Ritz step on the vectors
+//!   of those entries (a few next to the bound) restores M-orthonormality and sharpens the
+//!   pairs.
 
 use super::krylov::{self, Target};
 use super::operator::ShiftInvert;
@@ -466,17 +467,29 @@ pub(super) fn join(body: &Body, slices: Vec<Solved>) -> Result<(Vec<f64>, Mat<f6
             v.as_ref().subcols(mid, b - mid),
         );
         let gram = left.transpose() * body.pencil().mul(Coefficient::Mass, right);
-        let worst = (0..gram.nrows())
-            .flat_map(|i| (0..gram.ncols()).map(move |j| (i, j)))
-            .map(|(i, j)| gram[(i, j)].abs())
-            .fold(0.0, f64::max);
-        if worst <= 1e-13 {
+        // the columns of a pair whose M-inner product exceeds 1e-13: a combination of them is
+        // M-orthogonal to every other column (within 1e-13 across the bound, to rounding in its
+        // own slice), so the Rayleigh–Ritz step needs only them
+        let lost = |i: usize, j: usize| gram[(i, j)].abs() > 1e-13;
+        let cols: Vec<usize> = (0..gram.nrows())
+            .filter(|&i| (0..gram.ncols()).any(|j| lost(i, j)))
+            .map(|i| a + i)
+            .chain(
+                (0..gram.ncols())
+                    .filter(|&j| (0..gram.nrows()).any(|i| lost(i, j)))
+                    .map(|j| mid + j),
+            )
+            .collect();
+        if cols.is_empty() {
             continue;
         }
-        let w = v.as_ref().subcols(a, b - a).to_owned();
+        let w = Mat::from_fn(n, cols.len(), |r, c| v[(r, cols[c])]);
         let (l, x) = rayleigh_ritz(body, &w)?;
-        lambdas[a..b].copy_from_slice(&l);
-        v.as_mut().subcols_mut(a, b - a).copy_from(&x);
+        // the columns are ascending and the new pairs too: each keeps its place in the order
+        for (c, &col) in cols.iter().enumerate() {
+            lambdas[col] = l[c];
+            v.as_mut().col_mut(col).copy_from(x.col(c));
+        }
         repaired += 1;
     }
     Ok((lambdas, v, repaired))
