@@ -1,5 +1,5 @@
-//! Build script: links ARPACK only with the `arpack` feature and UMFPACK (SuiteSparse) only
-//! with the `umfpack` feature.
+//! Build script: links ARPACK only with the `arpack` feature, UMFPACK (SuiteSparse) only
+//! with the `umfpack` feature and sequential MUMPS only with the `mumps` feature.
 //!
 //! Without the features nothing is linked, so a default build needs no system library.
 //!
@@ -21,6 +21,8 @@ fn main() {
     if std::env::var_os("CARGO_FEATURE_ARPACK").is_some() {
         println!("cargo:rustc-link-lib=arpack");
     }
+    #[cfg(feature = "mumps")]
+    mumps();
     if std::env::var_os("CARGO_FEATURE_UMFPACK").is_none() {
         return;
     }
@@ -71,4 +73,63 @@ fn main() {
     println!(
         "cargo:warning=umfpack.h not found (set UMFPACK_INCLUDE_DIR); assuming the UMFPACK 5.x ABI"
     );
+}
+
+/// With the `mumps` feature: links the sequential MUMPS of Debian's `libmumps-seq-dev`
+/// (`zmumps_seq`, `dmumps_seq` and their common, PORD and MPI-stub libraries; `MUMPS_LIB_DIR`
+/// adds a search path) and generates the declarations of `zmumps_c`, `dmumps_c` and their
+/// structures from the installed headers with bindgen (the structures change between MUMPS
+/// versions, so they are read, not written by hand). `MUMPS_INCLUDE_DIR` names the directory
+/// of `zmumps_c.h`, else /usr/include; the sequential `mpi.h` stub is looked for in
+/// `MUMPS_SEQ_INCLUDE_DIR`, else /usr/include/mumps_seq.
+#[cfg(feature = "mumps")]
+fn mumps() {
+    for var in [
+        "MUMPS_LIB_DIR",
+        "MUMPS_INCLUDE_DIR",
+        "MUMPS_SEQ_INCLUDE_DIR",
+    ] {
+        println!("cargo:rerun-if-env-changed={var}");
+    }
+    if let Some(dir) = std::env::var_os("MUMPS_LIB_DIR") {
+        println!(
+            "cargo:rustc-link-search=native={}",
+            PathBuf::from(dir).display()
+        );
+    }
+    for lib in [
+        "zmumps_seq",
+        "dmumps_seq",
+        "mumps_common_seq",
+        "pord_seq",
+        "mpiseq_seq",
+    ] {
+        println!("cargo:rustc-link-lib={lib}");
+    }
+    let include =
+        std::env::var_os("MUMPS_INCLUDE_DIR").map_or("/usr/include".into(), PathBuf::from);
+    let seq = std::env::var_os("MUMPS_SEQ_INCLUDE_DIR")
+        .map_or_else(|| include.join("mumps_seq"), PathBuf::from);
+    let header = "#include <zmumps_c.h>\n#include <dmumps_c.h>\n";
+    let bindings = bindgen::Builder::default()
+        .header_contents("sparsemor_mumps.h", header)
+        .clang_arg(format!("-I{}", seq.display()))
+        .clang_arg(format!("-I{}", include.display()))
+        .allowlist_function("[zd]mumps_c")
+        .allowlist_type("[ZD]MUMPS_STRUC_C")
+        .derive_default(false)
+        .layout_tests(true)
+        .generate()
+        .unwrap_or_else(|e| {
+            panic!(
+                "feature mumps: could not read zmumps_c.h/dmumps_c.h in {} and mpi.h in {} ({e}); \
+                 install libmumps-seq-dev or set MUMPS_INCLUDE_DIR / MUMPS_SEQ_INCLUDE_DIR",
+                include.display(),
+                seq.display()
+            )
+        });
+    let out = PathBuf::from(std::env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
+    bindings
+        .write_to_file(out.join("mumps_bindings.rs"))
+        .expect("OUT_DIR is writable");
 }

@@ -63,6 +63,10 @@ pub struct SweepOptions {
     /// than one, the frequencies of line-fitting and of the transfer functions are spread over
     /// them. `None` = this process alone.
     pub cluster: Option<std::sync::Arc<dyn crate::distributed::Cluster>>,
+    /// A directory for the factors (backend `mumps`): each factorization is written there
+    /// and read back by its solves, so it need not fit in memory; every frequency is then
+    /// factored (the shifted Krylov space keeps its factor in memory). `None` = in core.
+    pub out_of_core: Option<std::path::PathBuf>,
 }
 
 impl SweepOptions {
@@ -99,6 +103,7 @@ impl Default for SweepOptions {
             probe_tol: DEFAULT_PROBE_TOL,
             method: SolveMethod::Auto,
             cluster: None,
+            out_of_core: None,
         }
     }
 }
@@ -401,10 +406,13 @@ impl<'a> Solver<'a> {
             )));
         }
         let threads = opts.resolved_threads();
-        let analysis =
-            Analysis::with_symbolic(body.pencil(), opts.backend, inputs.len() + 1, || {
-                body.symbolic()
-            })?;
+        let analysis = Analysis::with_storage(
+            body.pencil(),
+            opts.backend,
+            inputs.len() + 1,
+            || body.symbolic(),
+            opts.out_of_core.as_deref(),
+        )?;
         let load = match response {
             Response::Elastic => body.elastic_load(inputs),
             Response::Total => body.unit_load(inputs),
@@ -432,7 +440,7 @@ impl<'a> Solver<'a> {
                 .rigid()
                 .map(|rb| (rb.supports(), body.pencil().stiffness_diagonal_max())),
             accuracy: Mutex::new(SolveAccuracy::default()),
-            space: krylov_applies(body, response, opts.method).then(|| Mutex::new(Space::Unmade)),
+            space: krylov_applies(body, response, opts).then(|| Mutex::new(Space::Unmade)),
         })
     }
 
@@ -976,12 +984,14 @@ impl<'a> Solver<'a> {
     }
 }
 
-/// Whether a solver of `body` for `response` with `method` answers frequencies from a
-/// shifted Krylov space ([`SolveMethod::Auto`], docs/design.md §3.10): the damping is
-/// proportional, and the response is elastic or the body constrained (a free body's total
-/// response keeps its rigid part, which the space leaves out).
-pub(crate) fn krylov_applies(body: &Body, response: Response, method: SolveMethod) -> bool {
-    method == SolveMethod::Auto
+/// Whether a solver of `body` for `response` with `opts` answers frequencies from a
+/// shifted Krylov space ([`SolveMethod::Auto`], docs/design.md §3.10): the factors are kept
+/// in memory, the damping is proportional, and the response is elastic or the body
+/// constrained (a free body's total response keeps its rigid part, which the space leaves
+/// out).
+pub(crate) fn krylov_applies(body: &Body, response: Response, opts: &SweepOptions) -> bool {
+    opts.method == SolveMethod::Auto
+        && opts.out_of_core.is_none()
         && body.pencil().proportional_damping().is_some()
         && (response == Response::Elastic || body.rigid().is_none())
 }

@@ -77,6 +77,14 @@ pub struct ReduceArgs {
     /// above it a frequency is refused as numerically singular.
     #[arg(long, default_value_t = sparsemor::sweep::DEFAULT_PROBE_TOL)]
     probe_tol: f64,
+    /// Factorization backend of line-fitting's full solves: auto, ldlt, faer-lblt, faer-lu,
+    /// umfpack, mumps.
+    #[arg(long, default_value = "auto")]
+    backend: String,
+    /// Keep each factorization's factors in this directory instead of memory (backend mumps;
+    /// every frequency is then factored); its files are deleted when the run ends.
+    #[arg(long)]
+    out_of_core: Option<PathBuf>,
     /// How line-fitting's responses are computed: auto (one shifted Krylov space when the
     /// damping is proportional, each response certified by its residual; docs/design.md
     /// §3.10) or factor (factor A(iω) at every frequency).
@@ -103,6 +111,11 @@ impl ReduceArgs {
         }
         let opts = SweepOptions {
             threads: self.threads,
+            backend: self.backend.parse().map_err(|e| match e {
+                Error::InvalidSetting(m) => Error::InvalidSetting(format!("--backend: {m}")),
+                e => e,
+            })?,
+            out_of_core: self.out_of_core.clone(),
             probe_tol: self.probe_tol,
             method: self.solve.parse().map_err(|e| match e {
                 Error::InvalidSetting(m) => Error::InvalidSetting(format!("--solve: {m}")),

@@ -41,6 +41,10 @@ pub struct SweepArgs {
     /// Memory budget for concurrent factorizations in GB (default: half of available).
     #[arg(long)]
     memory_gb: Option<f64>,
+    /// Keep each factorization's factors in this directory instead of memory (backend mumps;
+    /// every frequency is then factored); its files are deleted when the sweep ends.
+    #[arg(long)]
+    out_of_core: Option<PathBuf>,
     /// How responses are computed: auto (one shifted Krylov space when the damping is
     /// proportional, each response certified by its residual; docs/design.md §3.10) or
     /// factor (factor A(iω) at every frequency).
@@ -76,6 +80,7 @@ impl SweepArgs {
             probe_tol: self.probe_tol,
             method: self.solve.parse().map_err(|e| flag("solve", e))?,
             cluster: None,
+            out_of_core: self.out_of_core.clone(),
         };
         Ok((&self.model, opts))
     }

@@ -91,7 +91,7 @@ impl<'a> Engine<'a> {
     /// Whether `response` is answered from a shifted Krylov space (one factorization for
     /// every frequency, docs/design.md §3.10) rather than a factorization per frequency.
     pub fn krylov(&self, response: Response) -> bool {
-        crate::sweep::krylov_applies(self.body, response, self.opts.method)
+        crate::sweep::krylov_applies(self.body, response, &self.opts)
     }
 
     /// `response` at the rows `outputs` at each of `freqs` from this process's shifted Krylov

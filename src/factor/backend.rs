@@ -40,6 +40,8 @@ pub enum Backend {
     FaerLu,
     /// UMFPACK (SuiteSparse), real or complex; needs the `umfpack` feature.
     Umfpack,
+    /// Sequential MUMPS, complex symmetric, in core or out of core; needs the `mumps` feature.
+    Mumps,
 }
 
 impl std::str::FromStr for Backend {
@@ -59,12 +61,13 @@ impl std::str::FromStr for Backend {
 
 impl Backend {
     /// Every backend with its names, the first the one it is shown by (`--backend`, `info`).
-    const NAMES: [(Backend, &'static [&'static str]); 5] = [
+    const NAMES: [(Backend, &'static [&'static str]); 6] = [
         (Backend::Auto, &["auto"]),
         (Backend::Ldlt, &["ldlt"]),
         (Backend::FaerLblt, &["faer-lblt", "lblt"]),
         (Backend::FaerLu, &["faer-lu", "lu"]),
         (Backend::Umfpack, &["umfpack"]),
+        (Backend::Mumps, &["mumps"]),
     ];
 
     /// The backend a factorization of an N-DoF pencil uses, `real` when it is undamped
@@ -262,7 +265,7 @@ mod tests {
         }
         let err = "x".parse::<Backend>().unwrap_err().to_string();
         assert!(
-            err.contains("backend 'x': choose auto, ldlt, faer-lblt, faer-lu or umfpack"),
+            err.contains("backend 'x': choose auto, ldlt, faer-lblt, faer-lu, umfpack or mumps"),
             "{err}"
         );
     }

@@ -16,6 +16,8 @@
 //!   for small undamped models; it blows up on 3-D pencils at 10⁵ DoF (docs/design.md
 //!   §3.1), so [`Backend::Auto`] uses it only up to [`LU_MAX_N`].
 //! - `umfpack` — **UMFPACK** (cargo feature `umfpack`), real or complex LU.
+//! - `mumps` — **MUMPS** (cargo feature `mumps`), sequential, complex symmetric, in core or
+//!   with its factors on disk (out of core).
 //!
 //! Beside them: `ordering` (AMD, a level-set bisection or METIS nested dissection, whichever
 //! fills least, the bisection within 5 %, [`symbolic_cholesky_ordered`]), `cholesky` (the real
@@ -36,6 +38,8 @@ mod inertia;
 mod lblt;
 mod ldlt;
 mod lu;
+#[cfg(feature = "mumps")]
+mod mumps;
 mod ordering;
 mod pattern;
 mod refine;
@@ -57,16 +61,24 @@ use crate::Result;
 use backend::{try_vec, Analysed, Factorization, SymbolicFactorization, SymbolicN, Values};
 use faer::sparse::linalg::cholesky::SymbolicCholesky;
 use faer::{c64, MatMut, Par};
+use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
 
-/// The registry: the analysis of each backend (after [`Backend::resolved`]).
+/// The registry: the analysis of each backend (after [`Backend::resolved`]); `out_of_core`
+/// is the directory of the factors, for the backends that can keep them on disk.
 fn analyse(
     backend: Backend,
     pencil: &Pencil,
     symbolic_n: SymbolicN<'_>,
     max_rhs: usize,
+    out_of_core: Option<&Path>,
 ) -> Result<Analysed> {
+    if out_of_core.is_some() && backend != Backend::Mumps {
+        return Err(crate::Error::InvalidSetting(format!(
+            "out-of-core factors need backend mumps (--backend mumps), not {backend}"
+        )));
+    }
     match backend {
         Backend::Ldlt => ldlt::analyse(pencil, symbolic_n()?, max_rhs),
         Backend::FaerLblt => lblt::analyse(pencil, symbolic_n()?, max_rhs),
@@ -77,6 +89,14 @@ fn analyse(
         Backend::Umfpack => Err(crate::Error::InvalidSetting(
             "backend umfpack: this build has no UMFPACK; rebuild with `--features umfpack` \
              (needs libsuitesparse-dev)"
+                .into(),
+        )),
+        #[cfg(feature = "mumps")]
+        Backend::Mumps => mumps::analyse(pencil, out_of_core),
+        #[cfg(not(feature = "mumps"))]
+        Backend::Mumps => Err(crate::Error::InvalidSetting(
+            "backend mumps: this build has no MUMPS; rebuild with `--features mumps` \
+             (needs libmumps-seq-dev and libclang-dev)"
                 .into(),
         )),
         Backend::Auto => unreachable!("resolved before the registry is asked"),
@@ -135,6 +155,22 @@ impl Analysis {
         max_rhs: usize,
         symbolic_n: impl FnOnce() -> Result<Arc<SymbolicCholesky<usize>>>,
     ) -> Result<Self> {
+        Self::with_storage(pencil, backend, max_rhs, symbolic_n, None)
+    }
+
+    /// As [`Self::with_symbolic`], with the factors kept in the directory `out_of_core` when
+    /// given (backend `mumps` only).
+    ///
+    /// # Errors
+    /// As [`Self::new`]; [`Error::InvalidSetting`](crate::Error::InvalidSetting) for a
+    /// directory with another backend or one that does not exist.
+    pub fn with_storage(
+        pencil: &Pencil,
+        backend: Backend,
+        max_rhs: usize,
+        symbolic_n: impl FnOnce() -> Result<Arc<SymbolicCholesky<usize>>>,
+        out_of_core: Option<&Path>,
+    ) -> Result<Self> {
         let start = Instant::now();
         let n = pencil.n();
         let real = pencil.is_real();
@@ -143,6 +179,7 @@ impl Analysis {
             pencil,
             Box::new(symbolic_n),
             max_rhs,
+            out_of_core,
         )?;
         let backend = symbolic.backend();
         Ok(Analysis {

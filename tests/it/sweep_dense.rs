@@ -106,6 +106,84 @@ fn umfpack_undamped_matches_dense() {
     check(Damping::None, Backend::Umfpack, 2);
 }
 
+#[cfg(feature = "mumps")]
+#[test]
+fn mumps_damped_and_undamped_match_dense() {
+    let rayleigh = Damping::Rayleigh {
+        alpha: 0.5,
+        beta: 1e-5,
+    };
+    for damping in [rayleigh, Damping::None] {
+        check(damping, Backend::Mumps, 2);
+    }
+}
+
+/// Out of core, MUMPS writes the factors to the directory and reads them back in the solves:
+/// the same transfer functions as dense solves (every frequency factored: out of core no
+/// shifted Krylov space is made), and the directory is empty afterwards.
+#[cfg(feature = "mumps")]
+#[test]
+fn mumps_out_of_core_matches_dense_and_leaves_no_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = random_model(
+        400,
+        7,
+        11,
+        Damping::Rayleigh {
+            alpha: 0.5,
+            beta: 1e-5,
+        },
+    );
+    let opts = SweepOptions {
+        backend: Backend::Mumps,
+        threads: 2,
+        out_of_core: Some(dir.path().to_path_buf()),
+        ..Default::default()
+    };
+    let freqs = random_freqs(6, 1.0, 400.0, 5);
+    assert_sweep_matches_dense(&model, &random_scene(400), &freqs, &opts, 1e-9);
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}
+
+/// An out-of-core directory needs the MUMPS backend, and it must exist.
+#[test]
+fn out_of_core_with_another_backend_or_no_directory_is_refused() {
+    let model = random_model(60, 3, 11, Damping::None);
+    let body = sparsemor::body::Body::new(&model).unwrap();
+    let scene = random_scene(60);
+    let missing = std::env::temp_dir().join("sparsemor-no-such-ooc-dir");
+    let backends: &[(Backend, &str)] = if cfg!(feature = "mumps") {
+        &[
+            (Backend::Ldlt, "backend mumps"),
+            (Backend::Mumps, "not an existing directory"),
+        ]
+    } else {
+        &[
+            (Backend::Ldlt, "backend mumps"),
+            (Backend::Mumps, "--features mumps"),
+        ]
+    };
+    for &(backend, says) in backends {
+        let opts = SweepOptions {
+            backend,
+            out_of_core: Some(missing.clone()),
+            ..Default::default()
+        };
+        let err = sparsemor::frf::transfer_function(
+            &body,
+            &scene,
+            &[10.0],
+            sparsemor::frf::Part::Total,
+            false,
+            &opts,
+            &sparsemor::sweep::no_progress,
+        )
+        .err()
+        .expect("refused");
+        assert!(err.to_string().contains(says), "{backend}: {err}");
+    }
+}
+
 /// A frequency-parallel sweep gives the numbers of a one-thread sweep, bit for bit. A worker
 /// that runs out of frequencies lends its thread to the phases the others start after that
 /// (factorization, solves, residuals), and each phase computes the same numbers on any

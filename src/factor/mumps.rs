@@ -1,0 +1,349 @@
+//! The MUMPS backend (cargo feature `mumps`, docs/design.md §3.1): the complex-symmetric
+//! multifrontal LDLᵀ of sequential MUMPS 5 (`zmumps_c`, SYM = 2: symmetric with pivoting),
+//! in core or **out of core**: with a directory the factors are written there as they are
+//! computed and read back by the solves (ICNTL(22) = 1), so only the active fronts stay in
+//! memory, and a body whose factor does not fit the machine can still be swept.
+//!
+//! - **Input**: the pencil's lower pattern, 1-based, assembled and centralized (ICNTL(5) = 0,
+//!   ICNTL(18) = 0); the values of A(iω) gathered per frequency; METIS ordering (ICNTL(7) = 5).
+//! - **Analysis**: [`analyse`] runs MUMPS's analysis once on a scratch instance to read what it
+//!   predicts — factor entries (INFOG(3)) and the memory of one factorization in core or out of
+//!   core (INFOG(17) / INFOG(27)) — for the sweep's memory budget. Each numeric factorization
+//!   is its own MUMPS instance, which analyses the pattern again at its first factorization and
+//!   refactors with new values after that.
+//! - **Singularity**: null pivots are detected (ICNTL(24) = 1) and a factorization with one is
+//!   refused as singular, as MUMPS's own numerically-singular status (INFOG(1) = −10); the
+//!   sweep's probe solve checks every factorization as for the other backends. MUMPS reports
+//!   no pivot ratio, so [`Factorization::pivot_ratio`] is NaN.
+//! - **One call at a time**: MUMPS's out-of-core layer keeps its files in process-global C
+//!   state (`mumps_io_basic.c`), so every call into MUMPS holds one lock; two sweep workers then
+//!   take turns (MUMPS's own BLAS may use threads).
+//! - **Errors**: a negative INFOG(1) becomes [`Error::Factor`] with MUMPS's code, INFOG(2) and
+//!   what to change (memory, the out-of-core directory); no MUMPS output is printed
+//!   (ICNTL(1..4)).
+//! - **Files**: an instance deletes its out-of-core files when it is dropped (JOB = −2).
+
+#[allow(
+    non_camel_case_types,
+    non_snake_case,
+    non_upper_case_globals,
+    dead_code,
+    clippy::all
+)]
+mod sys {
+    include!(concat!(env!("OUT_DIR"), "/mumps_bindings.rs"));
+}
+
+use super::backend::{Analysed, Backend, Factorization, Footprint, SymbolicFactorization, Values};
+use super::pattern;
+use crate::pencil::Pencil;
+use crate::{Error, Result};
+use faer::{c64, MatMut, Par};
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+/// `comm_fortran` of a sequential MUMPS instance (MUMPS's `USE_COMM_WORLD`).
+const USE_COMM_WORLD: i32 = -987_654;
+
+/// Every call into MUMPS holds this lock (module doc).
+static MUMPS: Mutex<()> = Mutex::new(());
+
+/// The analysis: the 1-based lower pattern MUMPS reads, where the out-of-core factors go,
+/// and what MUMPS's own analysis predicted.
+struct Symbolic {
+    n: i32,
+    irn: Vec<i32>,
+    jcn: Vec<i32>,
+    out_of_core: Option<PathBuf>,
+}
+
+/// Analyses the pencil's pattern for MUMPS (`out_of_core`: the directory of the factors).
+///
+/// # Errors
+/// [`Error::InvalidSetting`] when N or the pattern exceeds MUMPS's 32-bit indices, or the
+/// directory does not exist; [`Error::Factor`] when MUMPS's analysis fails.
+pub(super) fn analyse(pencil: &Pencil, out_of_core: Option<&Path>) -> Result<Analysed> {
+    let n = i32::try_from(pencil.n()).map_err(|_| {
+        Error::InvalidSetting(format!(
+            "backend mumps: N = {} exceeds MUMPS's 32-bit indices",
+            pencil.n()
+        ))
+    })?;
+    if let Some(dir) = out_of_core {
+        if !dir.is_dir() {
+            return Err(Error::InvalidSetting(format!(
+                "out-of-core directory {}: not an existing directory; create it (the factors are written there)",
+                dir.display()
+            )));
+        }
+    }
+    let lower = pattern::lower(pencil);
+    let (mut irn, mut jcn) = (Vec::new(), Vec::new());
+    for j in 0..pencil.n() {
+        for &i in lower.row_idx_of_col_raw(j) {
+            irn.push(i as i32 + 1);
+            jcn.push(j as i32 + 1);
+        }
+    }
+    let symbolic = Symbolic {
+        n,
+        irn,
+        jcn,
+        out_of_core: out_of_core.map(Path::to_path_buf),
+    };
+    // MUMPS's analysis on a scratch instance: what one factorization will take
+    let mut scratch = Instance::new(&symbolic)?;
+    scratch.run(1, "analysis")?;
+    let infog = |k: usize| scratch.id.infog[k - 1];
+    // INFOG(3): estimated entries of the factors (negative: millions)
+    let entries = scaled(infog(3), 1);
+    // INFOG(17) / INFOG(27): MB of one factorization in core / out of core
+    let megabytes = scaled(
+        if symbolic.out_of_core.is_some() {
+            infog(27)
+        } else {
+            infog(17)
+        },
+        1,
+    );
+    let footprint = Footprint {
+        factor_nnz: entries,
+        bytes: megabytes * 1_000_000,
+    };
+    drop(scratch);
+    Ok((Box::new(symbolic), footprint))
+}
+
+/// A MUMPS count: k·unit when k ≥ 0, |k| millions when negative (MUMPS's convention for
+/// counts beyond 32 bits).
+fn scaled(k: i32, unit: usize) -> usize {
+    if k >= 0 {
+        k as usize * unit
+    } else {
+        k.unsigned_abs() as usize * 1_000_000
+    }
+}
+
+impl SymbolicFactorization for Symbolic {
+    fn backend(&self) -> Backend {
+        Backend::Mumps
+    }
+
+    fn numeric(&self) -> Result<Box<dyn Factorization + '_>> {
+        Ok(Box::new(Numeric {
+            instance: Instance::new(self)?,
+            values: Vec::new(),
+            analysed: false,
+            factored: false,
+        }))
+    }
+}
+
+/// One MUMPS instance on a [`Symbolic`] pattern: the C structure, boxed (MUMPS keeps its
+/// address between calls), and the pattern it points to.
+struct Instance<'a> {
+    id: Box<sys::ZMUMPS_STRUC_C>,
+    symbolic: &'a Symbolic,
+    /// The out-of-core directory as a C string (MUMPS copies it at each call).
+    ooc_dir: Option<Vec<u8>>,
+}
+
+// SAFETY: the structure's pointers refer to the pattern of `symbolic` (shared, read-only),
+// to this instance's own buffers, or to MUMPS's internal memory, which is used by one call
+// at a time under the lock `MUMPS`; nothing is tied to the creating thread.
+unsafe impl Send for Instance<'_> {}
+
+impl<'a> Instance<'a> {
+    /// A new MUMPS instance (JOB = −1) with sparsemor's controls.
+    fn new(symbolic: &'a Symbolic) -> Result<Self> {
+        // SAFETY: ZMUMPS_STRUC_C is a plain C structure of integers, reals, pointers and
+        // character arrays; all zeros is the state MUMPS expects before JOB = −1.
+        let id: Box<sys::ZMUMPS_STRUC_C> = Box::new(unsafe { std::mem::zeroed() });
+        let ooc_dir = match &symbolic.out_of_core {
+            Some(dir) => {
+                let bytes = dir.as_os_str().as_encoded_bytes().to_vec();
+                if bytes.len() >= 255 || bytes.contains(&0) {
+                    return Err(Error::InvalidSetting(format!(
+                        "out-of-core directory {}: MUMPS takes paths of at most 254 bytes",
+                        dir.display()
+                    )));
+                }
+                Some(bytes)
+            }
+            None => None,
+        };
+        let mut inst = Instance {
+            id,
+            symbolic,
+            ooc_dir,
+        };
+        inst.id.par = 1;
+        inst.id.sym = 2;
+        inst.id.comm_fortran = USE_COMM_WORLD;
+        inst.run(-1, "initialization")?;
+        let icntl = &mut inst.id.icntl;
+        // no output streams: library code never prints
+        icntl[0] = -1;
+        icntl[1] = -1;
+        icntl[2] = -1;
+        icntl[3] = 0;
+        // METIS ordering on the pattern alone (no value-based matching or compression, so the
+        // scratch analysis needs no values), null-pivot detection, out of core when asked
+        icntl[5] = 0;
+        icntl[6] = 5;
+        icntl[11] = 1;
+        icntl[23] = 1;
+        icntl[21] = i32::from(inst.ooc_dir.is_some());
+        let s = inst.symbolic;
+        inst.id.n = s.n;
+        inst.id.nnz = s.irn.len() as i64;
+        inst.id.nz = i32::try_from(s.irn.len()).unwrap_or(0);
+        // MUMPS reads the pattern through mutable pointers but does not write it
+        inst.id.irn = s.irn.as_ptr().cast_mut();
+        inst.id.jcn = s.jcn.as_ptr().cast_mut();
+        Ok(inst)
+    }
+
+    /// Runs JOB = `job` ("what" names it in an error).
+    fn run(&mut self, job: i32, what: &str) -> Result<()> {
+        if let Some(dir) = &self.ooc_dir {
+            let dst = &mut self.id.ooc_tmpdir;
+            dst.fill(0);
+            for (d, &b) in dst.iter_mut().zip(dir) {
+                *d = b as _;
+            }
+        }
+        self.id.job = job;
+        {
+            let _one = MUMPS.lock().unwrap_or_else(|p| p.into_inner());
+            // SAFETY: `id` was zeroed and initialized by JOB = −1 before any other job; its
+            // pointers (pattern, values, right-hand side) are valid for the lengths set
+            // (n, nnz, nrhs·lrhs) during the call; one call at a time (the lock).
+            unsafe { sys::zmumps_c(&mut *self.id) };
+        }
+        let (info1, info2) = (self.id.infog[0], self.id.infog[1]);
+        if info1 < 0 {
+            return Err(Error::Factor(describe(what, info1, info2)));
+        }
+        Ok(())
+    }
+}
+
+impl Drop for Instance<'_> {
+    fn drop(&mut self) {
+        // JOB = −2 frees MUMPS's memory and deletes the out-of-core files; the pointers into
+        // buffers that may be gone are cleared first (MUMPS does not read them here)
+        self.id.a = std::ptr::null_mut();
+        self.id.rhs = std::ptr::null_mut();
+        let _ = self.run(-2, "termination");
+    }
+}
+
+/// MUMPS's error code `info1` (INFOG(1)) with INFOG(2), in words, with what to change.
+fn describe(what: &str, info1: i32, info2: i32) -> String {
+    let why = match info1 {
+        -8 | -9 | -14 | -15 | -17 | -20 => {
+            "its work arrays were too small; MUMPS sizes them from its analysis, so this pencil \
+             needs more memory than estimated"
+        }
+        -13 => "a memory allocation failed; lower --memory-gb's share or use --out-of-core DIR",
+        -10 => "the matrix is numerically singular (a frequency at an undamped eigenfrequency?)",
+        -90..=-70 => {
+            "out-of-core file I/O failed: is the directory writable, with room for the factors?"
+        }
+        _ => "see the MUMPS user guide, INFO(1)",
+    };
+    format!("MUMPS {what} failed: INFOG(1) = {info1}, INFOG(2) = {info2}: {why}")
+}
+
+/// One numeric factorization: its instance, the values it factors (MUMPS reads them at
+/// each factorization) and where it is in its life.
+struct Numeric<'a> {
+    instance: Instance<'a>,
+    values: Vec<sys::mumps_double_complex>,
+    analysed: bool,
+    factored: bool,
+}
+
+impl Factorization for Numeric<'_> {
+    fn factor(&mut self, a: &Values<'_>, freq_hz: f64, _: Par) -> Result<()> {
+        self.factored = false;
+        let nnz = self.instance.symbolic.irn.len();
+        if self.values.len() != nnz {
+            self.values
+                .try_reserve_exact(nnz)
+                .map_err(|_| Error::Factor(format!("cannot allocate {nnz} matrix entries")))?;
+            self.values
+                .resize(nnz, sys::mumps_double_complex { r: 0.0, i: 0.0 });
+        }
+        for (p, v) in self.values.iter_mut().enumerate() {
+            let e = a.entry(p);
+            *v = sys::mumps_double_complex { r: e.re, i: e.im };
+        }
+        self.instance.id.a = self.values.as_mut_ptr();
+        let job = if self.analysed { 2 } else { 4 };
+        match self.instance.run(job, "factorization") {
+            Ok(()) => {}
+            Err(e) if self.instance.id.infog[0] == -10 => {
+                return Err(Error::Singular {
+                    freq_hz,
+                    detail: format!("{e}"),
+                })
+            }
+            Err(e) => return Err(e),
+        }
+        self.analysed = true;
+        // INFOG(28): null pivots found (ICNTL(24) = 1)
+        let null_pivots = self.instance.id.infog[27];
+        if null_pivots > 0 {
+            return Err(Error::Singular {
+                freq_hz,
+                detail: format!("MUMPS found {null_pivots} null pivot(s) (INFOG(28))"),
+            });
+        }
+        self.factored = true;
+        Ok(())
+    }
+
+    fn solve(&mut self, mut rhs: MatMut<'_, c64>, _: Par) {
+        assert!(self.factored, "solve only after a successful factorization");
+        let (n, k) = (rhs.nrows(), rhs.ncols());
+        let mut b: Vec<sys::mumps_double_complex> = (0..k)
+            .flat_map(|c| (0..n).map(move |i| (i, c)))
+            .map(|(i, c)| sys::mumps_double_complex {
+                r: rhs[(i, c)].re,
+                i: rhs[(i, c)].im,
+            })
+            .collect();
+        let id = &mut self.instance.id;
+        id.rhs = b.as_mut_ptr();
+        id.nrhs = k as i32;
+        id.lrhs = n as i32;
+        // a solve of a successful factorization fails only on out-of-core I/O; the probe
+        // column then is not solved either and the sweep refuses the frequency
+        if self.instance.run(3, "solve").is_err() {
+            b.iter_mut().for_each(|v| {
+                *v = sys::mumps_double_complex {
+                    r: f64::NAN,
+                    i: f64::NAN,
+                }
+            });
+        }
+        self.instance.id.rhs = std::ptr::null_mut();
+        for c in 0..k {
+            for i in 0..n {
+                let v = b[c * n + i];
+                rhs[(i, c)] = c64::new(v.r, v.i);
+            }
+        }
+    }
+
+    fn pivot_ratio(&self) -> f64 {
+        f64::NAN
+    }
+
+    fn reads_arrays(&self) -> bool {
+        // the values are copied into MUMPS's layout from the pencil directly
+        false
+    }
+}
