@@ -169,7 +169,7 @@ fn out_of_core_with_another_backend_or_no_directory_is_refused() {
             out_of_core: Some(missing.clone()),
             ..Default::default()
         };
-        let err = sparsemor::frf::transfer_function(
+        let Err(err) = sparsemor::frf::transfer_function(
             &body,
             &scene,
             &[10.0],
@@ -177,9 +177,9 @@ fn out_of_core_with_another_backend_or_no_directory_is_refused() {
             false,
             &opts,
             &sparsemor::sweep::no_progress,
-        )
-        .err()
-        .expect("refused");
+        ) else {
+            panic!("{backend}: an out-of-core directory was not refused");
+        };
         assert!(err.to_string().contains(says), "{backend}: {err}");
     }
 }
