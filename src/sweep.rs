@@ -406,13 +406,36 @@ impl<'a> Solver<'a> {
             )));
         }
         let threads = opts.resolved_threads();
-        let analysis = Analysis::with_storage(
-            body.pencil(),
-            opts.backend,
-            inputs.len() + 1,
-            || body.symbolic(),
-            opts.out_of_core.as_deref(),
-        )?;
+        let memory_budget = opts
+            .memory_budget
+            .unwrap_or_else(|| crate::memory::default_budget(2));
+        let analyse = |dir: Option<&std::path::Path>| {
+            Analysis::with_storage(
+                body.pencil(),
+                opts.backend,
+                inputs.len() + 1,
+                || body.symbolic(),
+                dir,
+            )
+        };
+        let mut analysis = analyse(opts.out_of_core.as_deref())?;
+        // MUMPS's estimate of one factorization in core exceeds the budget: its factors go to
+        // the temporary directory (and every frequency is factored, see `krylov_applies`)
+        let spill = opts.out_of_core.is_none()
+            && analysis.stats().backend == Backend::Mumps
+            && analysis.stats().bytes_per_factor > memory_budget;
+        let spilled;
+        let opts = if spill {
+            let dir = std::env::temp_dir();
+            analysis = analyse(Some(&dir))?;
+            spilled = SweepOptions {
+                out_of_core: Some(dir),
+                ..opts.clone()
+            };
+            &spilled
+        } else {
+            opts
+        };
         let load = match response {
             Response::Elastic => body.elastic_load(inputs),
             Response::Total => body.unit_load(inputs),
@@ -423,9 +446,6 @@ impl<'a> Solver<'a> {
         if let Some(rb) = body.rigid() {
             rb.project_response(probe.as_mut());
         }
-        let memory_budget = opts
-            .memory_budget
-            .unwrap_or_else(|| crate::memory::default_budget(2));
         Ok(Solver {
             body,
             analysis,

@@ -140,7 +140,12 @@ pub fn sweep(a: &SweepArgs, verbose: bool, cluster: Option<Arc<dyn Cluster>>) ->
                 "backend {} ({}), symbolic {:.3} s, factor nnz {}, {:?}, factor min/mean/max {:.4}/{:.4}/{:.4} s, mean solve {:.4} s, worst probe error {:.1e}, \
                  worst backward error {worst_backward:.1e}, refined {refined} of {} frequencies ({steps} steps), {pivoted} handed to the pivoting LBLᵀ",
                 s.backend,
-                if s.real { "real" } else { "complex" },
+                match (s.real, s.out_of_core) {
+                    (true, false) => "real",
+                    (false, false) => "complex",
+                    (true, true) => "real, factors out of core",
+                    (false, true) => "complex, factors out of core",
+                },
                 s.seconds,
                 s.factor_nnz,
                 sch,

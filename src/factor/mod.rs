@@ -115,8 +115,11 @@ pub struct SymbolicStats {
     /// Stored entries of the factor (scalars of the factorized matrix; 0 if the backend
     /// reports it only after the numeric phase).
     pub factor_nnz: usize,
-    /// Estimated bytes of one numeric factorization incl. workspace.
+    /// Estimated bytes of one numeric factorization incl. workspace (in memory: out of core,
+    /// without the factors on disk).
     pub bytes_per_factor: usize,
+    /// True when the factors are kept on disk (backend `mumps`).
+    pub out_of_core: bool,
 }
 
 /// The once-per-model part of the factorization: ordering and symbolic analysis.
@@ -194,6 +197,7 @@ impl Analysis {
                 seconds: start.elapsed().as_secs_f64(),
                 factor_nnz: footprint.factor_nnz,
                 bytes_per_factor: footprint.bytes,
+                out_of_core: out_of_core.is_some(),
             },
         })
     }

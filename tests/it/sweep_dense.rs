@@ -145,6 +145,36 @@ fn mumps_out_of_core_matches_dense_and_leaves_no_file() {
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
 }
 
+/// MUMPS whose in-core factorization exceeds the memory budget keeps its factors on disk
+/// by itself (in the temporary directory) and says so in the analysis' statistics.
+#[cfg(feature = "mumps")]
+#[test]
+fn mumps_over_the_memory_budget_goes_out_of_core() {
+    use sparsemor::frf::{transfer_function, Part};
+    let model = random_model(400, 7, 11, Damping::None);
+    let body = sparsemor::body::Body::new(&model).unwrap();
+    let scene = random_scene(400);
+    let freqs = random_freqs(3, 1.0, 400.0, 5);
+    let run = |budget: Option<usize>| {
+        let opts = SweepOptions {
+            backend: Backend::Mumps,
+            memory_budget: budget,
+            ..Default::default()
+        };
+        let progress = &sparsemor::sweep::no_progress;
+        transfer_function(&body, &scene, &freqs, Part::Total, false, &opts, progress).unwrap()
+    };
+    let (in_core, on_disk) = (run(None), run(Some(1)));
+    assert!(!in_core.symbolic.as_ref().unwrap().out_of_core);
+    assert!(on_disk.symbolic.as_ref().unwrap().out_of_core);
+    let opts = SweepOptions {
+        backend: Backend::Mumps,
+        memory_budget: Some(1),
+        ..Default::default()
+    };
+    assert_sweep_matches_dense(&model, &scene, &freqs, &opts, 1e-9);
+}
+
 /// An out-of-core directory needs the MUMPS backend, and it must exist.
 #[test]
 fn out_of_core_with_another_backend_or_no_directory_is_refused() {
