@@ -146,6 +146,8 @@ struct Instance<'a> {
     symbolic: &'a Symbolic,
     /// The out-of-core directory as a C string (MUMPS copies it at each call).
     ooc_dir: Option<Vec<u8>>,
+    /// JOB = −1 succeeded: MUMPS holds memory (and files) that JOB = −2 releases.
+    initialized: bool,
 }
 
 // SAFETY: the structure's pointers refer to the pattern of `symbolic` (shared, read-only),
@@ -176,11 +178,13 @@ impl<'a> Instance<'a> {
             id,
             symbolic,
             ooc_dir,
+            initialized: false,
         };
         inst.id.par = 1;
         inst.id.sym = 2;
         inst.id.comm_fortran = USE_COMM_WORLD;
         inst.run(-1, "initialization")?;
+        inst.initialized = true;
         let icntl = &mut inst.id.icntl;
         // no output streams: library code never prints
         icntl[0] = -1;
@@ -233,6 +237,9 @@ impl Drop for Instance<'_> {
     fn drop(&mut self) {
         // JOB = −2 frees MUMPS's memory and deletes the out-of-core files; the pointers into
         // buffers that may be gone are cleared first (MUMPS does not read them here)
+        if !self.initialized {
+            return;
+        }
         self.id.a = std::ptr::null_mut();
         self.id.rhs = std::ptr::null_mut();
         let _ = self.run(-2, "termination");
