@@ -85,6 +85,10 @@ pub struct ReduceArgs {
     /// every frequency is then factored); its files are deleted when the run ends.
     #[arg(long)]
     out_of_core: Option<PathBuf>,
+    /// Memory budget of line-fitting's factorizations and Krylov space in GB (default: half
+    /// of available); backend mumps goes out of core when one factorization exceeds it.
+    #[arg(long)]
+    memory_gb: Option<f64>,
     /// How line-fitting's responses are computed: auto (one shifted Krylov space when the
     /// damping is proportional, each response certified by its residual; docs/design.md
     /// §3.10) or factor (factor A(iω) at every frequency).
@@ -116,6 +120,7 @@ impl ReduceArgs {
                 e => e,
             })?,
             out_of_core: self.out_of_core.clone(),
+            memory_budget: self.memory_gb.map(|g| (g * 1e9) as usize),
             probe_tol: self.probe_tol,
             method: self.solve.parse().map_err(|e| match e {
                 Error::InvalidSetting(m) => Error::InvalidSetting(format!("--solve: {m}")),
