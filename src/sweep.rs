@@ -29,7 +29,7 @@
 //! there (docs/design.md §3.1).
 
 use crate::body::Body;
-use crate::factor::{Analysis, Backend, Numeric, SymbolicStats};
+use crate::factor::{Analysis, Backend, Numeric, Storage, SymbolicStats};
 use crate::multishift::{ShiftedSpace, GROW_TO};
 pub use crate::multishift::{CERTIFIED_BACKWARD_ERROR, CERTIFIED_RELATIVE_RESIDUAL};
 use crate::random::Xorshift;
@@ -409,33 +409,17 @@ impl<'a> Solver<'a> {
         let memory_budget = opts
             .memory_budget
             .unwrap_or_else(|| crate::memory::default_budget(2));
-        let analyse = |dir: Option<&std::path::Path>| {
-            Analysis::with_storage(
-                body.pencil(),
-                opts.backend,
-                inputs.len() + 1,
-                || body.symbolic(),
-                dir,
-            )
+        let storage = Storage {
+            dir: opts.out_of_core.as_deref(),
+            budget: memory_budget,
         };
-        let mut analysis = analyse(opts.out_of_core.as_deref())?;
-        // MUMPS's estimate of one factorization in core exceeds the budget: its factors go to
-        // the temporary directory (and every frequency is factored, see `krylov_applies`)
-        let spill = opts.out_of_core.is_none()
-            && analysis.stats().backend == Backend::Mumps
-            && analysis.stats().bytes_per_factor > memory_budget;
-        let spilled;
-        let opts = if spill {
-            let dir = std::env::temp_dir();
-            analysis = analyse(Some(&dir))?;
-            spilled = SweepOptions {
-                out_of_core: Some(dir),
-                ..opts.clone()
-            };
-            &spilled
-        } else {
-            opts
-        };
+        let analysis = Analysis::with_storage(
+            body.pencil(),
+            opts.backend,
+            inputs.len() + 1,
+            || body.symbolic(),
+            storage,
+        )?;
         let load = match response {
             Response::Elastic => body.elastic_load(inputs),
             Response::Total => body.unit_load(inputs),

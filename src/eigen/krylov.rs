@@ -313,32 +313,27 @@ impl Basis {
             );
             for c in 0..bs {
                 let top = base + c;
-                // against the block's earlier columns, twice (they are few)
-                let mut inner = vec![0.0; c];
-                for _ in 0..2 {
-                    for (d, x) in inner.iter_mut().enumerate() {
-                        let r = self.mq.col(base + d).transpose() * w.col(c);
-                        w.col_mut(c)
-                            .iter_mut()
-                            .zip(self.q.col(base + d).iter())
-                            .for_each(|(a, b)| *a -= r * b);
-                        *x += r;
-                    }
-                }
-                op.mass_mul(w.as_ref().subcols(c, 1), mw.as_mut());
-                let beta = (w.col(c).transpose() * mw.col(0)).max(0.0).sqrt();
-                let projected =
-                    coef.col(c).squared_norm_l2() + inner.iter().map(|x| x * x).sum::<f64>();
+                // then against the block's earlier columns
+                let mut wc = w.as_ref().subcols(c, 1).to_owned();
+                let inner = project_out(
+                    self.q.as_ref().subcols(base, c),
+                    self.mq.as_ref().subcols(base, c),
+                    &mut wc,
+                    Par::Seq,
+                );
+                op.mass_mul(wc.as_ref(), mw.as_mut());
+                let beta = (wc.col(0).transpose() * mw.col(0)).max(0.0).sqrt();
+                let projected = coef.col(c).squared_norm_l2() + inner.squared_norm_l2();
                 let norm0 = (projected + beta * beta).sqrt();
                 for i in nl..base {
                     self.h[(i, j + c)] = coef[(i, c)];
                 }
-                for (d, x) in inner.iter().enumerate() {
-                    self.h[(base + d, j + c)] = *x;
+                for d in 0..c {
+                    self.h[(base + d, j + c)] = inner[(d, 0)];
                 }
                 if beta > 1e-12 * norm0 {
                     self.h[(top, j + c)] = beta;
-                    self.q.as_mut().col_mut(top).copy_from(w.col(c) / beta);
+                    self.q.as_mut().col_mut(top).copy_from(wc.col(0) / beta);
                     self.mq.as_mut().col_mut(top).copy_from(mw.col(0) / beta);
                 } else {
                     // S q ∈ span Q: an invariant subspace; go on from a fresh direction

@@ -418,9 +418,9 @@ fn interpolate(known: &[(f64, usize)], want: f64) -> f64 {
     if nb <= na {
         return 0.5 * (la + lb);
     }
-    let t = ((want - na as f64) / (nb - na) as f64).clamp(0.0, 1.0);
     // strictly inside the bracket: a bound on a counted point adds nothing
-    weyl_between(la, lb, t.clamp(0.05, 0.95))
+    let t = ((want - na as f64) / (nb - na) as f64).clamp(0.05, 0.95);
+    weyl_between(la, lb, t)
 }
 
 /// The counted point whose ν is nearest `want` (the lowest λ among equals).

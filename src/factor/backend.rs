@@ -129,6 +129,10 @@ pub(super) trait SymbolicFactorization: Send + Sync {
     fn pivoting_structure(&self) -> Option<Arc<SymbolicCholesky<usize>>> {
         None
     }
+    /// Whether the factors are kept on disk (MUMPS out of core).
+    fn out_of_core(&self) -> bool {
+        false
+    }
 }
 
 /// A backend's analysis with what it predicts for one numeric factorization.

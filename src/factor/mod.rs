@@ -65,16 +65,34 @@ use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
 
-/// The registry: the analysis of each backend (after [`Backend::resolved`]); `out_of_core`
-/// is the directory of the factors, for the backends that can keep them on disk.
+/// Where an analysis' factorizations keep their factors.
+#[derive(Clone, Copy, Debug)]
+pub struct Storage<'a> {
+    /// A directory for the factors (backend `mumps` only); `None`: in memory while one
+    /// factorization fits `budget`.
+    pub dir: Option<&'a Path>,
+    /// Bytes one factorization may take in memory; beyond it MUMPS keeps its factors in the
+    /// temporary directory (the other backends have no such choice).
+    pub budget: usize,
+}
+
+impl Storage<'_> {
+    /// In memory, whatever the size.
+    pub const IN_CORE: Storage<'static> = Storage {
+        dir: None,
+        budget: usize::MAX,
+    };
+}
+
+/// The registry: the analysis of each backend (after [`Backend::resolved`]).
 fn analyse(
     backend: Backend,
     pencil: &Pencil,
     symbolic_n: SymbolicN<'_>,
     max_rhs: usize,
-    out_of_core: Option<&Path>,
+    storage: Storage<'_>,
 ) -> Result<Analysed> {
-    if out_of_core.is_some() && backend != Backend::Mumps {
+    if storage.dir.is_some() && backend != Backend::Mumps {
         return Err(crate::Error::InvalidSetting(format!(
             "out-of-core factors need backend mumps (--backend mumps), not {backend}"
         )));
@@ -92,7 +110,7 @@ fn analyse(
                 .into(),
         )),
         #[cfg(feature = "mumps")]
-        Backend::Mumps => mumps::analyse(pencil, out_of_core),
+        Backend::Mumps => mumps::analyse(pencil, storage),
         #[cfg(not(feature = "mumps"))]
         Backend::Mumps => Err(crate::Error::InvalidSetting(
             "backend mumps: this build has no MUMPS; rebuild with `--features mumps` \
@@ -158,11 +176,10 @@ impl Analysis {
         max_rhs: usize,
         symbolic_n: impl FnOnce() -> Result<Arc<SymbolicCholesky<usize>>>,
     ) -> Result<Self> {
-        Self::with_storage(pencil, backend, max_rhs, symbolic_n, None)
+        Self::with_storage(pencil, backend, max_rhs, symbolic_n, Storage::IN_CORE)
     }
 
-    /// As [`Self::with_symbolic`], with the factors kept in the directory `out_of_core` when
-    /// given (backend `mumps` only).
+    /// As [`Self::with_symbolic`], with the factors kept where `storage` says.
     ///
     /// # Errors
     /// As [`Self::new`]; [`Error::InvalidSetting`](crate::Error::InvalidSetting) for a
@@ -172,7 +189,7 @@ impl Analysis {
         backend: Backend,
         max_rhs: usize,
         symbolic_n: impl FnOnce() -> Result<Arc<SymbolicCholesky<usize>>>,
-        out_of_core: Option<&Path>,
+        storage: Storage<'_>,
     ) -> Result<Self> {
         let start = Instant::now();
         let n = pencil.n();
@@ -182,9 +199,9 @@ impl Analysis {
             pencil,
             Box::new(symbolic_n),
             max_rhs,
-            out_of_core,
+            storage,
         )?;
-        let backend = symbolic.backend();
+        let (backend, out_of_core) = (symbolic.backend(), symbolic.out_of_core());
         Ok(Analysis {
             symbolic,
             pivoting: std::sync::OnceLock::new(),
@@ -197,7 +214,7 @@ impl Analysis {
                 seconds: start.elapsed().as_secs_f64(),
                 factor_nnz: footprint.factor_nnz,
                 bytes_per_factor: footprint.bytes,
-                out_of_core: out_of_core.is_some(),
+                out_of_core,
             },
         })
     }

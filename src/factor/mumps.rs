@@ -22,6 +22,8 @@
 //!   what to change (memory, the out-of-core directory); no MUMPS output is printed
 //!   (ICNTL(1..4)).
 //! - **Files**: an instance deletes its out-of-core files when it is dropped (JOB = −2).
+//! - **Automatic**: without a directory, an analysis whose in-core estimate of one
+//!   factorization exceeds the memory budget keeps the factors in the temporary directory.
 
 #[allow(
     non_camel_case_types,
@@ -35,7 +37,7 @@ mod sys {
 }
 
 use super::backend::{Analysed, Backend, Factorization, Footprint, SymbolicFactorization, Values};
-use super::pattern;
+use super::{pattern, Storage};
 use crate::pencil::Pencil;
 use crate::{Error, Result};
 use faer::{c64, MatMut, Par};
@@ -57,12 +59,15 @@ struct Symbolic {
     out_of_core: Option<PathBuf>,
 }
 
-/// Analyses the pencil's pattern for MUMPS (`out_of_core`: the directory of the factors).
+/// Analyses the pencil's pattern for MUMPS, with its factors in `storage.dir`, or in the
+/// temporary directory when MUMPS's in-core estimate of one factorization exceeds
+/// `storage.budget`.
 ///
 /// # Errors
 /// [`Error::InvalidSetting`] when N or the pattern exceeds MUMPS's 32-bit indices, or the
 /// directory does not exist; [`Error::Factor`] when MUMPS's analysis fails.
-pub(super) fn analyse(pencil: &Pencil, out_of_core: Option<&Path>) -> Result<Analysed> {
+pub(super) fn analyse(pencil: &Pencil, storage: Storage<'_>) -> Result<Analysed> {
+    let out_of_core = storage.dir;
     let n = i32::try_from(pencil.n()).map_err(|_| {
         Error::InvalidSetting(format!(
             "backend mumps: N = {} exceeds MUMPS's 32-bit indices",
@@ -85,32 +90,32 @@ pub(super) fn analyse(pencil: &Pencil, out_of_core: Option<&Path>) -> Result<Ana
             jcn.push(j as i32 + 1);
         }
     }
-    let symbolic = Symbolic {
+    let mut symbolic = Symbolic {
         n,
         irn,
         jcn,
         out_of_core: out_of_core.map(Path::to_path_buf),
     };
-    // MUMPS's analysis on a scratch instance: what one factorization will take
-    let mut scratch = Instance::new(&symbolic)?;
-    scratch.run(1, "analysis")?;
-    let infog = |k: usize| scratch.id.infog[k - 1];
-    // INFOG(3): estimated entries of the factors (negative: millions)
-    let entries = scaled(infog(3), 1);
-    // INFOG(17) / INFOG(27): MB of one factorization in core / out of core
-    let megabytes = scaled(
-        if symbolic.out_of_core.is_some() {
-            infog(27)
-        } else {
-            infog(17)
-        },
-        1,
-    );
+    // MUMPS's analysis on a scratch instance: what one factorization will take. INFOG(3):
+    // entries of the factors; INFOG(17) / INFOG(27): MB of one factorization in core / out of
+    // core (negative: millions)
+    let (entries, in_core, on_disk) = {
+        let mut scratch = Instance::new(&symbolic)?;
+        scratch.run(1, "analysis")?;
+        let infog = |k: usize| scaled(scratch.id.infog[k - 1], 1);
+        (infog(3), infog(17) * 1_000_000, infog(27) * 1_000_000)
+    };
+    if symbolic.out_of_core.is_none() && in_core > storage.budget {
+        symbolic.out_of_core = Some(std::env::temp_dir());
+    }
     let footprint = Footprint {
         factor_nnz: entries,
-        bytes: megabytes * 1_000_000,
+        bytes: if symbolic.out_of_core.is_some() {
+            on_disk
+        } else {
+            in_core
+        },
     };
-    drop(scratch);
     Ok((Box::new(symbolic), footprint))
 }
 
@@ -129,10 +134,15 @@ impl SymbolicFactorization for Symbolic {
         Backend::Mumps
     }
 
+    fn out_of_core(&self) -> bool {
+        self.out_of_core.is_some()
+    }
+
     fn numeric(&self) -> Result<Box<dyn Factorization + '_>> {
         Ok(Box::new(Numeric {
             instance: Instance::new(self)?,
             values: Vec::new(),
+            rhs: Vec::new(),
             analysed: false,
             factored: false,
         }))
@@ -268,6 +278,8 @@ fn describe(what: &str, info1: i32, info2: i32) -> String {
 struct Numeric<'a> {
     instance: Instance<'a>,
     values: Vec<sys::mumps_double_complex>,
+    /// The right-hand sides, column after column (MUMPS solves them in place).
+    rhs: Vec<sys::mumps_double_complex>,
     analysed: bool,
     factored: bool,
 }
@@ -315,13 +327,16 @@ impl Factorization for Numeric<'_> {
     fn solve(&mut self, mut rhs: MatMut<'_, c64>, _: Par) {
         assert!(self.factored, "solve only after a successful factorization");
         let (n, k) = (rhs.nrows(), rhs.ncols());
-        let mut b: Vec<sys::mumps_double_complex> = (0..k)
-            .flat_map(|c| (0..n).map(move |i| (i, c)))
-            .map(|(i, c)| sys::mumps_double_complex {
-                r: rhs[(i, c)].re,
-                i: rhs[(i, c)].im,
-            })
-            .collect();
+        let b = &mut self.rhs;
+        b.clear();
+        b.extend(
+            (0..k)
+                .flat_map(|c| (0..n).map(move |i| (i, c)))
+                .map(|(i, c)| sys::mumps_double_complex {
+                    r: rhs[(i, c)].re,
+                    i: rhs[(i, c)].im,
+                }),
+        );
         let id = &mut self.instance.id;
         id.rhs = b.as_mut_ptr();
         id.nrhs = k as i32;
@@ -329,7 +344,7 @@ impl Factorization for Numeric<'_> {
         // a solve of a successful factorization fails only on out-of-core I/O; the probe
         // column then is not solved either and the sweep refuses the frequency
         if self.instance.run(3, "solve").is_err() {
-            b.iter_mut().for_each(|v| {
+            self.rhs.iter_mut().for_each(|v| {
                 *v = sys::mumps_double_complex {
                     r: f64::NAN,
                     i: f64::NAN,
@@ -339,7 +354,7 @@ impl Factorization for Numeric<'_> {
         self.instance.id.rhs = std::ptr::null_mut();
         for c in 0..k {
             for i in 0..n {
-                let v = b[c * n + i];
+                let v = self.rhs[c * n + i];
                 rhs[(i, c)] = c64::new(v.r, v.i);
             }
         }

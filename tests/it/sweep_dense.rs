@@ -146,7 +146,8 @@ fn mumps_out_of_core_matches_dense_and_leaves_no_file() {
 }
 
 /// MUMPS whose in-core factorization exceeds the memory budget keeps its factors on disk
-/// by itself (in the temporary directory) and says so in the analysis' statistics.
+/// by itself (in the temporary directory) and says so in the analysis' statistics; every
+/// frequency factored, so that the factors on disk are the ones solved with.
 #[cfg(feature = "mumps")]
 #[test]
 fn mumps_over_the_memory_budget_goes_out_of_core() {
@@ -159,6 +160,7 @@ fn mumps_over_the_memory_budget_goes_out_of_core() {
         let opts = SweepOptions {
             backend: Backend::Mumps,
             memory_budget: budget,
+            method: SolveMethod::Factored,
             ..Default::default()
         };
         let progress = &sparsemor::sweep::no_progress;
@@ -170,6 +172,7 @@ fn mumps_over_the_memory_budget_goes_out_of_core() {
     let opts = SweepOptions {
         backend: Backend::Mumps,
         memory_budget: Some(1),
+        method: SolveMethod::Factored,
         ..Default::default()
     };
     assert_sweep_matches_dense(&model, &scene, &freqs, &opts, 1e-9);
