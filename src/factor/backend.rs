@@ -95,6 +95,25 @@ impl std::fmt::Display for Backend {
     }
 }
 
+/// Where an analysis' factorizations keep their factors.
+#[derive(Clone, Copy, Debug)]
+pub struct Storage<'a> {
+    /// A directory for the factors (backend `mumps` only); `None`: in memory while one
+    /// factorization fits `budget`.
+    pub dir: Option<&'a std::path::Path>,
+    /// Bytes one factorization may take in memory; beyond it MUMPS keeps its factors in the
+    /// temporary directory (the other backends have no such choice).
+    pub budget: usize,
+}
+
+impl Storage<'_> {
+    /// In memory, whatever the size.
+    pub const IN_CORE: Storage<'static> = Storage {
+        dir: None,
+        budget: usize::MAX,
+    };
+}
+
 /// What a backend's analysis predicts for one numeric factorization.
 pub(super) struct Footprint {
     /// Stored entries of the factor (0 if known only after the numeric phase).

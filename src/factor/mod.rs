@@ -46,7 +46,7 @@ mod refine;
 #[cfg(feature = "umfpack")]
 pub mod umfpack;
 
-pub use backend::{Backend, LU_MAX_N};
+pub use backend::{Backend, Storage, LU_MAX_N};
 pub use cholesky::{reference_cholesky, symbolic_cholesky};
 pub use inertia::{count_eigenvalues_below, count_eigenvalues_below_with};
 pub use lblt::PivotStats;
@@ -61,28 +61,8 @@ use crate::Result;
 use backend::{try_vec, Analysed, Factorization, SymbolicFactorization, SymbolicN, Values};
 use faer::sparse::linalg::cholesky::SymbolicCholesky;
 use faer::{c64, MatMut, Par};
-use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
-
-/// Where an analysis' factorizations keep their factors.
-#[derive(Clone, Copy, Debug)]
-pub struct Storage<'a> {
-    /// A directory for the factors (backend `mumps` only); `None`: in memory while one
-    /// factorization fits `budget`.
-    pub dir: Option<&'a Path>,
-    /// Bytes one factorization may take in memory; beyond it MUMPS keeps its factors in the
-    /// temporary directory (the other backends have no such choice).
-    pub budget: usize,
-}
-
-impl Storage<'_> {
-    /// In memory, whatever the size.
-    pub const IN_CORE: Storage<'static> = Storage {
-        dir: None,
-        budget: usize::MAX,
-    };
-}
 
 /// The registry: the analysis of each backend (after [`Backend::resolved`]).
 fn analyse(

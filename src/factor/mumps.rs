@@ -36,8 +36,10 @@ mod sys {
     include!(concat!(env!("OUT_DIR"), "/mumps_bindings.rs"));
 }
 
-use super::backend::{Analysed, Backend, Factorization, Footprint, SymbolicFactorization, Values};
-use super::{pattern, Storage};
+use super::backend::{
+    Analysed, Backend, Factorization, Footprint, Storage, SymbolicFactorization, Values,
+};
+use super::pattern;
 use crate::pencil::Pencil;
 use crate::{Error, Result};
 use faer::{c64, MatMut, Par};
