@@ -1,5 +1,5 @@
 //! C ABI of [sparsemor](../sparsemor/index.html): model order reduction (line-fitting, SEREP)
-//! of large sparse second-order FE models, for C, C++ and Python (ctypes).
+//! of large sparse second-order FE models, for C, C++ and Python (the package in python/, over cffi).
 //!
 //! The header `ffi/include/sparsemor.h` is generated from this crate by cbindgen and checked
 //! in; `tests/header.rs` fails when it is stale (regenerate with

@@ -24,17 +24,6 @@ pub fn static_lib() -> PathBuf {
     p
 }
 
-/// `libsparsemor_ffi.so` of this build.
-pub fn shared_lib() -> PathBuf {
-    let p = lib_dir().join("libsparsemor_ffi.so");
-    assert!(
-        p.exists(),
-        "{} not found: cargo builds it with the library",
-        p.display()
-    );
-    p
-}
-
 /// A scratch directory for this test binary.
 pub fn scratch(name: &str) -> PathBuf {
     let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);

@@ -7,5 +7,4 @@ mod craig_bampton;
 mod discipline;
 mod header;
 mod import;
-mod python;
 mod readme;

@@ -1,5 +1,6 @@
-//! The README's snippets work: the C program compiles (warnings as errors) against the
-//! static library and runs; the Python snippets run when numpy/scipy (and pyMOR) are there.
+//! The README's C snippet works: the program compiles (warnings as errors) against the
+//! static library and runs. (The Python package's tests run the main README's Python
+//! snippets: python/tests/test_readme.py.)
 
 use crate::common::*;
 use std::path::Path;
@@ -66,45 +67,4 @@ fn readme_c_snippet_compiles_and_runs() {
     assert!(out.status.success());
     assert!(stdout.contains("ROM order 4"), "{stdout}");
     assert_eq!(stdout.matches("eps(").count(), 3);
-}
-
-fn python_has(modules: &str) -> bool {
-    Command::new("python3")
-        .args(["-c", &format!("import {modules}")])
-        .output()
-        .is_ok_and(|o| o.status.success())
-}
-
-fn run_python(code: &str) -> String {
-    let manifest = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let out = Command::new("python3")
-        .args(["-c", code])
-        .env("PYTHONPATH", manifest.join("python"))
-        .env("SPARSEMOR_LIB", shared_lib())
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
-    println!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
-    assert!(out.status.success(), "python snippet failed");
-    stdout
-}
-
-#[test]
-fn readme_python_snippets_run() {
-    let py = blocks("python");
-    assert_eq!(py.len(), 2, "the Python and the pyMOR snippet");
-    if !python_has("numpy, scipy") {
-        println!(
-            "NOTE: python3 with numpy and scipy not found; skipping (pip install numpy scipy)"
-        );
-        return;
-    }
-    let out = run_python(&py[0]);
-    assert!(out.contains("order 4"), "{out}");
-    if !python_has("pymor") {
-        println!("NOTE: pyMOR not installed; skipping the pyMOR snippet (pip install pymor)");
-        return;
-    }
-    let out = run_python(&format!("{}\n{}", py[0], py[1]));
-    assert!(out.contains("pyMOR: |H - Hr| / |H| ="), "{out}");
 }

@@ -1,0 +1,49 @@
+"""The package and the `sparsemor` command are one library: on the built-in bar (read by scipy
+from the files the command wrote) the Python ROM equals the command's ROM bit for bit.
+
+One thread each: with more, line-fitting's workers absorb the frequencies into their streamed
+QR factors in the order they take them, which changes the ROM by rounding from run to run."""
+
+import numpy as np
+import pytest
+
+import sparsemor
+from bar import built_in_bar, run
+
+CASES = {
+    "reference frequencies": (
+        ["--method", "linefit", "--ref-freqs", "90,300,520,800", "--extra-interface", "3"],
+        lambda m: sparsemor.reduce_linefit(m, reference_frequencies=[90, 300, 520, 800],
+                                           outputs_plus=3, threads=1)),
+    "tolerance": (
+        ["--method", "linefit", "--tol", "1e-3", "--extra-interface", "5", "--verify", "0"],
+        lambda m: sparsemor.reduce_linefit(m, tolerance=1e-3, outputs_plus=5, threads=1)),
+    "serep": (
+        ["--method", "serep", "--modes", "9"],
+        lambda m: sparsemor.reduce_serep(m, modes=9, threads=1)),
+    "craig-bampton": (
+        ["--method", "craig-bampton", "--modes", "6", "--extra-interface", "1"],
+        lambda m: sparsemor.reduce_craig_bampton(m, 6, outputs_plus=1, threads=1)),
+}
+
+
+@pytest.fixture(scope="module")
+def bar(tmp_path_factory):
+    directory = tmp_path_factory.mktemp("bar") / "bar"
+    M, K, rayleigh, nodes, scene = built_in_bar(directory)
+    model = sparsemor.Model(M, K, rayleigh=rayleigh, nodes=nodes, dofs_per_node=3)
+    model.set_scene(scene["inputs"], scene["outputs"], tuple(scene["band_hz"]))
+    return directory, model
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_python_rom_equals_the_commands_rom_bit_for_bit(bar, tmp_path, case):
+    directory, model = bar
+    args, reduce = CASES[case]
+    run("reduce", directory, *args, "--threads", "1", "--out", tmp_path / "rom")
+    cli = np.load(tmp_path / "rom" / "rom.npz")
+    rom = reduce(model)
+    print(f"{case}: order {rom.order}")
+    np.testing.assert_array_equal(rom.dofs, cli["dofs"])
+    for name in ("Mr", "Dr", "Kr", "Br", "Cr"):
+        np.testing.assert_array_equal(getattr(rom, name), cli[name], err_msg=name)
