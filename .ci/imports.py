@@ -31,7 +31,7 @@ LAYERS = [
     ("engine", ["sweep", "distributed", "frf", "eigen", "multishift"]),
     ("reduce", ["reduce"]),
     ("metrics", ["metrics"]),
-    ("output", ["io::rom_dir", "io::exudyn", "report"]),
+    ("output", ["io::rom_dir", "io::exudyn", "io::op4", "io::dmig", "io::mbdyn", "report"]),
     ("cli", ["cli", "main", "lib"]),
 ]
 

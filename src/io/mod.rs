@@ -1,5 +1,6 @@
 //! File formats (docs/design.md §4): Matrix Market, the model directory, the ROM directory, the
-//! importers of FE codes' files ([`import`]: ANSYS, Abaqus, Nastran OP4, Harwell–Boeing); the
+//! importers of FE codes' files ([`import`]: ANSYS, Abaqus, Nastran OP4, Harwell–Boeing), the
+//! OP4 writer ([`op4`]); the
 //! text toolkit their text readers share (`text`: lines, tokens, numbers, parallel line
 //! parsing); and the atomic writes all writers (and the CLI's outputs) go through.
 
@@ -10,6 +11,7 @@ pub mod import;
 pub mod matrix_market;
 pub mod model_dir;
 pub mod npz;
+pub mod op4;
 pub mod rom_dir;
 mod text;
 

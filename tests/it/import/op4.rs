@@ -1,226 +1,20 @@
-//! Nastran OP4 (io::import::nastran): round trips through a small test-side writer (ASCII and
+//! Nastran OP4 (io::import::nastran): round trips through the library writer `io::op4` (ASCII and
 //! binary, both byte orders, dense, string-sparse and BIGMAT records), the pyNastran
 //! cross-check, one test per bad-file class, and `sparsemor import` end to end.
 
 use crate::common::dense;
 use proptest::prelude::*;
 use sparsemor::fe::{bar_model, BoxSpec};
-use sparsemor::io::import::nastran::{read_op4, Encoding};
+use sparsemor::io::import::nastran::{read_op4, Encoding as Enc};
 use sparsemor::io::import::{self, Direction, Format};
+use sparsemor::io::op4::{self, columns_of_csc as columns, Layout as Lay, Matrix as Mat4};
 use sparsemor::sparse::Csc;
 use sparsemor::Error;
 use std::path::{Path, PathBuf};
 
-/// How the test writer encodes a file.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Enc {
-    Ascii,
-    Le,
-    Be,
-}
-
-/// How the test writer lays out column records.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Lay {
-    Dense,
-    Sparse,
-    BigMat,
-}
-
-/// One matrix for the writer: name, rows, cols, form, type (1 or 2), columns of (row, value)
-/// sorted by row (0-based).
-pub struct Mat4<'a> {
-    pub name: &'a str,
-    pub rows: usize,
-    pub cols: Vec<Vec<(usize, f64)>>,
-    pub form: i32,
-    pub ty: i32,
-}
-
-/// Columns of a CSC matrix; with `lower`, only the lower triangle.
-pub fn columns(a: &Csc, lower: bool) -> Vec<Vec<(usize, f64)>> {
-    (0..a.ncols())
-        .map(|j| {
-            a.row_idx_of_col_raw(j)
-                .iter()
-                .copied()
-                .zip(a.val_of_col(j))
-                .filter(|(i, _)| !lower || *i >= j)
-                .map(|(i, &v)| (i, v))
-                .collect()
-        })
-        .collect()
-}
-
-/// Fortran `1P,E23.16` (or `E16.9`) of `v`: ` 1.2345678901234567E+00`.
-fn fortran_e(v: f64, digits: usize, width: usize) -> String {
-    let s = format!("{v:.digits$E}");
-    let (mant, exp) = s.split_once('E').unwrap();
-    let exp: i32 = exp.parse().unwrap();
-    let sign = if exp < 0 { '-' } else { '+' };
-    format!("{:>width$}", format!("{mant}E{sign}{:02}", exp.abs()))
-}
-
-/// Runs of consecutive rows of one column.
-fn runs(col: &[(usize, f64)]) -> Vec<&[(usize, f64)]> {
-    let mut out = Vec::new();
-    let mut start = 0;
-    for k in 1..=col.len() {
-        if k == col.len() || col[k].0 != col[k - 1].0 + 1 {
-            out.push(&col[start..k]);
-            start = k;
-        }
-    }
-    out
-}
-
-/// Appends `m` to `out` in OUTPUT4 layout.
+/// Appends `m` with the library writer (`io::op4`, which the ROM export uses too).
 pub fn write_op4(out: &mut Vec<u8>, m: &Mat4, enc: Enc, lay: Lay) {
-    let ncols = m.cols.len();
-    let wpv = if m.ty == 1 { 1 } else { 2 };
-    let nrows = if lay == Lay::BigMat {
-        -(m.rows as i64)
-    } else {
-        m.rows as i64
-    };
-    // (icol, irow, nw, items) where items are ints or values, in order.
-    enum It {
-        I(i64),
-        V(f64),
-    }
-    let mut recs: Vec<(usize, usize, usize, Vec<It>)> = Vec::new();
-    for (j, col) in m.cols.iter().enumerate() {
-        let col: Vec<(usize, f64)> = col.iter().copied().filter(|e| e.1 != 0.0).collect();
-        if col.is_empty() {
-            continue;
-        }
-        match lay {
-            Lay::Dense => {
-                let (first, last) = (col[0].0, col[col.len() - 1].0);
-                let mut vals = vec![0.0; last - first + 1];
-                for &(i, v) in &col {
-                    vals[i - first] = v;
-                }
-                let n = vals.len();
-                recs.push((
-                    j + 1,
-                    first + 1,
-                    n * wpv,
-                    vals.into_iter().map(It::V).collect(),
-                ));
-            }
-            Lay::Sparse | Lay::BigMat => {
-                let mut items = Vec::new();
-                let mut words = 0;
-                for r in runs(&col) {
-                    let l = (r.len() * wpv) as i64;
-                    let row = r[0].0 as i64 + 1;
-                    if lay == Lay::BigMat {
-                        items.push(It::I(l + 1));
-                        items.push(It::I(row));
-                        words += 2;
-                    } else {
-                        items.push(It::I(row + 65536 * (l + 1)));
-                        words += 1;
-                    }
-                    items.extend(r.iter().map(|e| It::V(e.1)));
-                    words += l as usize;
-                }
-                recs.push((j + 1, 0, words, items));
-            }
-        }
-    }
-    recs.push((ncols + 1, 1, wpv, vec![It::V(1.0)]));
-    match enc {
-        Enc::Ascii => {
-            let (per, digits, width, fmt) = if m.ty == 1 {
-                (5, 9, 16, "1P,5E16.9")
-            } else {
-                (3, 16, 23, "1P,3E23.16")
-            };
-            let mut s = format!(
-                "{ncols:8}{nrows:8}{:8}{:8}{:<8}{fmt}\n",
-                m.form, m.ty, m.name
-            );
-            for (icol, irow, nw, items) in recs {
-                s.push_str(&format!("{icol:8}{irow:8}{nw:8}\n"));
-                let mut line = Vec::new();
-                let mut ints = Vec::new();
-                let flush = |s: &mut String, line: &mut Vec<String>| {
-                    if !line.is_empty() {
-                        s.push_str(&line.concat());
-                        s.push('\n');
-                        line.clear();
-                    }
-                };
-                for it in items {
-                    match it {
-                        It::I(i) => {
-                            flush(&mut s, &mut line);
-                            ints.push(i);
-                            if lay != Lay::BigMat || ints.len() == 2 {
-                                s.push_str(
-                                    &ints.iter().map(|i| format!("{i:8}")).collect::<String>(),
-                                );
-                                s.push('\n');
-                                ints.clear();
-                            }
-                        }
-                        It::V(v) => {
-                            line.push(fortran_e(v, digits, width));
-                            if line.len() == per {
-                                flush(&mut s, &mut line);
-                            }
-                        }
-                    }
-                }
-                flush(&mut s, &mut line);
-            }
-            out.extend_from_slice(s.as_bytes());
-        }
-        Enc::Le | Enc::Be => {
-            let be = enc == Enc::Be;
-            let i4 = |v: i64| -> [u8; 4] {
-                let v = v as i32;
-                if be {
-                    v.to_be_bytes()
-                } else {
-                    v.to_le_bytes()
-                }
-            };
-            let record = |out: &mut Vec<u8>, body: Vec<u8>| {
-                out.extend_from_slice(&i4(body.len() as i64));
-                out.extend_from_slice(&body);
-                out.extend_from_slice(&i4(body.len() as i64));
-            };
-            let mut h = Vec::new();
-            for v in [ncols as i64, nrows, m.form as i64, m.ty as i64] {
-                h.extend_from_slice(&i4(v));
-            }
-            h.extend_from_slice(format!("{:<8}", m.name).as_bytes());
-            record(out, h);
-            for (icol, irow, nw, items) in recs {
-                let mut b = Vec::new();
-                for v in [icol, irow, nw] {
-                    b.extend_from_slice(&i4(v as i64));
-                }
-                for it in items {
-                    match it {
-                        It::I(i) => b.extend_from_slice(&i4(i)),
-                        It::V(v) if m.ty == 1 => b.extend_from_slice(&if be {
-                            (v as f32).to_be_bytes()
-                        } else {
-                            (v as f32).to_le_bytes()
-                        }),
-                        It::V(v) => {
-                            b.extend_from_slice(&if be { v.to_be_bytes() } else { v.to_le_bytes() })
-                        }
-                    }
-                }
-                record(out, b);
-            }
-        }
-    }
+    op4::append(out, m, enc, lay).unwrap();
 }
 
 fn scratch() -> tempfile::TempDir {
@@ -245,14 +39,6 @@ fn same(a: &Csc, b: &Csc) -> bool {
         && (0..a.ncols()).all(|j| {
             a.row_idx_of_col_raw(j) == b.row_idx_of_col_raw(j) && a.val_of_col(j) == b.val_of_col(j)
         })
-}
-
-fn enc_of(e: Enc) -> Encoding {
-    match e {
-        Enc::Ascii => Encoding::Ascii,
-        Enc::Le => Encoding::BinaryLittleEndian,
-        Enc::Be => Encoding::BinaryBigEndian,
-    }
 }
 
 /// A random symmetric n×n matrix, columns of (row, value), full storage.
@@ -282,7 +68,7 @@ proptest! {
     #[test]
     fn op4_round_trip(n in 1usize..14,
                       raw in proptest::collection::vec((0usize..14, 0usize..14, -1e9f64..1e9), 0..40),
-                      enc in prop_oneof![Just(Enc::Ascii), Just(Enc::Le), Just(Enc::Be)],
+                      enc in prop_oneof![Just(Enc::Ascii), Just(Enc::BinaryLittleEndian), Just(Enc::BinaryBigEndian)],
                       lay in prop_oneof![Just(Lay::Dense), Just(Lay::Sparse), Just(Lay::BigMat)],
                       single in any::<bool>(), lower in any::<bool>(), second in any::<bool>()) {
         let full = symmetric(n, &raw, single);
@@ -293,9 +79,9 @@ proptest! {
             .collect();
         let ty = if single { 1 } else { 2 };
         let mut bytes = Vec::new();
-        write_op4(&mut bytes, &Mat4 { name: "KAA", rows: n, cols: stored.clone(), form: 6, ty }, enc, lay);
+        write_op4(&mut bytes, &Mat4 { name: "KAA", rows: n, cols: stored.clone(), form: 6, precision: ty }, enc, lay);
         if second {
-            write_op4(&mut bytes, &Mat4 { name: "MAA", rows: n, cols: full.clone(), form: 1, ty }, enc, lay);
+            write_op4(&mut bytes, &Mat4 { name: "MAA", rows: n, cols: full.clone(), form: 1, precision: ty }, enc, lay);
         }
         let tmp = scratch();
         let p = tmp.path().join("a.op4");
@@ -305,7 +91,7 @@ proptest! {
         let m = &ms[0];
         prop_assert_eq!((m.name.as_str(), m.rows, m.cols, m.form, m.precision), ("KAA", n, n, 6, ty));
         prop_assert_eq!(m.bigmat, lay == Lay::BigMat);
-        prop_assert_eq!(m.encoding, enc_of(enc));
+        prop_assert_eq!(m.encoding, enc);
         prop_assert!(same(&m.entries.clone().into_csc(n, false), &csc(n, &stored)));
         if second {
             prop_assert!(same(&ms[1].entries.clone().into_csc(n, false), &csc(n, &full)));
@@ -327,7 +113,7 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(256))]
     /// Corrupted files (bytes overwritten, the file cut) give errors, never panics.
     #[test]
-    fn op4_reader_never_panics(enc in prop_oneof![Just(Enc::Ascii), Just(Enc::Le), Just(Enc::Be)],
+    fn op4_reader_never_panics(enc in prop_oneof![Just(Enc::Ascii), Just(Enc::BinaryLittleEndian), Just(Enc::BinaryBigEndian)],
                                lay in prop_oneof![Just(Lay::Dense), Just(Lay::Sparse), Just(Lay::BigMat)],
                                edits in proptest::collection::vec((any::<usize>(), any::<u8>()), 0..6),
                                cut in any::<usize>(), cut_it in any::<bool>()) {
@@ -362,9 +148,9 @@ fn op4_import_with_assumed_and_given_dof_map() {
             rows: n,
             cols: k.clone(),
             form: 6,
-            ty: 2,
+            precision: 2,
         },
-        Enc::Be,
+        Enc::BinaryBigEndian,
         Lay::Sparse,
     );
     write_op4(
@@ -374,9 +160,9 @@ fn op4_import_with_assumed_and_given_dof_map() {
             rows: n,
             cols: m.clone(),
             form: 6,
-            ty: 2,
+            precision: 2,
         },
-        Enc::Be,
+        Enc::BinaryBigEndian,
         Lay::Sparse,
     );
     let tmp = scratch();
@@ -419,7 +205,7 @@ fn op4_import_with_assumed_and_given_dof_map() {
             rows: n,
             cols: k.clone(),
             form: 1,
-            ty: 2,
+            precision: 2,
         },
         Enc::Ascii,
         Lay::Dense,
@@ -432,9 +218,9 @@ fn op4_import_with_assumed_and_given_dof_map() {
             rows: n,
             cols: m.clone(),
             form: 6,
-            ty: 1,
+            precision: 1,
         },
-        Enc::Le,
+        Enc::BinaryLittleEndian,
         Lay::Dense,
     );
     std::fs::write(&kp, kb).unwrap();
@@ -469,7 +255,7 @@ fn small(name: &str, n: usize, enc: Enc, lay: Lay, ty: i32) -> Vec<u8> {
             rows: n,
             cols,
             form: 6,
-            ty,
+            precision: ty,
         },
         enc,
         lay,
@@ -485,7 +271,7 @@ fn op4_bad_files() {
         std::fs::write(&p, b).unwrap();
         p
     };
-    let good = small("KAA", 6, Enc::Le, Lay::Sparse, 2);
+    let good = small("KAA", 6, Enc::BinaryLittleEndian, Lay::Sparse, 2);
     // Truncated record (binary): cut inside the last column record.
     let p = write("trunc.op4", &good[..good.len() - 30]);
     expect(
@@ -518,9 +304,9 @@ fn op4_bad_files() {
         &["big_record.op4", "byte 32", "1000000 bytes"],
     );
     // A hostile header: 2^31-1 rows and columns and a handful of entries.
-    let k = small("KAA", 6, Enc::Le, Lay::BigMat, 2);
+    let k = small("KAA", 6, Enc::BinaryLittleEndian, Lay::BigMat, 2);
     let mut b = k.clone();
-    b.extend(small("MAA", 6, Enc::Le, Lay::BigMat, 2));
+    b.extend(small("MAA", 6, Enc::BinaryLittleEndian, Lay::BigMat, 2));
     let huge = i32::MAX - 1;
     for (at, end) in [(4, k.len()), (k.len() + 4, b.len())] {
         b[at..at + 4].copy_from_slice(&huge.to_le_bytes());
@@ -580,7 +366,7 @@ fn op4_bad_files() {
     );
     // K and M of different sizes.
     let mut b = good.clone();
-    b.extend(small("MAA", 12, Enc::Le, Lay::Dense, 2));
+    b.extend(small("MAA", 12, Enc::BinaryLittleEndian, Lay::Dense, 2));
     let p = write("sizes.op4", &b);
     expect(
         import::read(std::slice::from_ref(&p)).unwrap_err(),
@@ -606,8 +392,8 @@ fn op4_bad_files() {
         &["rows.op4:", "more values than the 3 rows"],
     );
     // N not a multiple of 6 and no DoF map.
-    let mut b = small("KAA", 4, Enc::Be, Lay::BigMat, 2);
-    b.extend(small("MAA", 4, Enc::Be, Lay::BigMat, 2));
+    let mut b = small("KAA", 4, Enc::BinaryBigEndian, Lay::BigMat, 2);
+    b.extend(small("MAA", 4, Enc::BinaryBigEndian, Lay::BigMat, 2));
     let p = write("nomap.op4", &b);
     expect(
         import::read(std::slice::from_ref(&p)).unwrap_err(),
@@ -749,10 +535,10 @@ fn op4_pynastran_cross_check() {
     }
     // The other direction: pyNastran reads binary files of the test writer.
     for (enc, lay) in [
-        (Enc::Le, Lay::Dense),
-        (Enc::Be, Lay::Dense),
-        (Enc::Le, Lay::Sparse),
-        (Enc::Be, Lay::Sparse),
+        (Enc::BinaryLittleEndian, Lay::Dense),
+        (Enc::BinaryBigEndian, Lay::Dense),
+        (Enc::BinaryLittleEndian, Lay::Sparse),
+        (Enc::BinaryBigEndian, Lay::Sparse),
     ] {
         let mut b = Vec::new();
         write_op4(
@@ -762,7 +548,7 @@ fn op4_pynastran_cross_check() {
                 rows: 12,
                 cols: columns(&k, false),
                 form: 6,
-                ty: 2,
+                precision: 2,
             },
             enc,
             lay,
@@ -774,7 +560,7 @@ fn op4_pynastran_cross_check() {
                 rows: 12,
                 cols: columns(&m, false),
                 form: 6,
-                ty: 2,
+                precision: 2,
             },
             enc,
             lay,
@@ -823,9 +609,9 @@ fn op4_cli_import_end_to_end() {
             rows: n,
             cols: columns(&model.stiffness, true),
             form: 6,
-            ty: 2,
+            precision: 2,
         },
-        Enc::Le,
+        Enc::BinaryLittleEndian,
         Lay::Sparse,
     );
     write_op4(
@@ -835,7 +621,7 @@ fn op4_cli_import_end_to_end() {
             rows: n,
             cols: columns(&model.mass, false),
             form: 6,
-            ty: 2,
+            precision: 2,
         },
         Enc::Ascii,
         Lay::Dense,
@@ -850,9 +636,9 @@ fn op4_cli_import_end_to_end() {
             rows: n,
             cols: columns(&model.stiffness, false),
             form: 6,
-            ty: 2,
+            precision: 2,
         },
-        Enc::Be,
+        Enc::BinaryBigEndian,
         Lay::BigMat,
     );
     write_op4(
@@ -862,9 +648,9 @@ fn op4_cli_import_end_to_end() {
             rows: n,
             cols: columns(&model.mass, true),
             form: 6,
-            ty: 2,
+            precision: 2,
         },
-        Enc::Be,
+        Enc::BinaryBigEndian,
         Lay::BigMat,
     );
     std::fs::write(&both, &bb).unwrap();
