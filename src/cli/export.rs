@@ -1,5 +1,6 @@
-//! `sparsemor export`: a ROM as a flexible body for a multibody code (docs/design.md §3.9).
-//! The elastic basis and the checks are library calls; this module prints them.
+//! `sparsemor export`: a ROM as a flexible body for a multibody code, or its matrices for
+//! Nastran (docs/design.md §3.9). The elastic basis, the checks and the writers are library
+//! calls; this module prints what they did.
 
 use super::args::hz_list;
 use super::evaluate::evaluation_band;
@@ -7,7 +8,7 @@ use super::progress::with_progress;
 use sparsemor::body::Body;
 use sparsemor::grid::linspace;
 use sparsemor::io::exudyn::{self, TransferCheck, NO_SURFACE};
-use sparsemor::io::{model_dir, rom_dir};
+use sparsemor::io::{atomic, dmig, mbdyn, model_dir, op4, rom_dir};
 use sparsemor::metrics::{ErrorCurve, Reference};
 use sparsemor::reduce::flexible::{elastic_basis, DEPENDENT_RTOL};
 use sparsemor::scene::Scene;
@@ -20,11 +21,18 @@ use std::path::PathBuf;
 pub enum Format {
     /// EXUDYN's ObjectFFRFreducedOrder (flexible_body.npz + export.toml).
     Exudyn,
+    /// Nastran OUTPUT4 ASCII file of Mr, Dr, Kr, Br, Cr (rom.op4); V not needed.
+    Op4,
+    /// Nastran DMIG bulk data of Mr, Kr, Dr by grid/component (dmig.bdf + coordinates.csv);
+    /// V not needed.
+    Dmig,
+    /// MBDyn modal joint FEM file of the elastic basis (body.fem).
+    Mbdyn,
 }
 
 #[derive(clap::Args)]
 pub struct ExportArgs {
-    /// ROM directory (reduced with --keep-basis: the export needs V).
+    /// ROM directory (reduced with --keep-basis for exudyn and mbdyn: they need V).
     rom: PathBuf,
     /// The model directory the ROM was reduced from.
     #[arg(long)]
@@ -47,10 +55,44 @@ pub struct ExportArgs {
 }
 
 pub fn export(a: &ExportArgs) -> Result<()> {
+    atomic::check_dir_free(&a.out)?;
     let (model, scene, _) = model_dir::read(&a.model)?;
     let rom = rom_dir::read(&a.rom)?;
     rom.check_model(model.n())
         .map_err(|e| Error::InvalidSetting(format!("{}: {e}", a.rom.display())))?;
+    let dof_map = model_dir::read_dof_map(&a.model)?;
+    match a.format {
+        Format::Op4 => {
+            op4::write_rom(&a.out, &rom)?;
+            println!(
+                "op4              {}: {} (ASCII, real double, 1P,3E23.16), order {}",
+                op4::ROM_FILE,
+                op4::ROM_MATRICES.map(|(n, _)| n).join(" "),
+                rom.order()
+            );
+            eprintln!("wrote {}", a.out.display());
+            return Ok(());
+        }
+        Format::Dmig => {
+            dmig::write(&a.out, &rom, &model, dof_map.as_deref())?;
+            let keys = dmig::coordinates(&rom, &model, dof_map.as_deref())?;
+            let spoints = keys.iter().filter(|c| c.dof.is_none()).count();
+            println!(
+                "dmig             {}: MAAX, KAAX{} over {} grid components and {spoints} scalar points; rows in {}",
+                dmig::BULK_FILE,
+                if rom.dr.col_iter().any(|c| c.iter().any(|&v| v != 0.0)) {
+                    ", BAAX"
+                } else {
+                    ""
+                },
+                keys.len() - spoints,
+                dmig::MAP_FILE
+            );
+            eprintln!("wrote {}", a.out.display());
+            return Ok(());
+        }
+        Format::Exudyn | Format::Mbdyn => {}
+    }
     let body = Body::new(&model)?;
     let rom_scene = Scene {
         inputs: rom.inputs.clone(),
@@ -84,7 +126,19 @@ pub fn export(a: &ExportArgs) -> Result<()> {
         }
     };
     match a.format {
-        Format::Exudyn => exudyn::write(&a.out, &model, &flex, check.as_ref())?,
+        Format::Mbdyn => {
+            mbdyn::write(&a.out, &model, &flex, dof_map.as_deref())?;
+            let rb = mbdyn::rigid_body(&model)?;
+            println!(
+                "mbdyn            {}: total mass {:.6e}, centre of mass [{:.6e}, {:.6e}, {:.6e}]",
+                mbdyn::FEM_FILE,
+                rb.mass,
+                rb.center[0],
+                rb.center[1],
+                rb.center[2]
+            );
+        }
+        _ => exudyn::write(&a.out, &model, &flex, check.as_ref())?,
     }
     println!(
         "elastic basis    {} modes from {} columns of V",
@@ -124,7 +178,9 @@ pub fn export(a: &ExportArgs) -> Result<()> {
             c.band_hz[1]
         );
     }
-    println!("surface          {NO_SURFACE}");
+    if matches!(a.format, Format::Exudyn) {
+        println!("surface          {NO_SURFACE}");
+    }
     eprintln!("wrote {}", a.out.display());
     Ok(())
 }

@@ -1,14 +1,16 @@
 //! File formats (docs/design.md §4): Matrix Market, the model directory, the ROM directory, the
 //! importers of FE codes' files ([`import`]: ANSYS, Abaqus, Nastran OP4, Harwell–Boeing), the
-//! OP4 writer ([`op4`]); the
+//! ROM exports ([`exudyn`], [`op4`], [`dmig`], [`mbdyn`]); the
 //! text toolkit their text readers share (`text`: lines, tokens, numbers, parallel line
 //! parsing); and the atomic writes all writers (and the CLI's outputs) go through.
 
 pub mod atomic;
 mod binary;
+pub mod dmig;
 pub mod exudyn;
 pub mod import;
 pub mod matrix_market;
+pub mod mbdyn;
 pub mod model_dir;
 pub mod npz;
 pub mod op4;

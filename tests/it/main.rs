@@ -8,6 +8,7 @@ mod dense;
 mod distributed;
 mod eigen;
 mod export;
+mod export_nastran;
 mod extremes;
 mod factor_ldlt;
 mod fe_bar;
