@@ -348,8 +348,8 @@ struct Run<'r, S, I, F> {
     done: AtomicUsize,
     first_error: Mutex<Option<Error>>,
     stats: Mutex<Vec<Option<FreqStats>>>,
-    /// The workers' states, handed from one phase's workers to the next's.
-    states: Mutex<Vec<S>>,
+    /// The workers' states by worker number, handed from one phase's worker w to the next's.
+    states: Mutex<Vec<Option<S>>>,
 }
 
 impl<S, I, F> Run<'_, S, I, F> {
@@ -487,8 +487,9 @@ impl<'a> Solver<'a> {
     }
 
     /// Solves at every frequency of `freqs_hz` and folds each [`Snapshot`] into a per-worker
-    /// state made by `init`; returns the states (one per worker) and per-frequency stats in the
-    /// order of `freqs_hz`.
+    /// state made by `init`; returns the states (in worker order) and per-frequency stats in
+    /// the order of `freqs_hz`. Worker w folds a fixed share of the frequencies in a fixed
+    /// order, so for a given thread count the states are the same on every run.
     ///
     /// # Errors
     /// Frequencies < 0, or ≤ 0 on a free body ([`Error::InvalidSetting`]); a numerically
@@ -583,7 +584,12 @@ impl<'a> Solver<'a> {
         stats.iter().for_each(|s| acc.add(s));
         drop(acc);
         Ok((
-            run.states.into_inner().unwrap_or_else(|p| p.into_inner()),
+            run.states
+                .into_inner()
+                .unwrap_or_else(|p| p.into_inner())
+                .into_iter()
+                .flatten()
+                .collect(),
             stats,
         ))
     }
@@ -630,18 +636,23 @@ impl<'a> Solver<'a> {
                 },
             ),
         };
-        let next = AtomicUsize::new(0);
+        // Worker w takes the items w, w + workers, ... and state w: every state absorbs the
+        // same frequencies in the same order on every run, so the result (e.g. line-fitting's
+        // streamed QR, merged in worker order) is reproducible bit for bit for a thread count.
+        {
+            let mut states = run.states.lock().unwrap_or_else(|p| p.into_inner());
+            let len = states.len().max(workers);
+            states.resize_with(len, || None);
+        }
         let failed = Mutex::new(Vec::new());
-        let worker = || {
-            let mut state = run
-                .states
-                .lock()
-                .unwrap_or_else(|p| p.into_inner())
-                .pop()
+        let worker = |w: usize| {
+            let mut state = run.states.lock().unwrap_or_else(|p| p.into_inner())[w]
+                .take()
                 .unwrap_or_else(run.init);
             let mut factored = None;
+            let mut mine = items.iter().skip(w).step_by(workers);
             while !run.stop.load(Ordering::Relaxed) {
-                let Some(&k) = items.get(next.fetch_add(1, Ordering::Relaxed)) else {
+                let Some(&k) = mine.next() else {
                     idle.fetch_add(1, Ordering::Relaxed);
                     break;
                 };
@@ -683,15 +694,13 @@ impl<'a> Solver<'a> {
                     Err(e) => run.fail(e),
                 }
             }
-            run.states
-                .lock()
-                .unwrap_or_else(|p| p.into_inner())
-                .push(state);
+            run.states.lock().unwrap_or_else(|p| p.into_inner())[w] = Some(state);
         };
+        let worker = &worker;
         crate::pool::with_pool(self.threads, || {
             rayon::scope(|s| {
-                for _ in 0..workers {
-                    s.spawn(|_| worker());
+                for w in 0..workers {
+                    s.spawn(move |_| worker(w));
                 }
             })
         })?;
