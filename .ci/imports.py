@@ -31,7 +31,8 @@ LAYERS = [
     ("engine", ["sweep", "distributed", "frf", "eigen", "multishift"]),
     ("reduce", ["reduce"]),
     ("metrics", ["metrics"]),
-    ("output", ["io::rom_dir", "io::exudyn", "io::op4", "io::dmig", "io::mbdyn", "report"]),
+    ("output", ["io::rom_dir", "io::exudyn", "io::op4", "io::dmig", "io::mbdyn", "io::sid",
+                "report"]),
     ("cli", ["cli", "main", "lib"]),
 ]
 

@@ -8,7 +8,7 @@ use super::progress::with_progress;
 use sparsemor::body::Body;
 use sparsemor::grid::linspace;
 use sparsemor::io::exudyn::{self, TransferCheck, NO_SURFACE};
-use sparsemor::io::{atomic, dmig, mbdyn, model_dir, op4, rom_dir};
+use sparsemor::io::{atomic, dmig, mbdyn, model_dir, op4, rom_dir, sid};
 use sparsemor::metrics::{ErrorCurve, Reference};
 use sparsemor::reduce::flexible::{elastic_basis, DEPENDENT_RTOL};
 use sparsemor::scene::Scene;
@@ -28,11 +28,14 @@ pub enum Format {
     Dmig,
     /// MBDyn modal joint FEM file of the elastic basis (body.fem).
     Mbdyn,
+    /// SID_FEM (Wallrapp's Standard Input Data: FEMBS, Simpack, Modelica EMBS) of the
+    /// elastic basis (body.SID_FEM).
+    Sid,
 }
 
 #[derive(clap::Args)]
 pub struct ExportArgs {
-    /// ROM directory (reduced with --keep-basis for exudyn and mbdyn: they need V).
+    /// ROM directory (reduced with --keep-basis for exudyn, mbdyn and sid: they need V).
     rom: PathBuf,
     /// The model directory the ROM was reduced from.
     #[arg(long)]
@@ -91,7 +94,7 @@ pub fn export(a: &ExportArgs) -> Result<()> {
             eprintln!("wrote {}", a.out.display());
             return Ok(());
         }
-        Format::Exudyn | Format::Mbdyn => {}
+        Format::Exudyn | Format::Mbdyn | Format::Sid => {}
     }
     let body = Body::new(&model)?;
     let rom_scene = Scene {
@@ -136,6 +139,20 @@ pub fn export(a: &ExportArgs) -> Result<()> {
                 rb.center[0],
                 rb.center[1],
                 rb.center[2]
+            );
+        }
+        Format::Sid => {
+            sid::write(&a.out, &model, &flex, dof_map.as_deref())?;
+            let rb = mbdyn::rigid_body(&model)?;
+            println!(
+                "sid              {}: total mass {:.6e}, centre of mass [{:.6e}, {:.6e}, {:.6e}], \
+                 {} nodes; inertia invariants only (no geometric stiffening)",
+                sid::SID_FILE,
+                rb.mass,
+                rb.center[0],
+                rb.center[1],
+                rb.center[2],
+                model.nodes.as_ref().map_or(0, Vec::len)
             );
         }
         _ => exudyn::write(&a.out, &model, &flex, check.as_ref())?,

@@ -1,6 +1,6 @@
 //! File formats (docs/design.md §4): Matrix Market, the model directory, the ROM directory, the
 //! importers of FE codes' files ([`import`]: ANSYS, Abaqus, Nastran OP4, Harwell–Boeing), the
-//! ROM exports ([`exudyn`], [`op4`], [`dmig`], [`mbdyn`]); the
+//! ROM exports ([`exudyn`], [`op4`], [`dmig`], [`mbdyn`], [`sid`]); the
 //! text toolkit their text readers share (`text`: lines, tokens, numbers, parallel line
 //! parsing); and the atomic writes all writers (and the CLI's outputs) go through.
 
@@ -15,6 +15,7 @@ pub mod model_dir;
 pub mod npz;
 pub mod op4;
 pub mod rom_dir;
+pub mod sid;
 mod text;
 
 /// The bytes of `path`, which must be a regular file (after symlinks): a file name from
