@@ -431,6 +431,19 @@ enum SparsemorStatus sparsemor_model_from_files(const char *const *paths,
                                                 struct SparsemorModel **model_out);
 
 /**
+ * Creates a model from a model directory (docs/formats.md: `model.toml` naming M, K, an
+ * optional D and node table, or the FE files to read in place), validated as every
+ * `sparsemor` command reads it. The directory's scene (`[scene]`: inputs, outputs, band) is
+ * set (change it with `sparsemor_model_set_scene`); an imported directory's DoF map names
+ * the DoFs for `sparsemor_model_dof`. On failure `*model_out` is NULL and the message names
+ * the file and the field.
+ *
+ * # Safety
+ * `path` a valid NUL-terminated string; `model_out` writable.
+ */
+enum SparsemorStatus sparsemor_model_from_dir(const char *path, struct SparsemorModel **model_out);
+
+/**
  * Node number and direction of DoF `index` (0-based row/column of M and K): the FE code's
  * node number and the direction key 1–6 (x, y, z, rx, ry, rz; ANSYS's and Abaqus's numbering)
  * for a model from `sparsemor_model_from_files`; for a model from `sparsemor_model_new` with

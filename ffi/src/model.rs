@@ -4,11 +4,12 @@ use crate::error::{ffi_body, Failure, SparsemorStatus};
 use crate::util::{obj, obj_mut, slice_in, write_out};
 use sparsemor::body::Body;
 use sparsemor::io::import::{self, Dof};
+use sparsemor::io::model_dir;
 use sparsemor::model::{Damping, Model};
 use sparsemor::scene::Scene;
 use sparsemor::sparse::{from_parts, mirror_lower, Csc};
 use std::ffi::{c_char, CStr};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// `SparsemorCsc::storage`: both triangles are stored (full symmetric storage).
 pub const SPARSEMOR_STORAGE_FULL: u32 = 0;
@@ -346,6 +347,39 @@ pub unsafe extern "C" fn sparsemor_model_from_files(
         let name = files[0].display().to_string();
         let (model, _) = imported.into_model(name)?;
         let h = SparsemorModel::boxed(&model, Some(dofs))?;
+        unsafe { write_out(model_out, Box::into_raw(h), "model_out")? };
+        Ok(())
+    })
+}
+
+/// Creates a model from a model directory (docs/formats.md: `model.toml` naming M, K, an
+/// optional D and node table, or the FE files to read in place), validated as every
+/// `sparsemor` command reads it. The directory's scene (`[scene]`: inputs, outputs, band) is
+/// set (change it with `sparsemor_model_set_scene`); an imported directory's DoF map names
+/// the DoFs for `sparsemor_model_dof`. On failure `*model_out` is NULL and the message names
+/// the file and the field.
+///
+/// # Safety
+/// `path` a valid NUL-terminated string; `model_out` writable.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_model_from_dir(
+    path: *const c_char,
+    model_out: *mut *mut SparsemorModel,
+) -> SparsemorStatus {
+    ffi_body!({
+        unsafe { write_out(model_out, std::ptr::null_mut(), "model_out")? };
+        if path.is_null() {
+            return Err(Failure::null("path"));
+        }
+        // SAFETY: non-null; NUL termination is the caller's contract.
+        let dir = unsafe { CStr::from_ptr(path) }
+            .to_str()
+            .map_err(|_| Failure::arg("path is not valid UTF-8"))?;
+        let dir = Path::new(dir);
+        let (model, scene, _) = model_dir::read(dir)?;
+        let dofs = model_dir::read_dof_map(dir)?;
+        let mut h = SparsemorModel::boxed(&model, dofs)?;
+        h.scene = Some(scene);
         unsafe { write_out(model_out, Box::into_raw(h), "model_out")? };
         Ok(())
     })

@@ -192,6 +192,17 @@ class Model:
         self._adopt(h[0])
         return self
 
+    @classmethod
+    def from_dir(cls, path: Union[str, os.PathLike]) -> "Model":
+        """A model directory (`model.toml` with M, K, optional D and nodes, as `sparsemor
+        generate` and `sparsemor import` write it; docs/formats.md), validated as the command
+        reads it, with its scene set (`inputs`, `outputs`, `band_hz` from `[scene]`)."""
+        h = _out("SparsemorModel *")
+        _check(lib.sparsemor_model_from_dir(ffi.new("char[]", os.fsencode(path)), h))
+        self = cls.__new__(cls)
+        self._adopt(h[0])
+        return self
+
     def dof(self, i: int) -> tuple:
         """(node number, direction 'x'|'y'|'z'|'rx'|'ry'|'rz') of DoF i."""
         node, d = _out("uint64_t"), _out("uint32_t")

@@ -27,21 +27,30 @@ CASES = {
 
 @pytest.fixture(scope="module")
 def bar(tmp_path_factory):
+    """The bar's directory and two models of it: read by scipy and passed as matrices, and
+    read by the library from the directory."""
     directory = tmp_path_factory.mktemp("bar") / "bar"
     M, K, rayleigh, nodes, scene = built_in_bar(directory)
     model = sparsemor.Model(M, K, rayleigh=rayleigh, nodes=nodes, dofs_per_node=3)
     model.set_scene(scene["inputs"], scene["outputs"], tuple(scene["band_hz"]))
-    return directory, model
+    return directory, {"matrices": model, "directory": sparsemor.Model.from_dir(directory)}
 
 
+@pytest.mark.parametrize("source", ["matrices", "directory"])
 @pytest.mark.parametrize("case", CASES)
-def test_python_rom_equals_the_commands_rom_bit_for_bit(bar, tmp_path, case):
-    directory, model = bar
+def test_python_rom_equals_the_commands_rom_bit_for_bit(bar, tmp_path, case, source):
+    directory, models = bar
+    model = models[source]
     args, reduce = CASES[case]
     run("reduce", directory, *args, "--threads", "2", "--out", tmp_path / "rom")
     cli = np.load(tmp_path / "rom" / "rom.npz")
     rom = reduce(model)
-    print(f"{case}: order {rom.order}")
+    print(f"{case}, model from {source}: order {rom.order}")
     np.testing.assert_array_equal(rom.dofs, cli["dofs"])
     for name in ("Mr", "Dr", "Kr", "Br", "Cr"):
         np.testing.assert_array_equal(getattr(rom, name), cli[name], err_msg=name)
+
+
+def test_a_directory_that_is_not_a_model_is_refused_by_name(tmp_path):
+    with pytest.raises(sparsemor.SparsemorError, match="model.toml"):
+        sparsemor.Model.from_dir(tmp_path)

@@ -117,3 +117,68 @@ fn dof_map_of_models_built_from_arrays() {
     assert!(msg.contains("no DoF map"), "{msg}");
     unsafe { sparsemor_model_free(h) };
 }
+
+/// A model directory written by the library reads back with its scene and node-based DoF
+/// names; a directory that is not one is refused by name.
+#[test]
+fn model_directory_reads_with_its_scene() {
+    use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
+    let spec = BoxSpec {
+        elements: [1, 1, 8],
+        ..BoxSpec::paper_bar()
+    };
+    let (model, scene) = (bar_model(&spec).unwrap(), paper_scene(&spec));
+    let dir = scratch("model_from_dir");
+    let _ = std::fs::remove_dir_all(&dir);
+    sparsemor::io::model_dir::write(&dir, &model, &scene).unwrap();
+    let path = CString::new(dir.to_str().unwrap()).unwrap();
+    let mut h: *mut SparsemorModel = std::ptr::dangling_mut();
+    let st = unsafe { sparsemor_model_from_dir(path.as_ptr(), &mut h) };
+    assert_eq!(st, SparsemorStatus::Ok, "{}", last_error());
+    let mut n = 0usize;
+    assert_eq!(unsafe { sparsemor_model_n(h, &mut n) }, SparsemorStatus::Ok);
+    assert_eq!(n, model.n());
+    // node-based names: DoF 3k + d is node k, direction d + 1
+    assert_eq!(dof(h, 7).unwrap(), (2, 2));
+    // the scene is set: a reduction runs without sparsemor_model_set_scene
+    let mut o: *mut SparsemorOptions = null_mut();
+    assert_eq!(
+        unsafe { sparsemor_options_new(&mut o) },
+        SparsemorStatus::Ok
+    );
+    let freqs = [200.0, 600.0];
+    unsafe {
+        assert_eq!(
+            sparsemor_options_set_reference_frequencies(o, freqs.as_ptr(), 2),
+            SparsemorStatus::Ok
+        );
+        assert_eq!(
+            sparsemor_options_set_interface_outputs_plus(o, 2),
+            SparsemorStatus::Ok
+        );
+    }
+    let mut rom: *mut SparsemorRom = null_mut();
+    let st = unsafe { sparsemor_reduce_linefit(h, o, None, null_mut(), &mut rom) };
+    assert_eq!(st, SparsemorStatus::Ok, "{}", last_error());
+    let mut order = 0usize;
+    assert_eq!(
+        unsafe { sparsemor_rom_order(rom, &mut order) },
+        SparsemorStatus::Ok
+    );
+    assert_eq!(order, scene.outputs.len() + 2);
+    unsafe {
+        sparsemor_rom_free(rom);
+        sparsemor_options_free(o);
+        sparsemor_model_free(h);
+    }
+    // not a model directory: the message names model.toml
+    let empty = scratch("model_from_dir_empty");
+    std::fs::create_dir_all(&empty).unwrap();
+    let path = CString::new(empty.to_str().unwrap()).unwrap();
+    let st = unsafe { sparsemor_model_from_dir(path.as_ptr(), &mut h) };
+    assert_ne!(st, SparsemorStatus::Ok);
+    assert!(h.is_null());
+    assert!(last_error().contains("model.toml"), "{}", last_error());
+    let st = unsafe { sparsemor_model_from_dir(std::ptr::null(), &mut h) };
+    assert_eq!(st, SparsemorStatus::NullPointer);
+}
