@@ -27,10 +27,11 @@ use std::path::PathBuf;
 /// Rows of S per block in the Q-DEIM passes.
 const BLOCK_ROWS: usize = 4096;
 
-/// Snapshots (N × p, complex) in memory or in a temporary file (removed on drop).
+/// Snapshots (N × p, complex) in memory or in an unnamed temporary file.
 pub(crate) enum SnapshotStore {
     Memory(Vec<Mat<c64>>),
     File {
+        /// The directory that holds the file (the file has no name: for messages).
         path: PathBuf,
         file: std::fs::File,
         shapes: Vec<(usize, usize)>,
@@ -43,18 +44,10 @@ impl SnapshotStore {
         if !spill {
             return Ok(SnapshotStore::Memory(Vec::new()));
         }
-        let path = std::env::temp_dir().join(format!(
-            "sparsemor-snapshots-{}-{:?}.bin",
-            std::process::id(),
-            std::thread::current().id()
-        ));
-        let file = std::fs::OpenOptions::new()
-            .read(true)
-            .write(true)
-            .create(true)
-            .truncate(true)
-            .open(&path)
-            .map_err(|e| Error::io(&path, e))?;
+        // an unnamed file (O_TMPFILE, or unlinked as soon as it is open): the system reclaims
+        // it when it is closed, however the process ends, even when it is killed
+        let path = std::env::temp_dir();
+        let file = tempfile::tempfile_in(&path).map_err(|e| Error::io(&path, e))?;
         Ok(SnapshotStore::File {
             path,
             file,
@@ -295,14 +288,6 @@ fn read_c64(r: &mut impl Read) -> std::io::Result<c64> {
     let (re, im) = buf.split_at(8);
     let le = |b: &[u8]| f64::from_le_bytes(b.try_into().unwrap_or([0; 8]));
     Ok(c64::new(le(re), le(im)))
-}
-
-impl Drop for SnapshotStore {
-    fn drop(&mut self) {
-        if let SnapshotStore::File { path, .. } = self {
-            let _ = std::fs::remove_file(path);
-        }
-    }
 }
 
 #[cfg(test)]
