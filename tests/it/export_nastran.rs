@@ -34,13 +34,13 @@ fn spec() -> BoxSpec {
     }
 }
 
-fn model_scene() -> (Model, Scene) {
+pub(crate) fn model_scene() -> (Model, Scene) {
     let s = spec();
     (bar_model(&s).unwrap(), paper_scene(&s))
 }
 
 /// Line-fitting ROM with V kept (physical coordinates only).
-fn linefit_rom(model: &Model, scene: &Scene) -> Rom {
+pub(crate) fn linefit_rom(model: &Model, scene: &Scene) -> Rom {
     let body = Body::new(model).unwrap();
     let mut opts = LineFitOptions::new(
         Interface::OutputsPlus(3),
@@ -518,12 +518,11 @@ fn mbdyn_export_rigid_body_and_modal_matrices() {
     assert!(text.trim_end().ends_with("** END OF FILE"));
 }
 
-#[test]
-fn cli_export_op4_dmig_mbdyn() {
-    let tmp = tempfile::tempdir().unwrap();
-    let w = tmp.path();
+/// In `w`: the built-in bar (`bar`) and its line-fitting ROM without V (`rom`) and with V
+/// (`romv`), by the command.
+pub(crate) fn bar_and_roms(w: &Path) {
     ok(w, &["generate", "bar", "--out", "bar"]);
-    let reduce = |out: &str, keep: bool| {
+    for (out, keep) in [("rom", false), ("romv", true)] {
         let mut args = vec![
             "reduce",
             "bar",
@@ -540,9 +539,14 @@ fn cli_export_op4_dmig_mbdyn() {
             args.push("--keep-basis");
         }
         ok(w, &args);
-    };
-    reduce("rom", false);
-    reduce("romv", true);
+    }
+}
+
+#[test]
+fn cli_export_op4_dmig_mbdyn() {
+    let tmp = tempfile::tempdir().unwrap();
+    let w = tmp.path();
+    bar_and_roms(w);
     let out = ok(
         w,
         &[

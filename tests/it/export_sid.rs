@@ -7,34 +7,20 @@
 
 use crate::cli::{ok, run};
 use crate::common::dense;
+use crate::export_nastran::{bar_and_roms, linefit_rom, model_scene};
 use faer::Mat;
 use sparsemor::body::Body;
-use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
 use sparsemor::io::sid;
 use sparsemor::model::Model;
 use sparsemor::reduce::flexible::{elastic_basis, ElasticBasis};
-use sparsemor::reduce::linefit::{self, Interface, LineFitOptions, References};
-use sparsemor::sweep::no_progress;
 use std::collections::HashMap;
 
-/// A small free bar (3 × 3 × 9 nodes, N = 243).
+/// The small free bar of the Nastran export tests and the elastic basis of its line-fitting
+/// ROM.
 fn model_flex() -> (Model, ElasticBasis) {
-    let s = BoxSpec {
-        elements: [2, 2, 8],
-        size_m: [0.006, 0.008, 0.1],
-        mass_kg: 0.1,
-        young_pa: 2e10,
-        poisson: 0.3,
-    };
-    let (model, scene) = (bar_model(&s).unwrap(), paper_scene(&s));
-    let body = Body::new(&model).unwrap();
-    let mut opts = LineFitOptions::new(
-        Interface::OutputsPlus(3),
-        References::Explicit(vec![100.0, 400.0, 1600.0]),
-    );
-    opts.keep_basis = true;
-    let rom = linefit::reduce(&body, &scene, &opts, None, &no_progress).unwrap();
-    let flex = elastic_basis(&body, &scene, &rom).unwrap();
+    let (model, scene) = model_scene();
+    let rom = linefit_rom(&model, &scene);
+    let flex = elastic_basis(&Body::new(&model).unwrap(), &scene, &rom).unwrap();
     (model, flex)
 }
 
@@ -496,27 +482,7 @@ fn unit(b: usize) -> [f64; 3] {
 fn cli_export_sid() {
     let tmp = tempfile::tempdir().unwrap();
     let w = tmp.path();
-    ok(w, &["generate", "bar", "--out", "bar"]);
-    let reduce = |out: &str, keep: bool| {
-        let mut args = vec![
-            "reduce",
-            "bar",
-            "--method",
-            "linefit",
-            "--extra-interface",
-            "5",
-            "--ref-freqs",
-            "50,100,200,400,800",
-            "--out",
-            out,
-        ];
-        if keep {
-            args.push("--keep-basis");
-        }
-        ok(w, &args);
-    };
-    reduce("rom", false);
-    reduce("romv", true);
+    bar_and_roms(w);
     // the SID needs V: the error names the ROM and the fix, nothing is written
     let o = run(
         w,
