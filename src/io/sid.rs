@@ -154,10 +154,31 @@ pub struct Invariants {
     pub ge: Taylor,
     /// Centrifugal terms (r × 6), order 1 (inertia part).
     pub oe: Taylor,
+    /// Geometric stiffening (r × 1): zero, not computed (module doc, "Not written").
+    pub ksigma: Taylor,
     /// ΦᵀKΦ (r × r).
     pub ke: Taylor,
     /// ΦᵀDΦ (r × r; zero when the ROM is undamped).
     pub de: Taylor,
+}
+
+impl Invariants {
+    /// The blocks of the body part with their SID names, in the file's order.
+    pub fn named(&self) -> [(&'static str, &Taylor); 11] {
+        [
+            ("mdCM", &self.md_cm),
+            ("J", &self.j),
+            ("Ct", &self.ct),
+            ("Cr", &self.cr),
+            ("Me", &self.me),
+            ("Gr", &self.gr),
+            ("Ge", &self.ge),
+            ("Oe", &self.oe),
+            ("ksigma", &self.ksigma),
+            ("Ke", &self.ke),
+            ("De", &self.de),
+        ]
+    }
 }
 
 fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
@@ -317,6 +338,7 @@ pub fn invariants(model: &Model, flex: &ElasticBasis) -> Result<Invariants> {
         gr,
         ge,
         oe,
+        ksigma: Taylor::zeroth(Mat::zeros(r, 1)),
         ke: Taylor::zeroth(rom.kr.clone()),
         de: Taylor::zeroth(rom.dr.clone()),
     })
@@ -401,19 +423,7 @@ pub fn text(model: &Model, flex: &ElasticBasis, dof_map: Option<&[Dof]>) -> Resu
     let nodes = model.nodes.as_deref().unwrap_or_default();
     let phi = flex.phi.as_ref();
     let r = phi.ncols();
-    let blocks: [(&str, &Taylor); 11] = [
-        ("mdCM", &inv.md_cm),
-        ("J", &inv.j),
-        ("Ct", &inv.ct),
-        ("Cr", &inv.cr),
-        ("Me", &inv.me),
-        ("Gr", &inv.gr),
-        ("Ge", &inv.ge),
-        ("Oe", &inv.oe),
-        ("ksigma", &Taylor::zeroth(Mat::zeros(r, 1))),
-        ("Ke", &inv.ke),
-        ("De", &inv.de),
-    ];
+    let blocks = inv.named();
     for (name, t) in &blocks {
         let finite = t.m0.col_iter().all(|c| c.iter().all(|v| v.is_finite()))
             && t.m1

@@ -304,18 +304,7 @@ fn sid_export_parses_back_and_matches_dense_invariants() {
     assert!(p.body.values().all(|t| t.nq == r));
     assert_eq!(p.body["ksigma"].structure, 0);
     // the file holds the library's invariants to the last bit (17 significant digits)
-    for (name, t) in [
-        ("mdCM", &inv.md_cm),
-        ("J", &inv.j),
-        ("Ct", &inv.ct),
-        ("Cr", &inv.cr),
-        ("Me", &inv.me),
-        ("Gr", &inv.gr),
-        ("Ge", &inv.ge),
-        ("Oe", &inv.oe),
-        ("Ke", &inv.ke),
-        ("De", &inv.de),
-    ] {
+    for (name, t) in inv.named() {
         let b = &p.body[name];
         assert_eq!(b.order, t.order(), "{name}");
         assert_eq!(b.m0, t.m0, "{name}");
