@@ -27,6 +27,35 @@ use std::path::PathBuf;
 /// Rows of S per block in the Q-DEIM passes.
 const BLOCK_ROWS: usize = 4096;
 
+/// How many DoFs [`SnapshotStore::qdeim_next`] adds (docs/design.md §3.5, step 7): as many as
+/// bring the interface to the numerical rank of the snapshots at `rank_tol` — each
+/// frequency's columns scaled to unit norm, so that a relative error of `rank_tol` at any
+/// sampled frequency needs the direction — within [`at_least`, `at_most`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GrowBy {
+    pub at_least: usize,
+    pub at_most: usize,
+    pub rank_tol: f64,
+}
+
+impl GrowBy {
+    /// Exactly `count` DoFs.
+    #[cfg(test)]
+    pub fn exactly(count: usize) -> Self {
+        GrowBy {
+            at_least: count,
+            at_most: count,
+            rank_tol: 1.0,
+        }
+    }
+
+    /// The count for an interface of `order` DoFs and snapshots of numerical rank `rank`.
+    fn count(&self, order: usize, rank: usize) -> usize {
+        rank.saturating_sub(order)
+            .clamp(self.at_least, self.at_most.max(self.at_least))
+    }
+}
+
 /// Snapshots (N × p, complex) in memory or in an unnamed temporary file.
 pub(crate) enum SnapshotStore {
     Memory(Vec<Mat<c64>>),
@@ -107,14 +136,47 @@ impl SnapshotStore {
         }
     }
 
-    /// Number of real columns of S (2 per snapshot column) and rows N.
-    fn shape(&self) -> (usize, usize) {
-        let shapes: Vec<(usize, usize)> = match self {
+    /// (N, p) of every snapshot, in order.
+    fn shapes(&self) -> Vec<(usize, usize)> {
+        match self {
             SnapshotStore::Memory(v) => v.iter().map(|x| (x.nrows(), x.ncols())).collect(),
             SnapshotStore::File { shapes, .. } => shapes.clone(),
-        };
+        }
+    }
+
+    /// Number of real columns of S (2 per snapshot column) and rows N.
+    fn shape(&self) -> (usize, usize) {
+        let shapes = self.shapes();
         let cols = shapes.iter().map(|s| 2 * s.1).sum();
         (shapes.first().map(|s| s.0).unwrap_or(0), cols)
+    }
+
+    /// The numerical rank of S with each snapshot's columns [Re X_k, Im X_k] scaled to unit
+    /// Frobenius norm (every frequency weighs the same, as the relative error does): the
+    /// singular values of R D above `tol` times the largest, for the R of S = Q R (the
+    /// column norms of S are those of R).
+    fn scaled_rank(&self, r: &Mat<f64>, tol: f64) -> Result<usize> {
+        let mut rd = r.clone();
+        let mut c = 0;
+        for (_, p) in self.shapes() {
+            let cols = c..c + 2 * p;
+            let norm = cols
+                .clone()
+                .map(|j| rd.col(j).squared_norm_l2())
+                .sum::<f64>()
+                .sqrt();
+            if norm > 0.0 {
+                for j in cols {
+                    rd.col_mut(j).iter_mut().for_each(|x| *x /= norm);
+                }
+            }
+            c += 2 * p;
+        }
+        let sv = rd
+            .singular_values()
+            .map_err(|_| Error::Factor("SVD of the snapshots did not converge".into()))?;
+        let smax = sv.iter().copied().fold(0.0, f64::max);
+        Ok(sv.iter().filter(|&&s| s > tol * smax).count())
     }
 
     /// Calls `f(start, block)` for consecutive row blocks of S = [Re X_1, Im X_1, …]
@@ -166,9 +228,9 @@ impl SnapshotStore {
         Ok(())
     }
 
-    /// Q-DEIM continued from `interface` for `count` more pivots: the DoF outside it whose row
-    /// of the snapshots' left singular vectors adds the most to the span of the interface
-    /// rows (module doc), then the DoF that adds the most to the span with that one, and so
+    /// Q-DEIM continued from `interface` for as many pivots as `by` asks: the DoF outside it
+    /// whose row of the snapshots' left singular vectors adds the most to the span of the
+    /// interface rows (module doc), then the DoF that adds the most to the span with that one, and so
     /// on. The later pivots are chosen among the rows of the largest first scores (8 per
     /// pivot, at least 64): each pivot's row is taken out of the others (pivoted Gram–Schmidt),
     /// so rows that repeat a chosen one's direction — its neighbours on the body — drop back.
@@ -176,9 +238,9 @@ impl SnapshotStore {
     /// # Errors
     /// [`Error::Factor`] when the SVD does not converge; [`Error::InvalidSetting`] when no
     /// DoF is left outside the interface or the snapshots are empty; I/O errors of a spill file.
-    pub fn qdeim_next(&mut self, interface: &[usize], count: usize) -> Result<Vec<usize>> {
+    pub fn qdeim_next(&mut self, interface: &[usize], by: GrowBy) -> Result<Vec<usize>> {
         let (n, cols) = self.shape();
-        if cols == 0 || interface.len() + count > n {
+        if cols == 0 || interface.len() + by.at_least > n {
             return Err(Error::InvalidSetting(
                 "Q-DEIM found no DoF outside the interface".into(),
             ));
@@ -208,6 +270,8 @@ impl SnapshotStore {
             r = stacked.qr().thin_R().to_owned();
             Ok(())
         })?;
+        let rank = self.scaled_rank(&r, by.rank_tol)?;
+        let count = by.count(interface.len(), rank).min(n - interface.len());
         let svd = r
             .thin_svd()
             .map_err(|_| Error::Factor("SVD of the snapshots did not converge".into()))?;
@@ -294,6 +358,29 @@ fn read_c64(r: &mut impl Read) -> std::io::Result<c64> {
 mod tests {
     use super::*;
 
+    /// The growth count is the rank of the snapshots with every frequency weighing the same:
+    /// a response 10¹² times smaller than another still asks for its two directions (Re, Im),
+    /// which the unscaled singular values would put below 1e-3; and it is clamped.
+    #[test]
+    fn growth_count_is_the_rank_of_the_scaled_snapshots() {
+        let n = 500;
+        let mut rng = crate::random::Xorshift::new(3);
+        let mut rnd = || rng.next_centred();
+        let big = Mat::from_fn(n, 1, |_, _| c64::new(1e6 * rnd(), 1e6 * rnd()));
+        let small = Mat::from_fn(n, 1, |_, _| c64::new(1e-6 * rnd(), 1e-6 * rnd()));
+        let mut store = SnapshotStore::new(false).unwrap();
+        store.extend([big, small].into_iter()).unwrap();
+        let by = |at_least, at_most| GrowBy {
+            at_least,
+            at_most,
+            rank_tol: 1e-3,
+        };
+        assert_eq!(store.qdeim_next(&[], by(1, 10)).unwrap().len(), 4);
+        assert_eq!(store.qdeim_next(&[7], by(1, 10)).unwrap().len(), 3);
+        assert_eq!(store.qdeim_next(&[], by(1, 2)).unwrap().len(), 2);
+        assert_eq!(store.qdeim_next(&[7, 8, 9, 10], by(1, 10)).unwrap().len(), 1);
+    }
+
     /// The streamed, interface-continued Q-DEIM picks the DoFs a dense computation picks:
     /// U from a dense SVD of S, the residual of each row against the span of the interface
     /// rows, the best row added to the interface, three times.
@@ -337,7 +424,7 @@ mod tests {
             let mut store = SnapshotStore::new(spill).unwrap();
             store.extend(snaps.iter().cloned()).unwrap();
             assert_eq!(
-                store.qdeim_next(&interface, 3).unwrap(),
+                store.qdeim_next(&interface, GrowBy::exactly(3)).unwrap(),
                 want,
                 "spill {spill}"
             );

@@ -9,7 +9,7 @@ use super::protocol::{gather, Command, Keep, Reply};
 use crate::body::Body;
 use crate::factor::SymbolicStats;
 use crate::lsq::{Split, SplitState, StreamedQr};
-use crate::snapshots::SnapshotStore;
+use crate::snapshots::{GrowBy, SnapshotStore};
 use crate::sweep::{
     rows_of, FreqStats, ProgressFn, Response, Schedule, SolveAccuracy, Solver, SweepOptions,
 };
@@ -221,16 +221,16 @@ impl<'a> Engine<'a> {
         Ok(r.qr.unwrap_or_else(|| split.empty_qr()))
     }
 
-    /// The next `count` interface DoFs by Q-DEIM over the kept snapshots (one process only: the
-    /// snapshots of a distributed run stay on their ranks).
-    pub fn qdeim_next(&mut self, interface: &[usize], count: usize) -> Result<Vec<usize>> {
+    /// The next interface DoFs by Q-DEIM over the kept snapshots, as many as `by` asks (one
+    /// process only: the snapshots of a distributed run stay on their ranks).
+    pub fn qdeim_next(&mut self, interface: &[usize], by: GrowBy) -> Result<Vec<usize>> {
         self.check_qdeim()?;
         self.store
             .as_mut()
             .ok_or_else(|| {
                 Error::InvalidSetting("the interface may not grow: no snapshots were kept".into())
             })?
-            .qdeim_next(interface, count)
+            .qdeim_next(interface, by)
     }
 
     /// Whether Q-DEIM growth can run: the snapshots must all be in this process.

@@ -53,6 +53,7 @@ use crate::grid::linspace;
 use crate::lsq::StreamedQr;
 use crate::reduce::rom::{Provenance, Rom, Timing};
 use crate::scene::{positive_band, Scene};
+use crate::snapshots::GrowBy;
 use crate::sweep::{ProgressFn, Response};
 use crate::units::hz_to_lambda;
 use crate::{Error, Result};
@@ -154,6 +155,8 @@ struct Loop<'a> {
     rom: Rom,
     steps: Vec<Step>,
     ok_steps: usize,
+    /// The index in `steps` of the last growth (0 before any).
+    grown_at: usize,
     /// The measured ROM of smallest error so far and that error (max true ε at its step's
     /// new and sampled points); returned when the tolerance is not reached.
     best: Option<(f64, Rom)>,
@@ -347,6 +350,7 @@ impl<'a> Loop<'a> {
             rom,
             steps,
             ok_steps: 0,
+            grown_at: 0,
             best: None,
             last_delta_max: f64::NAN,
             last_used: 0,
@@ -482,8 +486,9 @@ impl<'a> Loop<'a> {
         if self.ok_steps >= 2 {
             return Ok(Next::Stop(Outcome::Converged));
         }
-        let errors: Vec<f64> = self
-            .steps
+        // the window restarts when the interface grows: a grown ROM's first steps measure
+        // where the smaller one was never measured
+        let errors: Vec<f64> = self.steps[self.grown_at..]
             .iter()
             .filter(|s| s.true_error_max.is_finite())
             .map(|s| s.true_error_max.max(s.sampled_error_max))
@@ -498,7 +503,13 @@ impl<'a> Loop<'a> {
                         .iter()
                         .copied()
                         .fold(f64::INFINITY, f64::min);
-        Ok(if stagnated {
+        // the fit at the sampled points is the best this order can do there (more points only
+        // add rows to the least-squares problem): when the error there is above tol and no
+        // smaller than at the new points, the interface must grow
+        let fit_limited = sampled_error > self.sampling.tol
+            && sampled_error >= true_error
+            && self.part.order() < self.max_order;
+        Ok(if stagnated || fit_limited {
             Next::Stagnated
         } else {
             Next::Refit
@@ -534,11 +545,11 @@ impl<'a> Loop<'a> {
                 "the interface may not grow: no snapshots were kept".into(),
             ));
         }
-        // a tenth of the order at once (at least one): the 3 m bar grows from 30 to 61 in
-        // 8 steps instead of 31
-        let g = (self.part.order() / 10)
-            .max(1)
-            .min(self.max_order - self.part.order());
+        // at least a tenth of the order at once (at least one): the 3 m bar grows from 30 to
+        // 61 in 8 steps instead of 31; Q-DEIM grows to the snapshots' numerical rank at tol
+        // when that is more
+        let room = self.max_order - self.part.order();
+        let g = (self.part.order() / 10).max(1).min(room);
         let d: Vec<usize> = match self.growth {
             Growth::Residual | Growth::Auto => {
                 let fit = self.rom.fit();
@@ -550,7 +561,14 @@ impl<'a> Loop<'a> {
                 }
                 d
             }
-            Growth::QDeim => self.engine.qdeim_next(&self.part.split.interface, g)?,
+            Growth::QDeim => {
+                let by = GrowBy {
+                    at_least: g,
+                    at_most: room,
+                    rank_tol: self.sampling.tol,
+                };
+                self.engine.qdeim_next(&self.part.split.interface, by)?
+            }
         };
         self.part = self.part.grown(self.body, self.scene, &d)?;
         self.qr = self
@@ -559,6 +577,7 @@ impl<'a> Loop<'a> {
         let solves = self
             .last_used
             .max(self.steps.last().map(|s| s.solves).unwrap_or(0));
+        self.grown_at = self.steps.len();
         self.steps.push(Step {
             order: self.part.order(),
             points_hz: Vec::new(),
