@@ -378,7 +378,10 @@ mod tests {
         assert_eq!(store.qdeim_next(&[], by(1, 10)).unwrap().len(), 4);
         assert_eq!(store.qdeim_next(&[7], by(1, 10)).unwrap().len(), 3);
         assert_eq!(store.qdeim_next(&[], by(1, 2)).unwrap().len(), 2);
-        assert_eq!(store.qdeim_next(&[7, 8, 9, 10], by(1, 10)).unwrap().len(), 1);
+        assert_eq!(
+            store.qdeim_next(&[7, 8, 9, 10], by(1, 10)).unwrap().len(),
+            1
+        );
     }
 
     /// The streamed, interface-continued Q-DEIM picks the DoFs a dense computation picks:
