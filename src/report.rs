@@ -385,6 +385,22 @@ impl TradeoffRow {
         s
     }
 
+    /// For each line-fitting row, the fastest Craig–Bampton row at least as accurate (verified
+    /// max ε ≤ line-fitting's), as indices into `rows`: the comparison at equal verified
+    /// accuracy (docs/performance.md, "Speed and accuracy"); `None` when no Craig–Bampton row
+    /// reaches it.
+    pub fn equal_accuracy(rows: &[TradeoffRow]) -> Vec<(usize, Option<usize>)> {
+        let of = |m: &'static str| (0..rows.len()).filter(move |&i| rows[i].method == m);
+        of("linefit")
+            .map(|l| {
+                let cb = of("craig-bampton")
+                    .filter(|&c| rows[c].max_eps <= rows[l].max_eps)
+                    .min_by(|&a, &b| rows[a].seconds.total_cmp(&rows[b].seconds));
+                (l, cb)
+            })
+            .collect()
+    }
+
     /// Parses [`Self::to_csv`]'s text; `path` names the file in errors.
     ///
     /// # Errors
@@ -481,6 +497,33 @@ pub fn tradeoff_svg(title: &str, rows: &[TradeoffRow]) -> Result<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Each line-fitting row is paired with the fastest Craig–Bampton row whose verified
+    /// error is no larger; none when every one is less accurate.
+    #[test]
+    fn equal_accuracy_pairs_the_fastest_craig_bampton_at_least_as_accurate() {
+        let row = |method: &str, seconds: f64, max_eps: f64| TradeoffRow {
+            method: method.into(),
+            setting: String::new(),
+            seconds,
+            factorizations: 2,
+            solves: None,
+            order: 10,
+            max_eps,
+        };
+        let rows = vec![
+            row("linefit", 1.0, 1e-2),
+            row("linefit", 1.5, 1e-5),
+            row("craig-bampton", 0.5, 5e-2),
+            row("craig-bampton", 2.0, 1e-3),
+            row("craig-bampton", 3.0, 1e-4),
+            row("serep", 0.1, 1e-6),
+        ];
+        assert_eq!(
+            TradeoffRow::equal_accuracy(&rows),
+            vec![(0, Some(3)), (1, None)]
+        );
+    }
 
     #[test]
     fn tradeoff_csv_round_trips_and_plots() {

@@ -186,6 +186,26 @@ pub fn tradeoff(a: &TradeoffArgs) -> Result<()> {
             r.max_eps
         );
     }
+    println!();
+    println!("| line-fitting | fastest Craig–Bampton at least as accurate | time ratio |");
+    println!("|---|---|---|");
+    for (l, cb) in TradeoffRow::equal_accuracy(&rows) {
+        let lf = &rows[l];
+        let (other, ratio) = match cb {
+            Some(c) => (
+                format!(
+                    "{}: {:.2e}, {:.3} s, order {}",
+                    rows[c].setting, rows[c].max_eps, rows[c].seconds, rows[c].order
+                ),
+                format!("{:.2}", lf.seconds / rows[c].seconds),
+            ),
+            None => ("none of the rows above".into(), "—".into()),
+        };
+        println!(
+            "| {}: {:.2e}, {:.3} s, order {} | {} | {} |",
+            lf.setting, lf.max_eps, lf.seconds, lf.order, other, ratio
+        );
+    }
     if let Some(path) = &a.csv {
         atomic::write_bytes(path, TradeoffRow::to_csv(&rows))?;
     }
