@@ -359,13 +359,16 @@ impl<'a> ShiftedSpace<'a> {
 
     /// y(τ) restricted to the rows `rows` of the basis (k × p complex over those rows).
     fn coefficients(ritz: &Ritz, tau: c64, rows: std::ops::Range<usize>) -> Mat<c64> {
-        let d = Mat::from_fn(1, ritz.theta.len(), |_, j| {
-            (c64::new(1.0, 0.0) - tau * ritz.theta[j]).inv()
+        let d = resolvent(ritz, &[tau], &[c64::new(1.0, 0.0)]);
+        let dc = Mat::<c64>::from_fn(ritz.c.nrows(), ritz.c.ncols(), |j, col| {
+            d[(0, j)] * ritz.c[(j, col)]
         });
         let z = ritz.z.subrows(rows.start, rows.len());
-        let mut y = scaled_products(z, &d, ritz.c.as_ref());
-        y.pop()
-            .unwrap_or_else(|| Mat::zeros(rows.len(), ritz.c.ncols()))
+        let (re, im) = (dc.as_ref().map(|x| x.re), dc.as_ref().map(|x| x.im));
+        let (yr, yi) = (z * &re, z * &im);
+        Mat::from_fn(rows.len(), ritz.c.ncols(), |i, col| {
+            c64::new(yr[(i, col)], yi[(i, col)])
+        })
     }
 
     /// The estimated relative residual ‖(I − τS)x − b₀‖_M/‖b₀‖_M (worst column) of the
@@ -383,9 +386,7 @@ impl<'a> ShiftedSpace<'a> {
             .iter()
             .map(|&f| self.shift(hz_to_omega(f)).0)
             .collect();
-        let d = Mat::from_fn(taus.len(), ritz.theta.len(), |f, j| {
-            (c64::new(1.0, 0.0) - taus[f] * ritz.theta[j]).inv()
-        });
+        let d = resolvent(ritz, &taus, &vec![c64::new(1.0, 0.0); taus.len()]);
         let last = ritz.z.subrows(self.last, self.dim() - self.last);
         let ys = scaled_products(last, &d, ritz.c.as_ref());
         let g = &self.next_gram;
@@ -475,10 +476,14 @@ impl<'a> ShiftedSpace<'a> {
         };
         let k = self.dim();
         let qz = Mat::<f64>::from_fn(rows.len(), k, |i, j| self.q[(rows[i], j)]) * &ritz.z;
-        let d = Mat::from_fn(freqs_hz.len(), k, |f, j| {
-            let (tau, scale) = self.shift(hz_to_omega(freqs_hz[f]));
-            (c64::new(1.0, 0.0) - tau * ritz.theta[j]).inv() * scale.inv()
-        });
+        let (taus, scales): (Vec<c64>, Vec<c64>) = freqs_hz
+            .iter()
+            .map(|&f| {
+                let (tau, scale) = self.shift(hz_to_omega(f));
+                (tau, scale.inv())
+            })
+            .unzip();
+        let d = resolvent(ritz, &taus, &scales);
         scaled_products(qz.as_ref(), &d, ritz.c.as_ref())
             .into_iter()
             .zip(self.estimates(freqs_hz))
@@ -517,6 +522,13 @@ impl<'a> ShiftedSpace<'a> {
         let certificate = certify(self.pencil, omega, self.load.as_ref(), x.as_ref(), par);
         (x, certificate)
     }
+}
+
+/// D[f, j] = s_f / (1 − τ_f θ_j): the Ritz values' resolvent at each shift τ_f, times s_f.
+fn resolvent(ritz: &Ritz, taus: &[c64], s: &[c64]) -> Mat<c64> {
+    Mat::from_fn(taus.len(), ritz.theta.len(), |f, j| {
+        s[f] / (c64::new(1.0, 0.0) - taus[f] * ritz.theta[j])
+    })
 }
 
 /// A diag(d_f) C for each row d_f of D (frequencies × k, complex), for real A (m × k) and
@@ -643,7 +655,6 @@ mod tests {
         }
     }
 
-    /// A space too small for a frequency fails its certificate: the certificate can fail.
     /// The outputs' rows from the batched products equal the rows of the lifted response at
     /// each frequency (the same Galerkin solution, summed in another order).
     #[test]
@@ -667,6 +678,7 @@ mod tests {
         }
     }
 
+    /// A space too small for a frequency fails its certificate: the certificate can fail.
     #[test]
     fn a_space_too_small_fails_its_certificate() {
         let (body, inputs) = bar(Damping::Rayleigh {
