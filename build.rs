@@ -1,5 +1,5 @@
 //! Build script: links ARPACK only with the `arpack` feature, UMFPACK (SuiteSparse) only
-//! with the `umfpack` feature and sequential MUMPS only with the `mumps` feature.
+//! with the `umfpack` feature and MUMPS only with the `mumps` feature.
 //!
 //! Without the features nothing is linked, so a default build needs no system library.
 //!
@@ -75,20 +75,15 @@ fn main() {
     );
 }
 
-/// With the `mumps` feature: links the sequential MUMPS of Debian's `libmumps-seq-dev`
-/// (`zmumps_seq`, `dmumps_seq` and their common, PORD and MPI-stub libraries; `MUMPS_LIB_DIR`
-/// adds a search path) and generates the declarations of `zmumps_c`, `dmumps_c` and their
-/// structures from the installed headers with bindgen (the structures change between MUMPS
-/// versions, so they are read, not written by hand). `MUMPS_INCLUDE_DIR` names the directory
-/// of `zmumps_c.h`, else /usr/include; the sequential `mpi.h` stub is looked for in
-/// `MUMPS_SEQ_INCLUDE_DIR`, else /usr/include/mumps_seq.
+/// With the `mumps` feature: links the MPI-parallel MUMPS of Debian's `libmumps-dev`
+/// (`zmumps`, `dmumps` and their common and PORD libraries; MPI itself comes with the `mpi`
+/// feature's rsmpi; `MUMPS_LIB_DIR` adds a search path) and generates the declarations of
+/// `zmumps_c`, `dmumps_c` and their structures from the installed headers with bindgen (the
+/// structures change between MUMPS versions, so they are read, not written by hand).
+/// `MUMPS_INCLUDE_DIR` names the directory of `zmumps_c.h`, else /usr/include.
 #[cfg(feature = "mumps")]
 fn mumps() {
-    for var in [
-        "MUMPS_LIB_DIR",
-        "MUMPS_INCLUDE_DIR",
-        "MUMPS_SEQ_INCLUDE_DIR",
-    ] {
+    for var in ["MUMPS_LIB_DIR", "MUMPS_INCLUDE_DIR"] {
         println!("cargo:rerun-if-env-changed={var}");
     }
     if let Some(dir) = std::env::var_os("MUMPS_LIB_DIR") {
@@ -97,23 +92,14 @@ fn mumps() {
             PathBuf::from(dir).display()
         );
     }
-    for lib in [
-        "zmumps_seq",
-        "dmumps_seq",
-        "mumps_common_seq",
-        "pord_seq",
-        "mpiseq_seq",
-    ] {
+    for lib in ["zmumps", "dmumps", "mumps_common", "pord"] {
         println!("cargo:rustc-link-lib={lib}");
     }
     let include =
         std::env::var_os("MUMPS_INCLUDE_DIR").map_or("/usr/include".into(), PathBuf::from);
-    let seq = std::env::var_os("MUMPS_SEQ_INCLUDE_DIR")
-        .map_or_else(|| include.join("mumps_seq"), PathBuf::from);
     let header = "#include <zmumps_c.h>\n#include <dmumps_c.h>\n";
     let bindings = bindgen::Builder::default()
         .header_contents("sparsemor_mumps.h", header)
-        .clang_arg(format!("-I{}", seq.display()))
         .clang_arg(format!("-I{}", include.display()))
         .allowlist_function("[zd]mumps_c")
         .allowlist_type("[ZD]MUMPS_STRUC_C")
@@ -122,10 +108,9 @@ fn mumps() {
         .generate()
         .unwrap_or_else(|e| {
             panic!(
-                "feature mumps: could not read zmumps_c.h/dmumps_c.h in {} and mpi.h in {} ({e}); \
-                 install libmumps-seq-dev or set MUMPS_INCLUDE_DIR / MUMPS_SEQ_INCLUDE_DIR",
-                include.display(),
-                seq.display()
+                "feature mumps: could not read zmumps_c.h/dmumps_c.h in {} ({e}); \
+                 install libmumps-dev or set MUMPS_INCLUDE_DIR",
+                include.display()
             )
         });
     let out = PathBuf::from(std::env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));

@@ -21,4 +21,13 @@ impl Done {
             Done::Failed => 1,
         }
     }
+
+    /// The outcome a rank other than 0 reports for rank 0's exit status `code`.
+    pub fn from_exit_code(code: i32) -> Done {
+        match code {
+            0 => Done::Met,
+            3 => Done::RequestNotMet,
+            _ => Done::Failed,
+        }
+    }
 }

@@ -146,18 +146,13 @@ fn on_ranks(cli: Cli, c: Arc<dyn Cluster>) -> sparsemor::Result<Done> {
     // the same decision on every rank (same command line); rank 0 alone says why a command is
     // refused, and every rank ends only when rank 0 stops it
     let setup = setup.map(|(path, opts)| (path.to_path_buf(), opts));
+    #[cfg(feature = "mumps")]
+    if matches!(&setup, Ok((_, o)) if o.backend == sparsemor::factor::Backend::Mumps) {
+        return shared_factorizations(cli, &*c);
+    }
     if c.rank() == 0 {
-        let done = match setup {
-            Ok(_) => command(cli, Some(c.clone())),
-            Err(e) => Err(e),
-        };
-        let code = done.as_ref().map_or(1, |d| d.exit_code());
-        // the message before any rank exits: mpirun ends the job at the first non-zero exit
-        if let Err(e) = &done {
-            eprintln!("error: {e}");
-        }
-        sparsemor::distributed::stop(&*c, code);
-        return done.or(Ok(Done::Failed));
+        let done = setup.and_then(|_| command(cli, Some(c.clone())));
+        return lead(done, |code| sparsemor::distributed::stop(&*c, code));
     }
     // the model is dropped once its body is built: the body holds the matrices
     let (body, opts) = match &setup {
@@ -173,11 +168,36 @@ fn on_ranks(cli: Cli, c: Arc<dyn Cluster>) -> sparsemor::Result<Done> {
             sparsemor::sweep::SweepOptions::default(),
         ),
     };
-    match sparsemor::distributed::serve(&*c, body.as_ref().map_err(|e| e.as_str()), &opts)? {
-        0 => Ok(Done::Met),
-        3 => Ok(Done::RequestNotMet),
-        _ => Ok(Done::Failed),
+    let code = sparsemor::distributed::serve(&*c, body.as_ref().map_err(|e| e.as_str()), &opts)?;
+    Ok(Done::from_exit_code(code))
+}
+
+/// A command with `--backend mumps` under `mpirun` (docs/design.md §9): every rank holds and
+/// computes a part of each factorization (`factor::mumps::share`), so a body whose factor
+/// does not fit one process fits the job. Rank 0 runs the command as a single process would,
+/// with every frequency factored; the other ranks serve MUMPS's jobs until rank 0 ends the run
+/// with its exit status. They do not read the model: rank 0 holds the matrix.
+#[cfg(feature = "mumps")]
+fn shared_factorizations(cli: Cli, c: &dyn Cluster) -> sparsemor::Result<Done> {
+    use sparsemor::factor::mumps;
+    mumps::share()?;
+    if c.rank() == 0 {
+        return lead(command(cli, None), mumps::dismiss);
     }
+    Ok(Done::from_exit_code(mumps::serve()?))
+}
+
+/// Rank 0's end of a run under `mpirun`: prints the error, if any, before `release` lets
+/// the other ranks end with the run's exit code (mpirun ends the job at the first non-zero
+/// exit, so the message comes first), then returns the outcome (a failure as
+/// [`Done::Failed`], its message already shown).
+fn lead(done: sparsemor::Result<Done>, release: impl FnOnce(i32)) -> sparsemor::Result<Done> {
+    let code = done.as_ref().map_or(1, |d| d.exit_code());
+    if let Err(e) = &done {
+        eprintln!("error: {e}");
+    }
+    release(code);
+    done.or(Ok(Done::Failed))
 }
 
 /// Runs one command; `cluster` for the commands that run distributed.

@@ -1,6 +1,6 @@
 //! `sparsemor sweep`: H, H1 or H0 on a band or a frequency list, written as CSV.
 
-use super::args::{parse_band, parse_list};
+use super::args::{human_bytes, parse_band, parse_list};
 use super::progress::{rank0_share, with_progress};
 use sparsemor::distributed::Cluster;
 use sparsemor::frf::{transfer_function, Part};
@@ -137,7 +137,7 @@ pub fn sweep(a: &SweepArgs, verbose: bool, cluster: Option<Arc<dyn Cluster>>) ->
             let steps: usize = fs.iter().map(|s| s.refinement_steps).sum();
             let pivoted = fs.iter().filter(|s| s.pivoted).count();
             eprintln!(
-                "backend {} ({}), symbolic {:.3} s, factor nnz {}, {:?}, factor min/mean/max {:.4}/{:.4}/{:.4} s, mean solve {:.4} s, worst probe error {:.1e}, \
+                "backend {} ({}), symbolic {:.3} s, factor nnz {}, {} per factorization{}, {:?}, factor min/mean/max {:.4}/{:.4}/{:.4} s, mean solve {:.4} s, worst probe error {:.1e}, \
                  worst backward error {worst_backward:.1e}, refined {refined} of {} frequencies ({steps} steps), {pivoted} handed to the pivoting LBLᵀ",
                 s.backend,
                 match (s.real, s.out_of_core) {
@@ -148,6 +148,11 @@ pub fn sweep(a: &SweepArgs, verbose: bool, cluster: Option<Arc<dyn Cluster>>) ->
                 },
                 s.seconds,
                 s.factor_nnz,
+                human_bytes(s.bytes_per_factor as f64),
+                match s.ranks {
+                    1 => String::new(),
+                    r => format!(" on the rank that needs most of {r} sharing it"),
+                },
                 sch,
                 min_factor,
                 mean_factor,

@@ -40,7 +40,8 @@ pub enum Backend {
     FaerLu,
     /// UMFPACK (SuiteSparse), real or complex; needs the `umfpack` feature.
     Umfpack,
-    /// Sequential MUMPS, complex symmetric, in core or out of core; needs the `mumps` feature.
+    /// MUMPS, complex symmetric, in core or out of core, in this process or shared by the
+    /// ranks of `mpirun`; needs the `mumps` feature.
     Mumps,
 }
 
@@ -151,6 +152,11 @@ pub(super) trait SymbolicFactorization: Send + Sync {
     /// Whether the factors are kept on disk (MUMPS out of core).
     fn out_of_core(&self) -> bool {
         false
+    }
+    /// The MPI ranks that hold a part of each factorization (MUMPS shared over `mpirun`'s
+    /// ranks); 1 for a factorization held by this process alone.
+    fn ranks(&self) -> usize {
+        1
     }
 }
 

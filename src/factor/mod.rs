@@ -16,8 +16,8 @@
 //!   for small undamped models; it blows up on 3-D pencils at 10⁵ DoF (docs/design.md
 //!   §3.1), so [`Backend::Auto`] uses it only up to [`LU_MAX_N`].
 //! - `umfpack` — **UMFPACK** (cargo feature `umfpack`), real or complex LU.
-//! - `mumps` — **MUMPS** (cargo feature `mumps`), sequential, complex symmetric, in core or
-//!   with its factors on disk (out of core).
+//! - `mumps` — **MUMPS** (cargo feature `mumps`), complex symmetric, in core or with its
+//!   factors on disk (out of core), in this process or shared by the ranks of `mpirun`.
 //!
 //! Beside them: `ordering` (AMD, a level-set bisection or METIS nested dissection, whichever
 //! fills least, the bisection within 5 %, [`symbolic_cholesky_ordered`]), `cholesky` (the real
@@ -39,7 +39,7 @@ mod lblt;
 mod ldlt;
 mod lu;
 #[cfg(feature = "mumps")]
-mod mumps;
+pub mod mumps;
 mod ordering;
 mod pattern;
 mod refine;
@@ -94,11 +94,23 @@ fn analyse(
         #[cfg(not(feature = "mumps"))]
         Backend::Mumps => Err(crate::Error::InvalidSetting(
             "backend mumps: this build has no MUMPS; rebuild with `--features mumps` \
-             (needs libmumps-seq-dev and libclang-dev)"
+             (needs libmumps-dev, libopenmpi-dev and libclang-dev)"
                 .into(),
         )),
         Backend::Auto => unreachable!("resolved before the registry is asked"),
     }
+}
+
+/// Whether a factorization with `backend` is held whole by this process: not when MUMPS
+/// shares each factorization over the ranks of `mpirun` ([`mumps::share`]), so that nothing
+/// may keep a whole factor in one process (the sweep's shifted Krylov space does).
+pub fn held_whole(backend: Backend) -> bool {
+    #[cfg(feature = "mumps")]
+    if backend == Backend::Mumps {
+        return mumps::ranks() == 1;
+    }
+    let _ = backend;
+    true
 }
 
 /// What the symbolic analysis measured.
@@ -114,10 +126,13 @@ pub struct SymbolicStats {
     /// reports it only after the numeric phase).
     pub factor_nnz: usize,
     /// Estimated bytes of one numeric factorization incl. workspace (in memory: out of core,
-    /// without the factors on disk).
+    /// without the factors on disk), on the rank that needs most when [`Self::ranks`] > 1.
     pub bytes_per_factor: usize,
     /// True when the factors are kept on disk (backend `mumps`).
     pub out_of_core: bool,
+    /// The MPI ranks that hold a part of each factorization (backend `mumps` under `mpirun`
+    /// after [`mumps::share`]); 1 otherwise.
+    pub ranks: usize,
 }
 
 /// The once-per-model part of the factorization: ordering and symbolic analysis.
@@ -181,7 +196,8 @@ impl Analysis {
             max_rhs,
             storage,
         )?;
-        let (backend, out_of_core) = (symbolic.backend(), symbolic.out_of_core());
+        let (backend, out_of_core, ranks) =
+            (symbolic.backend(), symbolic.out_of_core(), symbolic.ranks());
         Ok(Analysis {
             symbolic,
             pivoting: std::sync::OnceLock::new(),
@@ -195,6 +211,7 @@ impl Analysis {
                 factor_nnz: footprint.factor_nnz,
                 bytes_per_factor: footprint.bytes,
                 out_of_core,
+                ranks,
             },
         })
     }

@@ -1,23 +1,27 @@
 //! The MUMPS backend (cargo feature `mumps`, docs/design.md §3.1): the complex-symmetric
-//! multifrontal LDLᵀ of sequential MUMPS 5 (`zmumps_c`, SYM = 2: symmetric with pivoting),
-//! in core or **out of core**: with a directory the factors are written there as they are
-//! computed and read back by the solves (ICNTL(22) = 1), so only the active fronts stay in
-//! memory, and a body whose factor does not fit the machine can still be swept.
+//! multifrontal LDLᵀ of MUMPS 5 (`zmumps_c`, SYM = 2: symmetric with pivoting), in core or
+//! **out of core**, in one process or **over the ranks of `mpirun`**: with a directory the
+//! factors are written there as they are computed and read back by the solves (ICNTL(22) = 1),
+//! so only the active fronts stay in memory; with [`share`] every rank holds and computes a
+//! part of each factorization (`ranks.rs`). Either way a body whose factor does not fit one
+//! process can still be swept.
 //!
-//! - **Input**: the pencil's lower pattern, 1-based, assembled and centralized (ICNTL(5) = 0,
-//!   ICNTL(18) = 0); the values of A(iω) gathered per frequency; METIS ordering (ICNTL(7) = 5).
+//! - **Input**: the pencil's lower pattern, 1-based, assembled and centralized on rank 0
+//!   (ICNTL(5) = 0, ICNTL(18) = 0); the values of A(iω) gathered per frequency; METIS ordering
+//!   (ICNTL(7) = 5); right-hand sides and solutions on rank 0.
 //! - **Analysis**: [`analyse`] runs MUMPS's analysis once on a scratch instance to read what it
 //!   predicts — factor entries (INFOG(3)) and the memory of one factorization in core or out of
-//!   core (INFOG(17) / INFOG(27)) — for the sweep's memory budget. Each numeric factorization
-//!   is its own MUMPS instance, which analyses the pattern again at its first factorization and
-//!   refactors with new values after that.
+//!   core on the rank that needs most (INFOG(16) / INFOG(26)) — for the sweep's memory budget.
+//!   Each numeric factorization is its own MUMPS instance, which analyses the pattern again at
+//!   its first factorization and refactors with new values after that.
 //! - **Singularity**: null pivots are detected (ICNTL(24) = 1) and a factorization with one is
 //!   refused as singular, as MUMPS's own numerically-singular status (INFOG(1) = −10); the
 //!   sweep's probe solve checks every factorization as for the other backends. MUMPS reports
 //!   no pivot ratio, so [`Factorization::pivot_ratio`] is NaN.
 //! - **One call at a time**: MUMPS's out-of-core layer keeps its files in process-global C
-//!   state (`mumps_io_basic.c`), so every call into MUMPS holds one lock; two sweep workers then
-//!   take turns (MUMPS's own BLAS may use threads).
+//!   state (`mumps_io_basic.c`), and shared factorizations take their jobs in rank 0's order,
+//!   so every call into MUMPS holds one lock; two sweep workers then take turns (MUMPS's own
+//!   BLAS may use threads).
 //! - **Errors**: a negative INFOG(1) becomes [`Error::Factor`] with MUMPS's code, INFOG(2) and
 //!   what to change (memory, the out-of-core directory); no MUMPS output is printed
 //!   (ICNTL(1..4)).
@@ -43,14 +47,13 @@ use super::pattern;
 use crate::pencil::Pencil;
 use crate::{Error, Result};
 use faer::{c64, MatMut, Par};
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
+use std::sync::atomic::{AtomicU64, Ordering};
 
-/// `comm_fortran` of a sequential MUMPS instance (MUMPS's `USE_COMM_WORLD`).
-const USE_COMM_WORLD: i32 = -987_654;
+mod ranks;
 
-/// Every call into MUMPS holds this lock (module doc).
-static MUMPS: Mutex<()> = Mutex::new(());
+pub use ranks::{dismiss, ranks, share};
 
 /// The analysis: the 1-based lower pattern MUMPS reads, where the out-of-core factors go,
 /// and what MUMPS's own analysis predicted.
@@ -99,13 +102,14 @@ pub(super) fn analyse(pencil: &Pencil, storage: Storage<'_>) -> Result<Analysed>
         out_of_core: out_of_core.map(Path::to_path_buf),
     };
     // MUMPS's analysis on a scratch instance: what one factorization will take. INFOG(3):
-    // entries of the factors; INFOG(17) / INFOG(27): MB of one factorization in core / out of
-    // core (negative: millions)
+    // entries of the factors (all ranks); INFOG(16) / INFOG(26): MB of one factorization in
+    // core / out of core on the rank that needs most (negative: millions)
     let (entries, in_core, on_disk) = {
-        let mut scratch = Instance::new(&symbolic)?;
+        let mut scratch = Instance::new(symbolic.out_of_core.as_deref())?;
+        scratch.set_pattern(&symbolic);
         scratch.run(1, "analysis")?;
         let infog = |k: usize| scaled(scratch.id.infog[k - 1], 1);
-        (infog(3), infog(17) * 1_000_000, infog(27) * 1_000_000)
+        (infog(3), infog(16) * 1_000_000, infog(26) * 1_000_000)
     };
     if symbolic.out_of_core.is_none() && in_core > storage.budget {
         symbolic.out_of_core = Some(std::env::temp_dir());
@@ -140,9 +144,16 @@ impl SymbolicFactorization for Symbolic {
         self.out_of_core.is_some()
     }
 
+    fn ranks(&self) -> usize {
+        ranks()
+    }
+
     fn numeric(&self) -> Result<Box<dyn Factorization + '_>> {
+        let mut instance = Instance::new(self.out_of_core.as_deref())?;
+        instance.set_pattern(self);
         Ok(Box::new(Numeric {
-            instance: Instance::new(self)?,
+            symbolic: self,
+            instance,
             values: Vec::new(),
             rhs: Vec::new(),
             analysed: false,
@@ -151,29 +162,34 @@ impl SymbolicFactorization for Symbolic {
     }
 }
 
-/// One MUMPS instance on a [`Symbolic`] pattern: the C structure, boxed (MUMPS keeps its
-/// address between calls), and the pattern it points to.
-struct Instance<'a> {
+/// One MUMPS instance: the C structure, boxed (MUMPS keeps its address between calls). On
+/// rank 0 (or a process of its own) it points to a [`Symbolic`] pattern that outlives it
+/// ([`Instance::set_pattern`]); on the other ranks of shared factorizations it holds no
+/// matrix (the `serve` loop).
+struct Instance {
     id: Box<sys::ZMUMPS_STRUC_C>,
-    symbolic: &'a Symbolic,
+    /// Rank 0's number of this instance, announced with each of its jobs when the
+    /// factorizations are shared; `None` on the other ranks (they only follow).
+    announced: Option<u64>,
     /// The out-of-core directory as a C string (MUMPS copies it at each call).
     ooc_dir: Option<Vec<u8>>,
     /// JOB = −1 succeeded: MUMPS holds memory (and files) that JOB = −2 releases.
     initialized: bool,
 }
 
-// SAFETY: the structure's pointers refer to the pattern of `symbolic` (shared, read-only),
-// to this instance's own buffers, or to MUMPS's internal memory, which is used by one call
-// at a time under the lock `MUMPS`; nothing is tied to the creating thread.
-unsafe impl Send for Instance<'_> {}
+// SAFETY: the structure's pointers refer to a pattern that outlives the instance (shared,
+// read-only), to its owner's buffers, or to MUMPS's internal memory, which is used by one
+// call at a time under the lock; nothing is tied to the creating thread.
+unsafe impl Send for Instance {}
 
-impl<'a> Instance<'a> {
-    /// A new MUMPS instance (JOB = −1) with sparsemor's controls.
-    fn new(symbolic: &'a Symbolic) -> Result<Self> {
-        // SAFETY: ZMUMPS_STRUC_C is a plain C structure of integers, reals, pointers and
-        // character arrays; all zeros is the state MUMPS expects before JOB = −1.
-        let id: Box<sys::ZMUMPS_STRUC_C> = Box::new(unsafe { std::mem::zeroed() });
-        let ooc_dir = match &symbolic.out_of_core {
+/// Numbers of the instances rank 0 creates.
+static NEXT_INSTANCE: AtomicU64 = AtomicU64::new(0);
+
+impl Instance {
+    /// A new MUMPS instance (JOB = −1) with sparsemor's controls, its factors in `dir` (out
+    /// of core) or in memory; on rank 0 of shared factorizations every rank makes its part.
+    fn new(dir: Option<&Path>) -> Result<Self> {
+        let ooc_dir = match dir {
             Some(dir) => {
                 let bytes = dir.as_os_str().as_encoded_bytes().to_vec();
                 if bytes.len() >= 255 || bytes.contains(&0) {
@@ -186,15 +202,24 @@ impl<'a> Instance<'a> {
             }
             None => None,
         };
+        let number = ranks::is_host().then(|| NEXT_INSTANCE.fetch_add(1, Ordering::Relaxed));
+        Self::start(number, ooc_dir)
+    }
+
+    /// JOB = −1 and the controls; `announced` as in [`Instance::announced`].
+    fn start(announced: Option<u64>, ooc_dir: Option<Vec<u8>>) -> Result<Self> {
+        // SAFETY: ZMUMPS_STRUC_C is a plain C structure of integers, reals, pointers and
+        // character arrays; all zeros is the state MUMPS expects before JOB = −1.
+        let id: Box<sys::ZMUMPS_STRUC_C> = Box::new(unsafe { std::mem::zeroed() });
         let mut inst = Instance {
             id,
-            symbolic,
+            announced,
             ooc_dir,
             initialized: false,
         };
         inst.id.par = 1;
         inst.id.sym = 2;
-        inst.id.comm_fortran = USE_COMM_WORLD;
+        inst.id.comm_fortran = ranks::communicator()?;
         inst.run(-1, "initialization")?;
         inst.initialized = true;
         let icntl = &mut inst.id.icntl;
@@ -210,17 +235,21 @@ impl<'a> Instance<'a> {
         icntl[11] = 1;
         icntl[23] = 1;
         icntl[21] = i32::from(inst.ooc_dir.is_some());
-        let s = inst.symbolic;
-        inst.id.n = s.n;
-        inst.id.nnz = s.irn.len() as i64;
-        inst.id.nz = i32::try_from(s.irn.len()).unwrap_or(0);
-        // MUMPS reads the pattern through mutable pointers but does not write it
-        inst.id.irn = s.irn.as_ptr().cast_mut();
-        inst.id.jcn = s.jcn.as_ptr().cast_mut();
         Ok(inst)
     }
 
-    /// Runs JOB = `job` ("what" names it in an error).
+    /// Points the instance to the pattern of `s` (rank 0; the pattern must outlive it).
+    fn set_pattern(&mut self, s: &Symbolic) {
+        self.id.n = s.n;
+        self.id.nnz = s.irn.len() as i64;
+        self.id.nz = i32::try_from(s.irn.len()).unwrap_or(0);
+        // MUMPS reads the pattern through mutable pointers but does not write it
+        self.id.irn = s.irn.as_ptr().cast_mut();
+        self.id.jcn = s.jcn.as_ptr().cast_mut();
+    }
+
+    /// Runs JOB = `job` ("what" names it in an error), announced to the other ranks first
+    /// when the factorizations are shared.
     fn run(&mut self, job: i32, what: &str) -> Result<()> {
         if let Some(dir) = &self.ooc_dir {
             let dst = &mut self.id.ooc_tmpdir;
@@ -231,7 +260,14 @@ impl<'a> Instance<'a> {
         }
         self.id.job = job;
         {
-            let _one = MUMPS.lock().unwrap_or_else(|p| p.into_inner());
+            let _one = ranks::lock();
+            if let Some(instance) = self.announced {
+                let dir = match (job, &self.ooc_dir) {
+                    (-1, Some(dir)) => dir.clone(),
+                    _ => Vec::new(),
+                };
+                ranks::announce(&ranks::Job { instance, job, dir });
+            }
             // SAFETY: `id` was zeroed and initialized by JOB = −1 before any other job; its
             // pointers (pattern, values, right-hand side) are valid for the lengths set
             // (n, nnz, nrhs·lrhs) during the call; one call at a time (the lock).
@@ -245,7 +281,7 @@ impl<'a> Instance<'a> {
     }
 }
 
-impl Drop for Instance<'_> {
+impl Drop for Instance {
     fn drop(&mut self) {
         // JOB = −2 frees MUMPS's memory and deletes the out-of-core files; the pointers into
         // buffers that may be gone are cleared first (MUMPS does not read them here)
@@ -255,6 +291,44 @@ impl Drop for Instance<'_> {
         self.id.a = std::ptr::null_mut();
         self.id.rhs = std::ptr::null_mut();
         let _ = self.run(-2, "termination");
+    }
+}
+
+/// The other ranks' side of shared factorizations (ranks ≥ 1 after [`share`]): makes, runs
+/// and ends their part of each MUMPS instance as rank 0 announces it, until rank 0
+/// [`dismiss`]es them; returns rank 0's exit code. A failed job needs nothing here: MUMPS's
+/// status is global, rank 0 sees it and reports it.
+///
+/// # Errors
+/// [`Error::Distributed`] when a job names an instance this rank does not have (its part
+/// could not be made); the MPI launcher then ends the job.
+pub fn serve() -> Result<i32> {
+    let mut instances: HashMap<u64, Instance> = HashMap::new();
+    loop {
+        let job = match ranks::next() {
+            Ok(job) => job,
+            Err(code) => return Ok(code),
+        };
+        if job.job == -1 {
+            let dir = (!job.dir.is_empty()).then_some(job.dir);
+            if let Ok(inst) = Instance::start(None, dir) {
+                instances.insert(job.instance, inst);
+            }
+            continue;
+        }
+        if job.job == -2 {
+            // the drop runs JOB = −2
+            if instances.remove(&job.instance).is_some() {
+                continue;
+            }
+        } else if let Some(inst) = instances.get_mut(&job.instance) {
+            let _ = inst.run(job.job, "");
+            continue;
+        }
+        return Err(Error::Distributed(format!(
+            "MUMPS over ranks: rank 0 announced job {} of instance {}, which this rank could not make",
+            job.job, job.instance
+        )));
     }
 }
 
@@ -278,7 +352,8 @@ fn describe(what: &str, info1: i32, info2: i32) -> String {
 /// One numeric factorization: its instance, the values it factors (MUMPS reads them at
 /// each factorization) and where it is in its life.
 struct Numeric<'a> {
-    instance: Instance<'a>,
+    symbolic: &'a Symbolic,
+    instance: Instance,
     values: Vec<sys::mumps_double_complex>,
     /// The right-hand sides, column after column (MUMPS solves them in place).
     rhs: Vec<sys::mumps_double_complex>,
@@ -289,7 +364,7 @@ struct Numeric<'a> {
 impl Factorization for Numeric<'_> {
     fn factor(&mut self, a: &Values<'_>, freq_hz: f64, _: Par) -> Result<()> {
         self.factored = false;
-        let nnz = self.instance.symbolic.irn.len();
+        let nnz = self.symbolic.irn.len();
         if self.values.len() != nnz {
             self.values
                 .try_reserve_exact(nnz)
