@@ -1,5 +1,6 @@
 //! Process memory measurements (Linux `/proc`), used for the memory budget of the sweep
-//! schedule and for the per-phase peak memory of `sparsemor bench`.
+//! schedule and for the per-phase peak memory of `sparsemor bench`, and the free disk space
+//! of line-fitting's spill file.
 
 /// Bytes the kernel reports as available for new allocations (`MemAvailable`), if known.
 pub fn available_bytes() -> Option<usize> {
@@ -10,6 +11,20 @@ pub fn available_bytes() -> Option<usize> {
 /// slices): `1/share` of [`available_bytes`], or of 8 GiB when that is unknown.
 pub fn default_budget(share: usize) -> usize {
     available_bytes().unwrap_or(8 << 30) / share.max(1)
+}
+
+/// Bytes free for an unprivileged user on the file system of `dir` (`statvfs`), if known.
+pub fn free_disk_bytes(dir: &std::path::Path) -> Option<u64> {
+    #[cfg(unix)]
+    {
+        let st = rustix::fs::statvfs(dir).ok()?;
+        Some(st.f_bavail.saturating_mul(st.f_frsize))
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = dir;
+        None
+    }
 }
 
 /// Peak resident set size of this process so far (`VmHWM`), if known.

@@ -67,6 +67,13 @@ pub(crate) enum SnapshotStore {
     },
 }
 
+/// How many snapshots of `bytes_each` bytes the file system of the spill file (the
+/// temporary directory) has room for now, if its free space is known.
+pub(crate) fn spill_room(bytes_each: usize) -> Option<usize> {
+    let free = crate::memory::free_disk_bytes(&std::env::temp_dir())?;
+    Some(usize::try_from(free / bytes_each.max(1) as u64).unwrap_or(usize::MAX))
+}
+
 impl SnapshotStore {
     /// An empty store; `spill` puts the snapshots in a temporary file.
     pub fn new(spill: bool) -> Result<Self> {

@@ -217,6 +217,7 @@ fn sampling_report(path: &Path, t: SamplingToml) -> Result<SamplingReport> {
         factorizations: t.factorizations,
         modes_in_band: None,
         spilled: false,
+        spill_room: None,
     })
 }
 

@@ -357,9 +357,25 @@ fn spilled_snapshots_give_the_same_rom() {
     // one worker: the same absorption order in both runs, so the results are bit-identical
     let a = sampled(m, scene, o.clone(), 5, 1, &no_progress).unwrap();
     o.snapshot_memory = Some(0);
-    let b = sampled(m, scene, o, 5, 1, &no_progress).unwrap();
+    let b = sampled(m, scene, o.clone(), 5, 1, &no_progress).unwrap();
     assert!(!report(&a).spilled && report(&b).spilled);
+    assert!(report(&b).spill_room.is_none());
     assert_eq!((a.order(), &a.kr, &a.mr), (b.order(), &b.kr, &b.mr));
+    // a budget whose snapshots no disk holds (2⁴⁰ × 0.24 MB) is refused before any solve,
+    // naming the directory and the fix, instead of failing when the disk is full
+    o.max_points = Some(1 << 40);
+    let solves = AtomicUsize::new(0);
+    let count = |_: Progress| {
+        solves.fetch_add(1, Ordering::Relaxed);
+        true
+    };
+    let r = sampled(m, scene, o, 5, 1, &count);
+    println!("{r:?}");
+    assert!(
+        matches!(&r, Err(Error::InvalidSetting(s)) if s.contains("TMPDIR") && s.contains("has room for")),
+        "{r:?}"
+    );
+    assert_eq!(solves.load(Ordering::Relaxed), 0);
 }
 
 #[test]

@@ -39,7 +39,9 @@
 //!
 //! Snapshot memory rule: snapshots are kept only when the order may grow. They stay in
 //! memory while max_points · N · p · 16 bytes fits `snapshot_memory` (default a quarter of the
-//! available memory), else every snapshot is spilled to a temporary file and streamed back.
+//! available memory), else every snapshot is spilled to a temporary file and streamed back;
+//! then the default budget of full solves is lowered to what the temporary directory has room
+//! for, and an explicit budget that does not fit is refused before any solve ([`spill_cap`]).
 
 use super::fit::{check_rows, Partition};
 use super::indicator::Indicator;
@@ -73,6 +75,40 @@ fn elastic_modes_below(body: &Body, f_hz: f64) -> Result<usize> {
     };
     let rigid = if body.rigid().is_some() { 6 } else { 0 };
     Ok(below.saturating_sub(rigid))
+}
+
+/// The budget of full solves the spill file has room for, when that is below `max_points`:
+/// each rank spills its own snapshots (`bytes_each` each) and the ranks of one machine share
+/// its temporary directory. The default budget is lowered to it (`Some`); an explicit budget
+/// (`sampling.max_points`), or one below the seed frequencies, is refused before any work
+/// rather than failing when the disk is full.
+///
+/// # Errors
+/// [`Error::InvalidSetting`] naming the directory, the room and the fix.
+fn spill_cap(
+    bytes_each: usize,
+    max_points: usize,
+    sampling: &SamplingOptions,
+    sampled: &[f64],
+    engine: &Engine<'_>,
+) -> Result<Option<usize>> {
+    let Some(room) = crate::snapshots::spill_room(bytes_each) else {
+        return Ok(None);
+    };
+    let fits = room.saturating_mul(engine.ranks()) / engine.node_ranks().max(1);
+    if fits >= max_points {
+        return Ok(None);
+    }
+    if sampling.max_points.is_some() || fits < sampled.len() {
+        return Err(Error::InvalidSetting(format!(
+            "max_points = {max_points}: the snapshots kept for interface growth ({:.1} MB per \
+             frequency) spill to the temporary directory {}, which has room for {room}; point \
+             TMPDIR to a larger disk, or lower max_points to {fits} or max_order",
+            bytes_each as f64 / 1e6,
+            std::env::temp_dir().display()
+        )));
+    }
+    Ok(Some(fits))
 }
 
 /// A verification pass: its summary and the error at each point (frequency, ε).
@@ -146,6 +182,8 @@ struct Loop<'a> {
     counted: usize,
     /// The elastic modes in the band, when counted.
     modes_in_band: Option<usize>,
+    /// The budget of full solves the spill file had room for, when it lowered the default.
+    spill_room: Option<usize>,
     candidates: Vec<f64>,
     /// Every frequency absorbed into `qr`, in the order of absorption.
     sampled: Vec<f64>,
@@ -272,7 +310,7 @@ impl<'a> Loop<'a> {
                 )
             })
             .max(part.order());
-        let max_points = sampling
+        let mut max_points = sampling
             .max_points
             .unwrap_or_else(|| SamplingOptions::auto_max_points(max_order, krylov));
         let counted = usize::from(modes_in_band.is_some());
@@ -304,6 +342,11 @@ impl<'a> Loop<'a> {
         } else {
             Keep::No
         };
+        let spill_room = match keep {
+            Keep::Spill => spill_cap(body.n() * p * 16, max_points, sampling, &sampled, &engine)?,
+            _ => None,
+        };
+        max_points = spill_room.unwrap_or(max_points);
         let nc = sampling.candidates.max(3);
         let candidates = linspace(band, nc);
         let absorbed = engine.absorb(
@@ -343,6 +386,7 @@ impl<'a> Loop<'a> {
             growth,
             counted,
             modes_in_band,
+            spill_room,
             candidates,
             sampled,
             sampled_h1,
@@ -727,6 +771,7 @@ impl<'a> Loop<'a> {
             factorizations,
             modes_in_band: self.modes_in_band,
             spilled: self.engine.spilled(),
+            spill_room: self.spill_room,
         };
         if let Provenance::LineFit { sampling, fit, .. } = &mut rom.provenance {
             fit.solves = self.engine.accuracy(); // every solve, the verification's too

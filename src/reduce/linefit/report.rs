@@ -89,6 +89,9 @@ pub struct SamplingReport {
     pub modes_in_band: Option<usize>,
     /// Snapshots were spilled to a temporary file.
     pub spilled: bool,
+    /// The budget of full solves when the temporary directory's free space lowered the
+    /// default (the spill file would not have held more snapshots); `None` otherwise.
+    pub spill_room: Option<usize>,
 }
 
 impl SamplingReport {
@@ -140,7 +143,14 @@ impl SamplingReport {
                 self.error,
                 self.cost(),
                 match self.outcome {
-                    Outcome::Budget => "a larger budget of full solves (max_points)".to_string(),
+                    Outcome::Budget => match self.spill_room {
+                        Some(n) => format!(
+                            "room for more spilled snapshots (the temporary directory held {n}; \
+                             point TMPDIR to a larger disk) and a larger budget of full solves \
+                             (max_points)"
+                        ),
+                        None => "a larger budget of full solves (max_points)".to_string(),
+                    },
                     _ => format!(
                         "a larger interface (max_order above {order}; the DoF with the largest fit residual is {})",
                         self.suggested_dof
