@@ -68,10 +68,11 @@ pub(crate) enum SnapshotStore {
 }
 
 /// How many snapshots of `bytes_each` bytes the file system of the spill file (the
-/// temporary directory) has room for now, if its free space is known.
+/// temporary directory) has room for now, if its free space is known: in nine tenths of the
+/// free space, so that the spill file does not leave the disk full for everything else.
 pub(crate) fn spill_room(bytes_each: usize) -> Option<usize> {
     let free = crate::memory::free_disk_bytes(&std::env::temp_dir())?;
-    Some(usize::try_from(free / bytes_each.max(1) as u64).unwrap_or(usize::MAX))
+    Some(usize::try_from(free / 10 * 9 / bytes_each.max(1) as u64).unwrap_or(usize::MAX))
 }
 
 impl SnapshotStore {
