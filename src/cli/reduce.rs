@@ -78,7 +78,7 @@ pub struct ReduceArgs {
     #[arg(long, default_value_t = sparsemor::sweep::DEFAULT_PROBE_TOL)]
     probe_tol: f64,
     /// Factorization backend of line-fitting's full solves: auto, ldlt, faer-lblt, faer-lu,
-    /// umfpack, mumps.
+    /// umfpack, mumps (under mpirun: every rank holds a part of each factorization).
     #[arg(long, default_value = "auto")]
     backend: String,
     /// Keep each factorization's factors in this directory instead of memory (backend mumps;

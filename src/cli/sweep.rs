@@ -35,7 +35,8 @@ pub struct SweepArgs {
     /// Worker threads (0 = all cores).
     #[arg(long, default_value_t = 0)]
     threads: usize,
-    /// Factorization backend: auto, ldlt, faer-lblt, faer-lu, umfpack.
+    /// Factorization backend: auto, ldlt, faer-lblt, faer-lu, umfpack, mumps (under mpirun:
+    /// every rank holds a part of each factorization).
     #[arg(long, default_value = "auto")]
     backend: String,
     /// Memory budget for concurrent factorizations in GB (default: half of available).
