@@ -71,6 +71,24 @@ fn bar(dir: &Path) {
     ok(dir, &["generate", "bar", "--out", "bar"]);
 }
 
+/// `reduce bar` by line-fitting with 5 extra interface DoFs at 7 fixed reference frequencies
+/// on one thread, then `extra`.
+fn fixed_reduce<'a>(extra: &[&'a str]) -> Vec<&'a str> {
+    let fixed = [
+        "reduce",
+        "bar",
+        "--method",
+        "linefit",
+        "--extra-interface",
+        "5",
+        "--ref-freqs",
+        "50,100,200,400,600,800,1000",
+        "--threads",
+        "1",
+    ];
+    [&fixed[..], extra].concat()
+}
+
 /// Reads the ROMs `one` and `two` and asserts that each matrix of `two` is within relative
 /// distance `tol` of `one`'s (`what` labels the output); returns `two`.
 fn same_rom(one: &Path, two: &Path, tol: f64, what: &str) -> sparsemor::reduce::Rom {
@@ -114,20 +132,7 @@ fn mpirun_linefit_rom_equals_the_one_process_rom() {
     // factored, the ranks' ROM differs by the TSQR merge's rounding; from the Krylov space
     // each rank grows its own space, and the ROMs agree to the responses' certificates
     for (solve, tol) in [("factor", 1e-12), ("auto", 1e-10)] {
-        let common = [
-            "reduce",
-            "bar",
-            "--method",
-            "linefit",
-            "--extra-interface",
-            "5",
-            "--ref-freqs",
-            "50,100,200,400,600,800,1000",
-            "--threads",
-            "1",
-            "--solve",
-            solve,
-        ];
+        let common = fixed_reduce(&["--solve", solve]);
         let (one, two) = (format!("one-{solve}"), format!("two-{solve}"));
         ok(&dir, &[&common[..], &["--out", &one]].concat());
         mpirun_ok(&dir, 2, &[&common[..], &["--out", &two]].concat());
@@ -145,22 +150,7 @@ fn mpirun_linefit_rom_equals_the_one_process_rom() {
 fn mpirun_mumps_ranks_share_each_factorization() {
     let dir = scratch("mumps");
     bar(&dir);
-    let common = [
-        "reduce",
-        "bar",
-        "--method",
-        "linefit",
-        "--extra-interface",
-        "5",
-        "--ref-freqs",
-        "50,100,200,400,600,800,1000",
-        "--threads",
-        "1",
-        "--backend",
-        "mumps",
-        "--solve",
-        "factor",
-    ];
+    let common = fixed_reduce(&["--backend", "mumps", "--solve", "factor"]);
     ok(&dir, &[&common[..], &["--out", "one"]].concat());
     mpirun_ok(&dir, 2, &[&common[..], &["--out", "two"]].concat());
     // two backward-stable factorizations of the same matrices (fronts mapped differently,

@@ -266,7 +266,7 @@ impl Instance {
                     (-1, Some(dir)) => dir.clone(),
                     _ => Vec::new(),
                 };
-                ranks::announce(&ranks::Job { instance, job, dir });
+                ranks::announce(ranks::Job { instance, job, dir });
             }
             // SAFETY: `id` was zeroed and initialized by JOB = −1 before any other job; its
             // pointers (pattern, values, right-hand side) are valid for the lengths set

@@ -122,9 +122,9 @@ pub(super) fn communicator() -> Result<i32> {
 
 /// Rank 0: tells the other ranks to run `job` (call under the backend's lock, right before
 /// MUMPS's own call). Nothing happens when the factorizations are not shared.
-pub(super) fn announce(job: &Job) {
+pub(super) fn announce(job: Job) {
     if let Some(s) = SHARED.get() {
-        broadcast(&s.comm, job.instance, job.job, job.dir.clone());
+        broadcast(&s.comm, job.instance, job.job, job.dir);
     }
 }
 
