@@ -56,7 +56,7 @@ pub fn modes(a: &ModesArgs) -> Result<()> {
     let st = &m.stats;
     println!(
         "{} modes ({} rigid) in {secs:.3} s: {} slices, {} factorizations; inertia counts {:.3} s, factor {:.3} s, Krylov {:.3} s \
-         (summed over slices; {} solves, {} restarts, dim <= {})",
+         (summed over slices; {} solves, {} restarts, dim <= {}; largest relative Ritz residual {:.1e})",
         m.lambdas.len(),
         m.rigid,
         st.slices.len(),
@@ -66,7 +66,8 @@ pub fn modes(a: &ModesArgs) -> Result<()> {
         st.iterate_s,
         st.solves,
         st.restarts,
-        st.krylov_dim
+        st.krylov_dim,
+        st.residual
     );
     let refined: Vec<_> = st.slices.iter().filter(|s| s.refinements > 0).collect();
     if !refined.is_empty() {

@@ -186,6 +186,7 @@ pub(super) fn solve(
         }
     }
     stats.restarts = (iparam[2] - 1).max(0) as usize; // iparam(3): update iterations taken
+    stats.residual = opts.tol; // dsaupd's test: ‖r‖ ≤ tol·|θ|
     if info < 0 || info == 3 {
         return Err(Error::Factor(format!(
             "ARPACK dsaupd: info = {info}: {}",

@@ -26,6 +26,15 @@
 //! spectrum) converge and are locked first, and once deflated they no longer set the floor
 //! for the farther ones.
 //!
+//! **Attainable accuracy.** The solves' rounding (ε times the condition of K − σM, not of S on
+//! the active space) can hold a pair's residual a little above that floor, restart after
+//! restart. When the leading unconverged pair's relative residual has not halved over two
+//! restarts and lies within [`ATTAINABLE`] × tol, it is the accuracy this factor attains: the
+//! test's tolerance is raised to it for the rest of the slice, the pair is locked, and the
+//! largest relative residual of a locked pair is reported ([`Iteration::residual`]). A
+//! symmetric pair's eigenvalue error is at most the residual squared over the gap, so 1e-12
+//! still gives λ far inside the 1e-9 the tests ask.
+//!
 //! **Counts and multiplicity.** A single-vector Krylov space holds, in exact arithmetic, one
 //! direction of each eigenspace only: the second copy of a multiple eigenvalue (the cube's
 //! symmetries make many) enters through rounding, slowly. The slice knows from the inertia how
@@ -80,7 +89,13 @@ pub(super) struct Iteration {
     pub restarts: usize,
     /// Fresh starts after a missed copy of a multiple eigenvalue.
     pub fresh_starts: usize,
+    /// Largest relative residual ‖S x − θ x‖_M / |θ| of a returned pair.
+    pub residual: f64,
 }
+
+/// How far above the requested tolerance a stagnated residual is accepted as the attainable
+/// accuracy (see the module doc).
+const ATTAINABLE: f64 = 100.0;
 
 /// The `target.count` eigenpairs of (K, M) in the target interval, by Krylov–Schur with
 /// locking on `op` with a basis of `m` vectors (count < m ≤ N, or m = N); (λ, M-orthonormal
@@ -104,6 +119,9 @@ pub(super) fn solve(
     let mut found = 0usize;
     let mut start = 0usize;
     let (mut idle, mut fresh_idle) = (0usize, 0usize);
+    // the tolerance in force (raised to an attained stagnation level) and the leading
+    // unconverged pair's relative residual at the last restart
+    let (mut tol, mut lead) = (opts.tol, f64::INFINITY);
     loop {
         let nl = locked.len();
         let found_before = found;
@@ -118,15 +136,17 @@ pub(super) fn solve(
         let Basis { q, mq, h, seed, .. } = &mut basis;
         let theta_max = theta[0].abs();
         let exhausted = me == n && nl + ma == n;
-        let converged = |i: usize| {
-            exhausted || b[i] <= opts.tol * theta[i].abs() + 4.0 * f64::EPSILON * theta_max
-        };
+        let converged =
+            |i: usize| exhausted || b[i] <= tol * theta[i].abs() + 4.0 * f64::EPSILON * theta_max;
         // lock the leading converged run
         let (mut nc, mut beyond) = (0usize, false);
         while nc < ma && found < count && converged(nc) {
             let lambda = sigma + 1.0 / theta[nc];
             let inside = target.contains(lambda);
             found += usize::from(inside);
+            if inside {
+                it.residual = it.residual.max(b[nc] / theta[nc].abs());
+            }
             beyond |= !inside && (lambda - sigma).abs() > reach * (1.0 + 1e-9);
             locked.push((lambda, inside));
             nc += 1;
@@ -174,7 +194,23 @@ pub(super) fn solve(
         }
         start = p;
         it.restarts += 1;
-        idle = if nc == 0 { idle + 1 } else { 0 };
+        // idle: restarts in a row that locked nothing and did not halve the leading
+        // unconverged pair's relative residual
+        let r = if nc < ma {
+            b[nc] / theta[nc].abs()
+        } else {
+            0.0
+        };
+        idle = if nc == 0 && r > 0.5 * lead {
+            idle + 1
+        } else {
+            0
+        };
+        lead = r;
+        // the leading pair held at the solves' rounding: accept the level it holds
+        if idle >= 2 && r <= ATTAINABLE * opts.tol {
+            tol = tol.max((2.0 * r).min(ATTAINABLE * opts.tol));
+        }
         // every eigenvector this Krylov space sees nearer than the slice's reach is locked yet
         // the inertia counts more (`beyond`), or the leading pair stagnates for 10 restarts (a
         // direction of a repeated eigenvalue the space lacks, which rounding grows too slowly):
@@ -210,13 +246,13 @@ pub(super) fn solve(
                 .map(|i| b[i] / theta[i].abs())
                 .fold(0.0, f64::max);
             return Err(Error::NotConverged(format!(
-                "{found} of {count} modes found in the slice {} after {} restarts ({} without a newly converged mode); \
+                "{found} of {count} modes found in the slice {} after {} restarts ({} without a newly converged mode or progress); \
                  the largest relative Ritz residual of the rest is {worst:.1e} (tol {:.0e}); increase the Krylov dimension \
                  (now {m}) or use more slices",
                 describe(&target),
                 it.restarts,
                 idle,
-                opts.tol
+                tol
             )));
         }
     }

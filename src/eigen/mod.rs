@@ -153,6 +153,7 @@ fn solve_request(
         stats.iterate_s += st.iterate_s;
         stats.solves += st.solves;
         stats.restarts += st.restarts;
+        stats.residual = stats.residual.max(st.residual);
         stats.krylov_dim = stats.krylov_dim.max(st.krylov_dim);
         stats.factor_nnz = st.factor_nnz;
     }

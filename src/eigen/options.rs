@@ -37,7 +37,8 @@ impl std::fmt::Display for EigenBackend {
 #[derive(Clone, Debug)]
 pub struct EigenOptions {
     /// Shift σ < 0 of the bottom slice; `None` = −b/100 with b the slice's upper bound (or
-    /// −0.01·(2π [`Self::band_end_hz`])² while the bound of [`Request::Lowest`] is unknown).
+    /// −0.01·(2π [`Self::band_end_hz`])² while the bound of [`Request::Lowest`] is unknown, and
+    /// at least 10⁻⁸ · max K_ii/M_ii in magnitude, which keeps K − σM conditioned).
     pub sigma: Option<f64>,
     /// The frequency scale (Hz) of the first shift for [`Request::Lowest`]: the end of the
     /// scene's band, where the wanted modes lie below; `None` = 1 Hz.
@@ -49,7 +50,8 @@ pub struct EigenOptions {
     pub krylov_dim: Option<usize>,
     /// Restart limit per slice (ARPACK: `iparam(3)`, its update iterations).
     pub max_restarts: usize,
-    /// Restarts in a row without a newly converged mode after which a slice gives up.
+    /// Restarts in a row without a newly converged mode, and without halving the leading
+    /// pair's residual, after which a slice gives up.
     pub patience: usize,
     /// Target number of modes per slice; smaller when the Krylov bases of the slices that run
     /// at once would take more than half the memory budget (module `slicing`).

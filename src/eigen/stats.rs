@@ -52,6 +52,10 @@ pub struct SliceStats {
     /// met its backward-error target at once; see `factor::ShiftedLblt`): a large number
     /// means the factor at this shift grew and each solve cost up to four.
     pub refinements: usize,
+    /// Largest relative Ritz residual ‖S x − θ x‖_M / |θ| of a returned pair: the requested
+    /// tolerance, or up to 100 times it where the solves' rounding held a pair above it
+    /// (docs/design.md §3.6).
+    pub residual: f64,
 }
 
 /// What the eigensolver did.
@@ -79,6 +83,9 @@ pub struct EigenStats {
     pub factor_nnz: usize,
     /// Sparse factorizations in all: one per slice and one per counted bound.
     pub factorizations: usize,
+    /// Largest relative Ritz residual of a returned pair, over all slices (see
+    /// [`SliceStats::residual`]).
+    pub residual: f64,
     /// Neighbouring slices whose vectors needed the Rayleigh–Ritz step to be M-orthonormal.
     pub repaired_bounds: usize,
     /// Per slice, in ascending order.

@@ -666,16 +666,17 @@ fn cube6() -> &'static (Model, Vec<f64>) {
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(12))]
 
-    /// Any band [lo, hi]: the modes returned are exactly the dense eigenvalues in it (count
-    /// and values), and the count equals the inertia count ν(hi) − ν(lo).
+    /// Any band [lo, hi], any slice size and block size: the modes returned are exactly the
+    /// dense eigenvalues in it (count and values), and the count equals the inertia count
+    /// ν(hi) − ν(lo).
     #[test]
-    fn any_band_returns_exactly_the_counted_modes(a in 0.0f64..1.0, w in 0.02f64..0.6, size in 4usize..40) {
+    fn any_band_returns_exactly_the_counted_modes(a in 0.0f64..1.0, w in 0.02f64..0.6, size in 4usize..40, block in 1usize..17) {
         let (model, lam) = cube6();
         let body = Body::new(model).unwrap();
         let top = lambda_to_hz(lam[160]);
         let lo = a * top;
         let hi = lo + w * top;
-        let opts = EigenOptions { slice_size: size, ..Default::default() };
+        let opts = EigenOptions { slice_size: size, block, ..Default::default() };
         // the dense rigid eigenvalues are rounding-level numbers of either sign: 0 Hz
         let hz = |l: f64| if l.abs() <= 1e-3 * lam[6] { 0.0 } else { lambda_to_hz(l) };
         let dense_in: Vec<f64> = lam.iter().copied()
@@ -738,6 +739,38 @@ fn a_slice_whose_lblt_factor_grew_is_refined_and_converges() {
         .count();
     assert!(refined >= 1, "the grown factor's solves were refined");
     assert!(m_orthonormality(model, &modes.vectors) <= 1e-10);
+}
+
+/// Blocks of 8 and 16 vectors on the 6³ cube (the 306 lowest modes). With block 16 the first
+/// slice's leading Ritz pair settled at a relative residual of 1.4e-14 (the solves' rounding,
+/// above the 1e-14 asked), every tenth idle restart threw the space away for a fresh start, and
+/// the slice failed with "three fresh starts found no further mode"; the bracket part failed
+/// the same way. Each run now matches the dense eigenvalues, and the residual it reports is
+/// the accepted level: at least the tolerance asked and at most 100 times it.
+#[test]
+fn large_blocks_converge_and_report_their_residual() {
+    let (model, lam) = cube6();
+    let body = Body::new(model).unwrap();
+    for (block, slice_size) in [(16, 48), (16, 96), (8, 48)] {
+        let opts = EigenOptions {
+            block,
+            slice_size,
+            ..Default::default()
+        };
+        let modes = eigenpairs(&body, Request::Lowest(306), &opts)
+            .unwrap_or_else(|e| panic!("block {block}, slices of {slice_size}: {e}"));
+        assert_eq!(modes.rigid, 6);
+        for k in 6..306 {
+            let e = (modes.lambdas[k] - lam[k]).abs() / lam[k];
+            assert!(e <= 1e-9, "block {block}: mode {}: {e:.1e}", k + 1);
+        }
+        assert!(m_orthonormality(model, &modes.vectors) <= 1e-10);
+        let r = modes.stats.residual;
+        assert!(
+            r > 0.0 && r <= 100.0 * opts.tol,
+            "block {block}: reported residual {r:.1e}"
+        );
+    }
 }
 
 /// Slices of more than 64 modes have Ritz matrices of order ≥ 128, where faer's dense
