@@ -87,7 +87,7 @@ impl Default for EigenOptions {
             krylov_dim: None,
             max_restarts: 500,
             patience: 60,
-            slice_size: 96,
+            slice_size: 192,
             block: 4,
             threads: 0,
             memory_budget: None,
