@@ -203,9 +203,9 @@ fn band(
 }
 
 /// The c lowest modes: the bottom slice's c' lowest first (below the spectrum, which also
-/// estimates where the c-th lies): c' = c when c fits one slice, else a twelfth of a slice
+/// estimates where the c-th lies): c' = c when c fits half a slice, else a twelfth of a slice
 /// (at least 8), because this solve runs before the others and alone (the tet10 bracket's 306
-/// modes: 3.6 s against 4.0 s with a quarter; ARPACK: c fits one slice
+/// modes: 3.6 s against 4.0 s with a quarter; ARPACK: c fits
 /// only when c with its guard stays below N). Then a bound B with
 /// ν(B) ≥ c is found by counting (Weyl's growth, then brought down towards c), and (b₁, B] is
 /// sliced as a band, its slices in parallel. Every slice is checked against its count, so
@@ -219,9 +219,11 @@ fn lowest(
 ) -> Result<(Vec<Solved>, Option<SliceStats>)> {
     let n = slicer.body().n();
     let size = slicer.slice_size();
-    // one slice holds c when it fits (ARPACK computes at most N − 1 pairs of one slice, so
-    // there a c whose guard reaches N is sliced too)
-    let one_slice = c <= size && (opts.backend == EigenBackend::Krylov || c + 2 + c / 8 < n);
+    // one slice holds c when it fits in half a slice: a lone slice has no neighbour to run
+    // beside it, and its Gram–Schmidt grows as its dimension squared (106 modes of the 10³
+    // cube: 1.09 s in one slice of 106, 0.56 s in three; ARPACK computes at most N − 1 pairs
+    // of one slice, so there a c whose guard reaches N is sliced too)
+    let one_slice = 2 * c <= size && (opts.backend == EigenBackend::Krylov || c + 2 + c / 8 < n);
     let first = if one_slice {
         c
     } else {

@@ -161,9 +161,11 @@ impl<'b> Slicer<'b> {
         let (lo, nu_lo) = lower.map_or((0.0, 0), |(l, c)| (l.max(0.0), c));
         let total = upper.1.saturating_sub(nu_lo);
         // a multiple of the workers' count of slices: a slice left over for a second round
-        // would keep one worker busy while the others idle
+        // would keep one worker busy while the others idle; a band of more than a quarter
+        // slice is shared among the workers too (106 modes of the 10³ cube, 2 threads: 0.56 s
+        // in two slices after the probe, 0.75 s in one)
         let mut parts = total.div_ceil(self.size).max(1);
-        if parts > 1 {
+        if parts > 1 || 4 * total > self.size {
             parts = parts.next_multiple_of(self.threads.max(1));
         }
         // the counts ν at which the slices should end, and how far a bound may miss one

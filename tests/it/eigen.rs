@@ -789,7 +789,7 @@ fn one_slice_of_106_modes_matches_dense() {
     let (model, lam) = cube10();
     let body = Body::new(model).unwrap();
     let opts = EigenOptions {
-        slice_size: 120,
+        slice_size: 240,
         ..Default::default()
     };
     let modes = eigenpairs(&body, Request::Lowest(106), &opts).unwrap();
