@@ -62,7 +62,8 @@ fn dense_a(model: &Model, omega: f64) -> Mat<c64> {
 }
 
 /// Solves A(iω) X = B (three random columns) with the LDLᵀ backend and the sweep's
-/// refinement; returns (relative forward error against the dense LU solve, the normwise
+/// refinement, and where the refinement ends at its step limit, the sweep's remedy: the
+/// frequency factored again by the pivoting LBLᵀ, solved and refined; returns (relative forward error against the dense LU solve, the normwise
 /// backward error ‖B − AX‖ / (‖A‖‖X‖ + ‖B‖) measured on the dense A, perturbed pivots of
 /// the LDLᵀ, whether the pivoting LBLᵀ took over).
 fn solve_both(model: &Model, omega: f64, seed: u64) -> (f64, f64, usize, bool) {
@@ -85,7 +86,15 @@ fn solve_both(model: &Model, omega: f64, seed: u64) -> (f64, f64, usize, bool) {
     num.factor(&pencil, omega, Par::Seq).unwrap();
     let mut x = b.clone();
     num.solve(x.as_mut(), Par::Seq);
-    num.refine(&pencil, |mut out| out.copy_from(&b), x.as_mut(), Par::Seq);
+    let gave_up = num
+        .refine(&pencil, |mut out| out.copy_from(&b), x.as_mut(), Par::Seq)
+        .backward_errors
+        .is_none();
+    if gave_up && num.factor_with_pivoting(&pencil, Par::Seq).unwrap() {
+        x.copy_from(&b);
+        num.solve(x.as_mut(), Par::Seq);
+        num.refine(&pencil, |mut out| out.copy_from(&b), x.as_mut(), Par::Seq);
+    }
     let a = dense_a(model, omega);
     let reference = a.partial_piv_lu().solve(&b);
     let forward = (&x - &reference).norm_l2() / reference.norm_l2();
@@ -116,8 +125,10 @@ proptest! {
         let omega = 2.0 * std::f64::consts::PI * f;
         let zero: Vec<usize> = (0..zeros.min(n / 2)).flat_map(|z| [2 * z * n / 8 % (n - 1), 2 * z * n / 8 % (n - 1) + 1]).collect();
         let model = pencil_model(n, bw, seed, damping, omega, &zero);
-        let (forward, backward, _, pivoted) = solve_both(&model, omega, seed);
-        prop_assert!(!pivoted);
+        // a zero pivot's √ε perturbation can leave more than the refinement's three steps
+        // can remove (n = 4, two zero diagonals: 5.9e-3 → 9.2e-7 componentwise); then the
+        // pivoting LBLᵀ solves the frequency, as in the sweep
+        let (forward, backward, _, _) = solve_both(&model, omega, seed);
         prop_assert!(backward <= 1e-15, "backward error {backward:.1e}");
         prop_assert!(forward <= 1e-10, "forward error {forward:.1e}");
     }
