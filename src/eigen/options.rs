@@ -37,8 +37,8 @@ impl std::fmt::Display for EigenBackend {
 #[derive(Clone, Debug)]
 pub struct EigenOptions {
     /// Shift σ < 0 of the bottom slice; `None` = −b/100 with b the slice's upper bound (or
-    /// −0.01·(2π [`Self::band_end_hz`])² while the bound of [`Request::Lowest`] is unknown, and
-    /// at least 10⁻⁸ · max K_ii/M_ii in magnitude, which keeps K − σM conditioned).
+    /// −0.01·(2π [`Self::band_end_hz`])² while the bound of [`Request::Lowest`] is unknown; without
+    /// a band end at least 10⁻⁸ · max K_ii/M_ii in magnitude, which keeps K − σM conditioned).
     pub sigma: Option<f64>,
     /// The frequency scale (Hz) of the first shift for [`Request::Lowest`]: the end of the
     /// scene's band, where the wanted modes lie below; `None` = 1 Hz.
