@@ -215,9 +215,9 @@ impl<'b> Slicer<'b> {
         self.threads.min(jobs).min(by_memory).max(1)
     }
 
-    /// The least |σ| of a bottom shift when no band end is given: 10⁻⁸ · max K_ii/M_ii. The quotients are Rayleigh
-    /// quotients, so their largest is a lower bound of λ_max, and cond(K − σM) ≈ λ_max/|σ|
-    /// stays near 10⁸ or below. Without it a band end far below the spectrum (1 Hz, the
+    /// The least |σ| of a bottom shift when no band end is given: 10⁻⁸ · max K_ii/M_ii. The
+    /// quotients are Rayleigh quotients, so their largest is a lower bound of λ_max, and
+    /// cond(K − σM) ≈ λ_max/|σ| stays near 10⁸ or below. Without it a band end far below the spectrum (1 Hz, the
     /// library's default) gave cond ~ 10¹⁴ on a 6³ cube: solves with relative errors of 10⁻²,
     /// an estimate of the wanted modes from noise, and a slice that never converged. With a
     /// band end (the CLI's scene) the floor is not applied: on the 10⁶-DoF bar it would put σ
@@ -311,11 +311,12 @@ impl<'b> Slicer<'b> {
                 hz_to_lambda(self.opts.band_end_hz.unwrap_or(1.0).max(1.0))
             };
             // without a band end, the 1 Hz scale may lie far below the spectrum
-            let floor = match self.opts.band_end_hz {
-                None => self.conditioning_floor(),
-                Some(_) => 0.0,
-            };
-            self.opts.sigma.unwrap_or(-(0.01 * scale.abs()).max(floor))
+            self.opts
+                .sigma
+                .unwrap_or_else(|| match self.opts.band_end_hz {
+                    None => -(0.01 * scale.abs()).max(self.conditioning_floor()),
+                    Some(_) => -0.01 * scale.abs(),
+                })
         };
         if !base.is_finite() || (!target.lower.is_finite() && base >= 0.0) {
             return Err(Error::InvalidSetting(format!(
