@@ -112,17 +112,21 @@ impl SamplingReport {
         let last = self.steps.last();
         let verified = match &self.verified {
             Some(v) => format!(
-                "; verified max eps {:.2e} over {} full solves spread over the band",
+                "; verified max eps {:.2e} over {} full solves across the band",
                 v.error, v.points
             ),
             None => String::new(),
         };
         match self.outcome {
             Outcome::Converged => format!(
-                "tolerance {:.1e} reached: true error {:.2e} at the last {} indicator maxima and all {} sampled points; order {}, {}{verified}",
+                "tolerance {:.1e} reached: true error {:.2e} {} and all {} sampled points; order {}, {}{verified}",
                 self.tol,
                 self.error,
-                last.map(|s| s.points_hz.len()).unwrap_or(0),
+                match last.map_or(0, |s| s.points_hz.len()) {
+                    // the last step measured the whole candidate grid (a shifted Krylov space)
+                    0 => "on the candidate grid".to_string(),
+                    k => format!("at the last {k} indicator maxima"),
+                },
                 sampled_points,
                 order,
                 self.cost()
