@@ -136,13 +136,13 @@ impl SnapshotStore {
             SnapshotStore::File { path, file, shapes } => {
                 file.seek(SeekFrom::Start(0))
                     .map_err(|e| Error::io(&*path, e))?;
-                let mut r = std::io::BufReader::new(&*file);
+                let mut r = std::io::BufReader::with_capacity(1 << 20, &*file);
+                let mut bytes = Vec::new();
                 for &(n, p) in shapes.iter() {
                     let mut x = Mat::<c64>::zeros(n, p);
                     for j in 0..p {
-                        for i in 0..n {
-                            x[(i, j)] = read_c64(&mut r).map_err(|e| Error::io(&*path, e))?;
-                        }
+                        read_column(&mut r, &mut bytes, n, |i, z| x[(i, j)] = z)
+                            .map_err(|e| Error::io(&*path, e))?;
                     }
                     f(x.as_ref())?;
                 }
@@ -214,16 +214,16 @@ impl SnapshotStore {
                 }
                 SnapshotStore::File { path, file, shapes } => {
                     let (mut offset, mut c) = (0u64, 0);
+                    let mut bytes = Vec::new();
                     for &(nr, p) in shapes.iter() {
                         for _ in 0..p {
                             file.seek(SeekFrom::Start(offset + 16 * start as u64))
                                 .map_err(|e| Error::io(&*path, e))?;
-                            let mut r = std::io::BufReader::new(&*file);
-                            for i in 0..rows {
-                                let z = read_c64(&mut r).map_err(|e| Error::io(&*path, e))?;
+                            read_column(&mut *file, &mut bytes, rows, |i, z| {
                                 block[(i, c)] = z.re;
                                 block[(i, c + 1)] = z.im;
-                            }
+                            })
+                            .map_err(|e| Error::io(&*path, e))?;
                             offset += 16 * nr as u64;
                             c += 2;
                         }
@@ -293,7 +293,9 @@ impl SnapshotStore {
             .map_err(|_| Error::Factor("SVD of the snapshots did not converge".into()))?;
         let sv = svd.S();
         let smax = (0..sv.dim()).map(|k| sv[k]).fold(0.0, f64::max);
-        let rank = (0..sv.dim()).filter(|&k| sv[k] > by.rank_tol * smax).count();
+        let rank = (0..sv.dim())
+            .filter(|&k| sv[k] > by.rank_tol * smax)
+            .count();
         let count = by.count(interface.len(), rank).min(n - interface.len());
         let keep: Vec<usize> = (0..sv.dim())
             .filter(|&k| sv[k] > 1e-12 * smax)
@@ -369,13 +371,22 @@ impl SnapshotStore {
     }
 }
 
-/// Reads one little-endian complex number (re, im).
-fn read_c64(r: &mut impl Read) -> std::io::Result<c64> {
-    let mut buf = [0u8; 16];
-    r.read_exact(&mut buf)?;
-    let (re, im) = buf.split_at(8);
-    let le = |b: &[u8]| f64::from_le_bytes(b.try_into().unwrap_or([0; 8]));
-    Ok(c64::new(le(re), le(im)))
+/// Reads `n` little-endian complex numbers (re, im) with one read into `bytes`, and hands
+/// each to `put(i, z)`.
+fn read_column(
+    r: &mut impl Read,
+    bytes: &mut Vec<u8>,
+    n: usize,
+    mut put: impl FnMut(usize, c64),
+) -> std::io::Result<()> {
+    bytes.resize(16 * n, 0);
+    r.read_exact(bytes)?;
+    for (i, z) in bytes.chunks_exact(16).enumerate() {
+        let (re, im) = z.split_at(8);
+        let le = |b: &[u8]| f64::from_le_bytes(b.try_into().unwrap_or([0; 8]));
+        put(i, c64::new(le(re), le(im)));
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -415,11 +426,16 @@ mod tests {
     fn qdeim_picks_stop_when_no_row_adds_a_direction() {
         let n = 300;
         let mut rng = crate::random::Xorshift::new(11);
-        let x = Mat::from_fn(n, 1, |_, _| c64::new(rng.next_centred(), rng.next_centred()));
+        let x = Mat::from_fn(n, 1, |_, _| {
+            c64::new(rng.next_centred(), rng.next_centred())
+        });
         let mut store = SnapshotStore::new(false).unwrap();
         store.extend([x].into_iter()).unwrap();
         assert_eq!(store.qdeim_next(&[], GrowBy::exactly(5)).unwrap().len(), 2);
-        assert_eq!(store.qdeim_next(&[17], GrowBy::exactly(5)).unwrap().len(), 1);
+        assert_eq!(
+            store.qdeim_next(&[17], GrowBy::exactly(5)).unwrap().len(),
+            1
+        );
     }
 
     /// The streamed, interface-continued Q-DEIM picks the DoFs a dense computation picks:

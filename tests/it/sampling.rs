@@ -196,7 +196,10 @@ fn a_budget_stop_after_one_step_within_tol_is_confirmed_by_the_verification() {
                         .contains("confirmed"));
                 }
                 (None, Outcome::Budget) => {
-                    assert!(r.verified.unwrap().error > tol, "refused, yet verified within tol");
+                    assert!(
+                        r.verified.unwrap().error > tol,
+                        "refused, yet verified within tol"
+                    );
                     assert!(v > tol, "refused, yet within tol on 2000 points: {v:.3e}");
                 }
                 (Some(_), o) => assert_eq!(*o, Outcome::Budget),

@@ -197,8 +197,18 @@ fn peak_search(
         return Ok(Vec::new());
     }
     let band = positive_band(scene.band_hz);
-    let a = suspects.points.iter().copied().filter(|&f| f < f0).fold(band[0], f64::max);
-    let b = suspects.points.iter().copied().filter(|&f| f > f0).fold(band[1], f64::min);
+    let a = suspects
+        .points
+        .iter()
+        .copied()
+        .filter(|&f| f < f0)
+        .fold(band[0], f64::max);
+    let b = suspects
+        .points
+        .iter()
+        .copied()
+        .filter(|&f| f > f0)
+        .fold(band[1], f64::min);
     let probes: Vec<f64> = [f0 - (f0 - a) / 4.0, f0 + (b - f0) / 4.0]
         .into_iter()
         .filter(|&f| f > a && f < b && f != f0)
