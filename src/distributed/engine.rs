@@ -352,25 +352,7 @@ impl<'a> Engine<'a> {
                 let split = Split::from_interface(self.body.n(), interface.clone());
                 let mut w = split.state(*inputs);
                 if let Some(store) = self.store.as_mut() {
-                    // responses absorbed a batch at a time, with at least as many rows as
-                    // the order: one pass over the state's Y (n × (N − n)) per batch, and
-                    // the block reflectors' set-up shared by n rows (§3.3)
-                    let batch = split.order().div_ceil(2 * (*inputs).max(1)).max(1);
-                    let mut held: Vec<Mat<c64>> = Vec::with_capacity(batch);
-                    store.for_each(|x| {
-                        held.push(x.to_owned());
-                        if held.len() < batch {
-                            return Ok(());
-                        }
-                        let xs: Vec<_> = held.iter().map(|x| x.as_ref()).collect();
-                        split.absorb_all(&mut w, &xs)?;
-                        held.clear();
-                        Ok(())
-                    })?;
-                    if !held.is_empty() {
-                        let xs: Vec<_> = held.iter().map(|x| x.as_ref()).collect();
-                        split.absorb_all(&mut w, &xs)?;
-                    }
+                    store.for_each(|x| split.absorb(&mut w, x))?;
                 }
                 Ok(Reply {
                     absorb_s: w.absorb_s,

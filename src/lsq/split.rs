@@ -70,36 +70,17 @@ impl Split {
     /// # Errors
     /// As [`StreamedQr::absorb`].
     pub fn absorb(&self, w: &mut SplitState, x: MatRef<'_, c64>) -> Result<()> {
-        self.absorb_all(w, &[x])
-    }
-
-    /// Absorbs the responses `xs` as one block of rows (the rows of each as in
-    /// [`Self::absorb`], stacked): the same least-squares state as absorbing them one by one,
-    /// with one pass over the state's Y instead of one per response.
-    ///
-    /// # Errors
-    /// As [`StreamedQr::absorb`].
-    pub fn absorb_all(&self, w: &mut SplitState, xs: &[MatRef<'_, c64>]) -> Result<()> {
         let t = Instant::now();
-        let rows = 2 * xs.iter().map(|x| x.ncols()).sum::<usize>();
-        if w.g.nrows() != rows {
-            w.g = Mat::zeros(rows, self.interface.len());
-            w.f = Mat::zeros(rows, self.rest.len());
-        }
-        let mut at = 0;
-        for x in xs {
-            let p = x.ncols();
-            for j in 0..p {
-                for (c, &d) in self.interface.iter().enumerate() {
-                    w.g[(at + j, c)] = x[(d, j)].re;
-                    w.g[(at + p + j, c)] = x[(d, j)].im;
-                }
-                for (r, &d) in self.rest.iter().enumerate() {
-                    w.f[(at + j, r)] = x[(d, j)].re;
-                    w.f[(at + p + j, r)] = x[(d, j)].im;
-                }
+        let p = x.ncols();
+        for j in 0..p {
+            for (c, &d) in self.interface.iter().enumerate() {
+                w.g[(j, c)] = x[(d, j)].re;
+                w.g[(p + j, c)] = x[(d, j)].im;
             }
-            at += 2 * p;
+            for (r, &d) in self.rest.iter().enumerate() {
+                w.f[(j, r)] = x[(d, j)].re;
+                w.f[(p + j, r)] = x[(d, j)].im;
+            }
         }
         w.qr.absorb(w.g.as_ref(), w.f.as_ref())?;
         w.absorb_s += t.elapsed().as_secs_f64();
@@ -116,42 +97,5 @@ impl Split {
             .next()
             .ok_or_else(|| Error::InvalidSetting("no reference frequency was solved".into()))?;
         it.try_fold(first, |a, b| a.merge(b))
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::random::Xorshift;
-
-    /// Absorbing three responses as one block gives the state absorbing them one by one
-    /// gives, up to the orthogonal factor: the same RᵀR = T_o T_oᵀ and RᵀY = T_o T_nᵀ.
-    #[test]
-    fn a_batch_absorbs_as_its_responses_one_by_one() {
-        let (n_full, p) = (40, 2);
-        let split = Split::from_interface(n_full, vec![3, 17, 29, 8, 11]);
-        let mut rng = Xorshift::new(5);
-        let xs: Vec<Mat<c64>> = (0..3)
-            .map(|_| {
-                Mat::from_fn(n_full, p, |_, _| {
-                    c64::new(rng.next_centred(), rng.next_centred())
-                })
-            })
-            .collect();
-        let mut one = split.state(p);
-        for x in &xs {
-            split.absorb(&mut one, x.as_ref()).unwrap();
-        }
-        let mut all = split.state(p);
-        let refs: Vec<_> = xs.iter().map(|x| x.as_ref()).collect();
-        split.absorb_all(&mut all, &refs).unwrap();
-        let gram = |s: &SplitState| {
-            let r = s.qr.r();
-            (r.transpose() * r, r.transpose() * s.qr.y())
-        };
-        let ((a1, b1), (a2, b2)) = (gram(&one), gram(&all));
-        assert!((&a1 - &a2).norm_l2() <= 1e-13 * a1.norm_l2());
-        assert!((&b1 - &b2).norm_l2() <= 1e-13 * b1.norm_l2());
-        assert_eq!(all.qr.rows(), one.qr.rows());
     }
 }
