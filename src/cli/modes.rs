@@ -78,6 +78,12 @@ pub fn modes(a: &ModesArgs) -> Result<()> {
             refined.iter().map(|s| s.refinements).sum::<usize>()
         );
     }
+    let moved: usize = st.slices.iter().map(|s| s.shift_moves).sum();
+    if moved > 0 {
+        println!(
+            "{moved} slice shifts moved off a factor whose pivots grew (largest |l_ij| above 1000; docs/design.md §3.6)"
+        );
+    }
     if st.repaired_bounds > 0 {
         println!(
             "{} slice bounds needed a Rayleigh–Ritz step to make the vectors M-orthonormal across them",

@@ -101,11 +101,14 @@ const ATTAINABLE: f64 = 100.0;
 /// locking on `op` with a basis of `m` vectors (count < m ≤ N, or m = N); (λ, M-orthonormal
 /// vectors) in the order they converged. `progress(found)` is called after each restart;
 /// `false` cancels.
+/// `first`, when given, is a first expansion of this `op` and `m` ([`estimate`]'s), which the
+/// iteration continues instead of expanding again.
 pub(super) fn solve(
     op: &mut ShiftInvert<'_>,
     target: Target,
     m: usize,
     opts: &EigenOptions,
+    first: Option<Expanded>,
     progress: &mut dyn FnMut(usize) -> bool,
 ) -> Result<(Vec<f64>, Mat<f64>, Iteration)> {
     let n = op.n();
@@ -113,7 +116,13 @@ pub(super) fn solve(
     let count = target.count;
     let reach = target.reach(sigma);
     let mut it = Iteration::default();
-    let mut basis = Basis::new(op, m, block_size(opts, m, n))?;
+    let (mut basis, mut expanded) = match first {
+        Some(e) if e.basis.m() == m && e.sigma == sigma => {
+            it.solves = e.solves;
+            (e.basis, Some(e.me))
+        }
+        _ => (Basis::new(op, m, block_size(opts, m, n))?, None),
+    };
     // locked pairs: λ and whether they belong to the target
     let mut locked: Vec<(f64, bool)> = Vec::new();
     let mut found = 0usize;
@@ -125,8 +134,14 @@ pub(super) fn solve(
     loop {
         let nl = locked.len();
         let found_before = found;
-        let (solves, me) = basis.expand(op, nl, start)?;
-        it.solves += solves;
+        let me = match expanded.take() {
+            Some(me) => me,
+            None => {
+                let (solves, me) = basis.expand(op, nl, start)?;
+                it.solves += solves;
+                me
+            }
+        };
         let (theta, y, coupling) = basis.ritz(nl, me)?;
         let b: Vec<f64> = (0..coupling.ncols())
             .map(|i| coupling.col(i).norm_l2())
@@ -262,19 +277,47 @@ pub(super) fn solve(
     Ok((lambdas, vectors, it))
 }
 
+/// The first expansion of a Krylov space: what [`solve`] would compute first, kept so that
+/// [`solve`] continues from it.
+pub(super) struct Expanded {
+    basis: Basis,
+    /// Columns expanded.
+    me: usize,
+    solves: usize,
+    /// The shift of the operator it was expanded with.
+    sigma: f64,
+}
+
+impl Expanded {
+    /// Solves it took.
+    pub(super) fn solves(&self) -> usize {
+        self.solves
+    }
+}
+
 /// A rough λ of the k-th eigenvalue nearest σ: the k-th Ritz value of one Krylov space of
-/// dimension m > k from a random start (no restart). Used to place a first shift when
-/// nothing about the spectrum is known yet.
+/// dimension m > k from a random start (no restart), and that space, which [`solve`] on the
+/// same operator continues. Used to place a first shift when nothing about the spectrum is
+/// known yet.
 pub(super) fn estimate(
     op: &mut ShiftInvert<'_>,
     k: usize,
     m: usize,
     opts: &EigenOptions,
-) -> Result<(f64, usize)> {
+) -> Result<(f64, Expanded)> {
     let mut basis = Basis::new(op, m, block_size(opts, m, op.n()))?;
     let (solves, me) = basis.expand(op, 0, 0)?;
     let (theta, _, _) = basis.ritz(0, me)?;
-    Ok((op.sigma + 1.0 / theta[(k.max(1) - 1).min(me - 1)], solves))
+    let lambda = op.sigma + 1.0 / theta[(k.max(1) - 1).min(me - 1)];
+    Ok((
+        lambda,
+        Expanded {
+            basis,
+            me,
+            solves,
+            sigma: op.sigma,
+        },
+    ))
 }
 
 /// The block size: [`EigenOptions::block`], or 1 when m + block vectors do not fit in R^N

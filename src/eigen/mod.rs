@@ -161,7 +161,10 @@ fn solve_request(
     stats.sigma = stats.slices.first().map_or(0.0, |s| s.sigma);
     let (count_s, counts) = slicer.count_cost();
     stats.count_s = count_s;
-    stats.factorizations = counts + slices.len() + usize::from(discarded.is_some());
+    stats.factorizations = counts
+        + slices.len()
+        + slices.iter().map(|s| s.stats.shift_moves).sum::<usize>()
+        + usize::from(discarded.is_some());
     let (mut lambdas, mut vectors, repaired) = slicing::join(body, slices)?;
     stats.repaired_bounds = repaired;
     if let Some(c) = keep {

@@ -79,6 +79,16 @@ impl<'a> ShiftInvert<'a> {
         }
     }
 
+    /// Largest |l_ij| below the diagonal of an LBLᵀ factor (module `factor::lblt`'s
+    /// `PivotStats::max_l`): large where a pivot inside a supernode met a nearly singular
+    /// block and the solves' backward error grew; 0 for a Cholesky factor.
+    pub(crate) fn growth(&self) -> f64 {
+        match &self.factor {
+            Factor::Definite(_) => 0.0,
+            Factor::Indefinite(f) => f.max_l(),
+        }
+    }
+
     /// Entries of the factor L.
     pub(crate) fn factor_nnz(&self) -> usize {
         match &self.factor {

@@ -293,7 +293,34 @@ impl<'b> Slicer<'b> {
         }
     }
 
-    /// One slice: factor at its shift (moved slightly if it hits an eigenvalue), iterate.
+    /// The factor of an interior slice's operator at `sigma`, or of a bottom slice's; a σ
+    /// that is an eigenvalue to working precision moves by 10⁻⁶ of the slice, up to three
+    /// times.
+    fn factor_at(&self, sigma: f64, target: Target, par: Par) -> Result<ShiftInvert<'b>> {
+        let mut attempt = 0;
+        loop {
+            let s = if attempt == 0 {
+                sigma
+            } else {
+                sigma + 1e-6 * attempt as f64 * (target.upper - target.lower)
+            };
+            match ShiftInvert::new(
+                self.body.pencil(),
+                self.sym.clone(),
+                s,
+                par,
+                self.opts.block,
+            ) {
+                Err(Error::Singular { .. }) if attempt < 3 && target.lower.is_finite() => {
+                    attempt += 1
+                }
+                r => return r,
+            }
+        }
+    }
+
+    /// One slice: factor at its shift (moved if it hits an eigenvalue or its factor grows),
+    /// iterate.
     fn solve_one(
         &self,
         target: Target,
@@ -324,36 +351,38 @@ impl<'b> Slicer<'b> {
             )));
         }
         let t = Instant::now();
-        let mut attempt = 0;
-        let mut op = loop {
-            let sigma = if attempt == 0 {
-                base
-            } else {
-                base + 1e-6 * attempt as f64 * (target.upper - target.lower)
-            };
-            match ShiftInvert::new(
-                self.body.pencil(),
-                self.sym.clone(),
-                sigma,
-                par,
-                self.opts.block,
-            ) {
-                Err(Error::Singular { .. }) if attempt < 3 && target.lower.is_finite() => {
-                    attempt += 1
+        let mut op = self.factor_at(base, target, par)?;
+        // an interior shift whose factor grew (max |l_ij| > GROWTH_LIMIT: its solves need
+        // refinement, each up to four solves) is moved by a twentieth of the slice, at most
+        // twice: growth comes from an eigenvalue close to σ inside a supernode's pivoting
+        // block, and a factorization costs less than the refinements of a slice's solves
+        let mut moves = 0;
+        if target.lower.is_finite() {
+            for side in [1.0, -1.0] {
+                if !(op.growth() > GROWTH_LIMIT) {
+                    break;
                 }
-                r => break r?,
+                op = self.factor_at(
+                    base + side * SHIFT_MOVE * (target.upper - target.lower),
+                    target,
+                    par,
+                )?;
+                moves += 1;
             }
-        };
+        }
         let m = self.krylov_dim(target.count);
-        let mut extra_solves = 0;
+        let (mut extra_solves, mut first) = (0, None);
         if !target.upper.is_finite() && self.opts.sigma.is_none() {
             // nothing is known of the spectrum yet: the shift came from the band end. One
             // Krylov space estimates λ of the count-th mode; a shift far below it (|σ| <
             // λ/1000) would leave K − σM badly conditioned in the wanted elastic directions
-            // next to the rigid ones, so factor again at −λ/100
-            let (guess, solves) = krylov::estimate(&mut op, target.count, m, self.opts)?;
-            extra_solves = solves;
-            if op.sigma.abs() < 1e-3 * guess {
+            // next to the rigid ones, so factor again at −λ/100; otherwise the iteration
+            // goes on from that space
+            let (guess, space) = krylov::estimate(&mut op, target.count, m, self.opts)?;
+            if op.sigma.abs() >= 1e-3 * guess {
+                first = Some(space);
+            } else {
+                extra_solves = space.solves();
                 op = ShiftInvert::new(
                     self.body.pencil(),
                     self.sym.clone(),
@@ -386,9 +415,13 @@ impl<'b> Slicer<'b> {
             })
         };
         let (lambdas, vectors, it) = match self.opts.backend {
-            EigenBackend::Krylov => krylov::solve(&mut op, target, m, self.opts, &mut report)?,
+            EigenBackend::Krylov => {
+                krylov::solve(&mut op, target, m, self.opts, first, &mut report)?
+            }
             #[cfg(feature = "arpack")]
             EigenBackend::Arpack => {
+                // ARPACK starts its own space: the estimate's solves were extra
+                extra_solves += first.as_ref().map_or(0, krylov::Expanded::solves);
                 let (l, v, it) = super::arpack::solve(&mut op, target.count, m, self.opts)?;
                 let inside = l
                     .iter()
@@ -427,11 +460,23 @@ impl<'b> Slicer<'b> {
                 restarts: it.restarts,
                 fresh_starts: it.fresh_starts,
                 refinements: op.refinements(),
+                shift_moves: moves,
                 residual: it.residual,
             },
         })
     }
 }
+
+/// How far an interior shift whose factor grew is moved, as a fraction of its slice.
+const SHIFT_MOVE: f64 = 0.05;
+
+/// The largest |l_ij| of an interior shift's LBLᵀ factor that is kept without moving the
+/// shift. Measured on the 10⁴-DoF tet10 parts (VM-B, 2026-11-28): slice factors whose
+/// solves needed refinement on nearly every solve had 1.3e3 and 1.7e4; the factors at the
+/// ~100 bounds counted for their slices mostly 10…300, a few 5e2…1.5e3 and one 1.3e4. A
+/// move costs one factorization; a limit of 500 moved 4 shifts of slices of 64 modes on the
+/// tet10 bracket whose solves had not needed refinement.
+const GROWTH_LIMIT: f64 = 1000.0;
 
 /// Rounds of counts that place the slice bounds (each round counts the bounds still off their
 /// share by more than an eighth of a slice, in parallel).

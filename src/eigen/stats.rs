@@ -52,6 +52,9 @@ pub struct SliceStats {
     /// met its backward-error target at once; see `factor::ShiftedLblt`): a large number
     /// means the factor at this shift grew and each solve cost up to four.
     pub refinements: usize,
+    /// Times the interior shift was moved because its factor grew (its first solve needed
+    /// refinement): 0, 1 or 2.
+    pub shift_moves: usize,
     /// Largest relative Ritz residual ‖S x − θ x‖_M / |θ| of a returned pair: the requested
     /// tolerance, or up to 100 times it where the solves' rounding held a pair above it
     /// (docs/design.md §3.6).
@@ -81,7 +84,8 @@ pub struct EigenStats {
     pub sigma: f64,
     /// nnz of the Cholesky/LBLᵀ factor.
     pub factor_nnz: usize,
-    /// Sparse factorizations in all: one per slice and one per counted bound.
+    /// Sparse factorizations in all: one per slice, one per moved shift and one per counted
+    /// bound.
     pub factorizations: usize,
     /// Largest relative Ritz residual of a returned pair, over all slices (see
     /// [`SliceStats::residual`]).

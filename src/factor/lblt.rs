@@ -201,9 +201,11 @@ impl Factor {
             return PivotStats {
                 ratio: f64::NAN,
                 negative: 0,
+                max_l: f64::NAN,
             };
         };
         let (mut lo, mut hi, mut negative) = (f64::INFINITY, 0.0f64, 0usize);
+        let mut max_l = 0.0f64;
         let mut count = |x: f64| {
             lo = lo.min(x.abs());
             hi = hi.max(x.abs());
@@ -215,6 +217,13 @@ impl Factor {
             let vals = &self.l[cpv[sn]..cpv[sn + 1]];
             let nrows = vals.len() / ncols.max(1);
             let d = |t: usize| vals[t * nrows + t];
+            for t in 0..ncols {
+                // below the diagonal of column t; a 2×2 pivot's off-diagonal is in `subdiag`
+                let first = t + 1 + usize::from(self.subdiag[start + t] != 0.0);
+                for &v in &vals[t * nrows + first.min(nrows)..(t + 1) * nrows] {
+                    max_l = max_l.max(v.abs());
+                }
+            }
             let mut t = 0;
             while t < ncols {
                 let e = self.subdiag[start + t];
@@ -233,6 +242,7 @@ impl Factor {
         }
         PivotStats {
             ratio: if hi > 0.0 { lo / hi } else { 0.0 },
+            max_l,
             negative,
         }
     }
@@ -246,6 +256,10 @@ pub struct PivotStats {
     pub ratio: f64,
     /// Negative eigenvalues of B (= of A).
     pub negative: usize,
+    /// Largest |l_ij| below the diagonal of L: Bunch–Kaufman bounds it by about 2.8 when it
+    /// may pivot anywhere; a pivot restricted to its supernode's block that is nearly
+    /// singular shows as a large entry, and the solves' backward error grows with it.
+    pub max_l: f64,
 }
 
 /// Workspace of one factorization and of a solve with `rhs` columns.
