@@ -101,8 +101,9 @@ const ATTAINABLE: f64 = 100.0;
 /// locking on `op` with a basis of `m` vectors (count < m ≤ N, or m = N); (λ, M-orthonormal
 /// vectors) in the order they converged. `progress(found)` is called after each restart;
 /// `false` cancels.
-/// `first`, when given, is a first expansion of this `op` and `m` ([`estimate`]'s), which the
-/// iteration continues instead of expanding again.
+///
+/// `first`, when given, is [`estimate`]'s first expansion on this same `op` and `m`, which
+/// the iteration continues instead of expanding again.
 pub(super) fn solve(
     op: &mut ShiftInvert<'_>,
     target: Target,
@@ -117,11 +118,12 @@ pub(super) fn solve(
     let reach = target.reach(sigma);
     let mut it = Iteration::default();
     let (mut basis, mut expanded) = match first {
-        Some(e) if e.basis.m() == m && e.sigma == sigma => {
+        Some(e) => {
+            debug_assert_eq!(e.basis.m(), m);
             it.solves = e.solves;
             (e.basis, Some(e.me))
         }
-        _ => (Basis::new(op, m, block_size(opts, m, n))?, None),
+        None => (Basis::new(op, m, block_size(opts, m, n))?, None),
     };
     // locked pairs: λ and whether they belong to the target
     let mut locked: Vec<(f64, bool)> = Vec::new();
@@ -284,8 +286,6 @@ pub(super) struct Expanded {
     /// Columns expanded.
     me: usize,
     solves: usize,
-    /// The shift of the operator it was expanded with.
-    sigma: f64,
 }
 
 impl Expanded {
@@ -309,15 +309,7 @@ pub(super) fn estimate(
     let (solves, me) = basis.expand(op, 0, 0)?;
     let (theta, _, _) = basis.ritz(0, me)?;
     let lambda = op.sigma + 1.0 / theta[(k.max(1) - 1).min(me - 1)];
-    Ok((
-        lambda,
-        Expanded {
-            basis,
-            me,
-            solves,
-            sigma: op.sigma,
-        },
-    ))
+    Ok((lambda, Expanded { basis, me, solves }))
 }
 
 /// The block size: [`EigenOptions::block`], or 1 when m + block vectors do not fit in R^N

@@ -383,13 +383,7 @@ impl<'b> Slicer<'b> {
                 first = Some(space);
             } else {
                 extra_solves = space.solves();
-                op = ShiftInvert::new(
-                    self.body.pencil(),
-                    self.sym.clone(),
-                    -0.01 * guess,
-                    par,
-                    self.opts.block,
-                )?;
+                op = self.factor_at(-0.01 * guess, target, par)?;
             }
         }
         let factor_s = t.elapsed().as_secs_f64();

@@ -52,8 +52,8 @@ pub struct SliceStats {
     /// met its backward-error target at once; see `factor::ShiftedLblt`): a large number
     /// means the factor at this shift grew and each solve cost up to four.
     pub refinements: usize,
-    /// Times the interior shift was moved because its factor grew (its first solve needed
-    /// refinement): 0, 1 or 2.
+    /// Times the interior shift was moved because its factor grew (largest |l_ij| of its
+    /// LBLᵀ above the limit of docs/design.md §3.6): 0, 1 or 2.
     pub shift_moves: usize,
     /// Largest relative Ritz residual ‖S x − θ x‖_M / |θ| of a returned pair: the requested
     /// tolerance, or up to 100 times it where the solves' rounding held a pair above it
