@@ -174,7 +174,8 @@ pub struct FreqStats {
     /// maxᵢ |b − A x|ᵢ / (|A||x| + |b|)ᵢ ([`Numeric::backward_error`]): about ε when the
     /// factorization's solves are backward stable.
     pub backward_error: f64,
-    /// Iterative refinement steps of the solves (0 when the first solve was backward stable).
+    /// Iterative refinement steps of the solves, plus the solves of the GMRES that follows
+    /// where refinement ends at its step limit (0 when the first solve was backward stable).
     pub refinement_steps: usize,
     /// min/max pivot magnitude (LBLᵀ, LDLᵀ), rcond (UMFPACK) or NaN (faer LU).
     pub pivot_ratio: f64,
@@ -966,7 +967,7 @@ impl<'a> Solver<'a> {
         let mut measured = None;
         if probe_error > REFINE_ABOVE && !held {
             let done = numeric.refine(self.body.pencil(), right_hand_sides, rhs.as_mut(), par());
-            refinement_steps = done.steps;
+            refinement_steps = done.steps + done.gmres_solves;
             measured = done.backward_errors.map(|e| e[p]);
             probe_error = self.probe_error(rhs.as_ref().col(p));
         }

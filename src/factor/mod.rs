@@ -450,9 +450,11 @@ impl<'a> Numeric<'a> {
 
     /// Refines a solution `x` of A X = B from [`Self::solve`] with the factored matrix
     /// itself by LAPACK xGERFS's rule: while the componentwise backward error exceeds 4ε
-    /// ([`BACKWARD_ERROR_FLOOR`]) and halves, at most [`MAX_REFINEMENTS`] steps. `b` writes
-    /// B into the N × k block it is given, once per step, so the caller need not keep a copy
-    /// of B.
+    /// ([`BACKWARD_ERROR_FLOOR`]) and halves, at most [`MAX_REFINEMENTS`] steps. Where that
+    /// ends at the step limit, GMRES preconditioned by the factorization goes on
+    /// (`refine::gmres`: exact in k + 1 steps on a factor with k perturbed pivots). `b`
+    /// writes B into the N × k block it is given, once per step, so the caller need not keep
+    /// a copy of B.
     pub fn refine(
         &mut self,
         pencil: &Pencil,
@@ -464,21 +466,45 @@ impl<'a> Numeric<'a> {
         let factors = active(&mut self.factors, &mut self.pivoting, self.pivoted);
         let omega = self.factored_at.unwrap_or(0.0);
         let values = Values::new(pencil, omega, &self.re, &self.im);
+        let entry = |p| values.entry(p);
+        let a = pattern::Lower {
+            pencil,
+            entry: &entry,
+        };
+        let mut x = x;
         let steps = refine::refine(
-            pattern::Lower {
-                pencil,
-                entry: &|p| values.entry(p),
-            },
+            a,
             refine::Stop::Componentwise,
-            b,
-            x,
+            &b,
+            x.as_mut(),
             |r| factors.solve(r, par),
             &mut self.refine_buffers,
             par,
         );
+        if steps < MAX_REFINEMENTS {
+            return Refinement {
+                steps,
+                gmres_solves: 0,
+                backward_errors: Some(self.refine_buffers.column_errors()),
+            };
+        }
+        let (gmres_solves, converged) = refine::gmres(
+            a,
+            &b,
+            x.as_mut(),
+            |r| factors.solve(r, par),
+            &mut self.refine_buffers,
+            par,
+        );
+        let backward_errors = converged.then(|| {
+            b(self.refine_buffers.block(x.nrows(), x.ncols()));
+            pattern::symmetric_residual(a, x.as_ref(), true, &mut self.refine_buffers, par);
+            self.refine_buffers.column_errors()
+        });
         Refinement {
             steps,
-            backward_errors: (steps < MAX_REFINEMENTS).then(|| self.refine_buffers.column_errors()),
+            gmres_solves,
+            backward_errors,
         }
     }
 
@@ -517,10 +543,12 @@ impl<'a> Numeric<'a> {
 pub struct Refinement<'a> {
     /// Steps taken (0 when the solution's backward error was already at the floor).
     pub steps: usize,
+    /// Solves of the GMRES that took over when refinement ended at its step limit (0 when it
+    /// did not).
+    pub gmres_solves: usize,
     /// The componentwise backward error of each column of the refined solution
     /// ([`Numeric::backward_error`] of that column, bit for bit), from the residual that ended
-    /// the refinement; `None` when it ended at the step limit, where the last solution's
-    /// residual was not formed.
+    /// the refinement; `None` when refinement and GMRES both ended at their step limits.
     pub backward_errors: Option<&'a [f64]>,
 }
 

@@ -11,7 +11,7 @@
 //! not lower the forward error below about cond(A)·ε, which the sweep's probe then measures.
 
 use super::pattern::{self, Scalar};
-use faer::{MatMut, Par};
+use faer::{c64, Mat, MatMut, Par};
 
 /// At most this many refinement steps per solve (each one solve and one product with A).
 pub const MAX_REFINEMENTS: usize = 3;
@@ -97,6 +97,165 @@ pub(super) fn refine<T: Scalar>(
         x += &r;
     }
     MAX_REFINEMENTS
+}
+
+/// Krylov dimension of [`gmres`]: its basis holds N × (this + 1) values per column.
+pub const GMRES_DIM: usize = 12;
+
+/// Cycles of [`gmres`] per column at most (each of up to [`GMRES_DIM`] solves).
+pub const GMRES_CYCLES: usize = 2;
+
+/// GMRES on A x = b right-preconditioned by the factorization (`solve` applies its inverse),
+/// from the solution `x` that [`refine`] left, column by column; for where refinement does
+/// not converge. Why it converges where refinement does not: a factor with k perturbed
+/// pivots (the LDLᵀ's static pivoting) is M = A + E with E of rank k, so AM⁻¹ = I − EM⁻¹
+/// differs from I by rank k and GMRES is exact after k + 1 steps, however far from 1 the
+/// spectrum of EM⁻¹ lies, which decides refinement (Arioli, Duff, Gratton and Pralet, "A
+/// note on GMRES preconditioned by a perturbed LDLᵀ decomposition with static pivoting",
+/// SIAM J. Sci. Comput. 29, 2007; the remedy of MA57 and PARDISO). Modified Gram–Schmidt
+/// GMRES is backward stable (Paige, Rozložník and Strakoš 2006). Complex Givens rotations
+/// keep the least-squares residual ‖r‖₂ of each step, and a cycle stops when it is
+/// ε(‖A‖∞‖x‖₂ + ‖b‖₂) or at [`GMRES_DIM`] steps; the correction M⁻¹V y costs one more solve.
+///
+/// Returns the solves taken and whether every column stopped at its target (docs/design.md
+/// §3.1). Memory: the basis, N × ([`GMRES_DIM`] + 1), and b, N × k.
+pub(super) fn gmres<F: Fn(usize) -> c64 + Sync>(
+    a: pattern::Lower<'_, F>,
+    b: impl Fn(MatMut<'_, c64>),
+    mut x: MatMut<'_, c64>,
+    mut solve: impl FnMut(MatMut<'_, c64>),
+    buffers: &mut Buffers<c64>,
+    par: Par,
+) -> (usize, bool) {
+    let (n, k) = (x.nrows(), x.ncols());
+    let norm_a = pattern::symmetric_norm_inf(a.pencil, a.entry);
+    let mut rhs = Mat::<c64>::zeros(n, k);
+    b(rhs.as_mut());
+    let mut basis = Mat::<c64>::zeros(n, GMRES_DIM + 1);
+    let mut solves = 0;
+    let mut converged = true;
+    for c in 0..k {
+        let target = f64::EPSILON * (norm_a * x.as_ref().col(c).norm_l2() + rhs.col(c).norm_l2());
+        let mut done = false;
+        for _ in 0..GMRES_CYCLES {
+            // r = b − A x of this column
+            buffers.block(n, 1).copy_from(rhs.as_ref().subcols(c, 1));
+            pattern::symmetric_residual(a, x.as_ref().subcols(c, 1), false, buffers, par);
+            let beta = buffers.block(n, 1).col(0).norm_l2();
+            if beta <= target {
+                done = true;
+                break;
+            }
+            let mut v0 = basis.as_mut().col_mut(0);
+            v0.copy_from(buffers.block(n, 1).col(0));
+            v0 *= faer::Scale(c64::new(1.0 / beta, 0.0));
+            let (steps, y) = arnoldi(a, &mut basis, beta, target, &mut solve, buffers, par);
+            solves += steps;
+            // x += M⁻¹ V y
+            let mut d = Mat::<c64>::zeros(n, 1);
+            for (j, &yj) in y.iter().enumerate() {
+                d.col_mut(0)
+                    .iter_mut()
+                    .zip(basis.col(j).iter())
+                    .for_each(|(d, &v)| *d += v * yj);
+            }
+            solve(d.as_mut());
+            solves += 1;
+            x.as_mut()
+                .col_mut(c)
+                .iter_mut()
+                .zip(d.col(0).iter())
+                .for_each(|(x, &d)| *x += d);
+        }
+        if !done {
+            // the last cycle's own residual estimate decides
+            buffers.block(n, 1).copy_from(rhs.as_ref().subcols(c, 1));
+            pattern::symmetric_residual(a, x.as_ref().subcols(c, 1), false, buffers, par);
+            done = buffers.block(n, 1).col(0).norm_l2() <= target;
+        }
+        converged &= done;
+    }
+    (solves, converged)
+}
+
+/// One GMRES cycle from the unit vector in `basis`'s first column, ‖r₀‖₂ = `beta`: Arnoldi
+/// on A M⁻¹ with two passes of modified Gram–Schmidt, the Hessenberg matrix reduced by
+/// complex Givens rotations as it grows; stops when the residual estimate is ≤ `target`, on
+/// a breakdown (the space is invariant: exact) or at [`GMRES_DIM`] steps. Returns the solves
+/// taken and y, the coefficients of the correction's M V y.
+fn arnoldi<F: Fn(usize) -> c64 + Sync>(
+    a: pattern::Lower<'_, F>,
+    basis: &mut Mat<c64>,
+    beta: f64,
+    target: f64,
+    solve: &mut impl FnMut(MatMut<'_, c64>),
+    buffers: &mut Buffers<c64>,
+    par: Par,
+) -> (usize, Vec<c64>) {
+    let n = basis.nrows();
+    let zero = c64::new(0.0, 0.0);
+    let mut h = Mat::<c64>::zeros(GMRES_DIM + 1, GMRES_DIM);
+    let mut rotations: Vec<(f64, c64)> = Vec::with_capacity(GMRES_DIM);
+    let mut g = vec![zero; GMRES_DIM + 1];
+    g[0] = c64::new(beta, 0.0);
+    let mut steps = 0;
+    while steps < GMRES_DIM {
+        let j = steps;
+        // w = A M⁻¹ v_j: the residual of x = M⁻¹ v_j against b = 0 is −w
+        let mut z = basis.col(j).to_owned();
+        solve(z.as_mat_mut());
+        steps += 1;
+        buffers.block(n, 1).fill(zero);
+        pattern::symmetric_residual(a, z.as_mat(), false, buffers, par);
+        let mut w = buffers.block(n, 1).col(0).to_owned();
+        w *= faer::Scale(c64::new(-1.0, 0.0));
+        for _ in 0..2 {
+            for i in 0..=j {
+                let hij = basis.col(i).adjoint() * &w;
+                h[(i, j)] += hij;
+                w.iter_mut()
+                    .zip(basis.col(i).iter())
+                    .for_each(|(w, &v)| *w -= v * hij);
+            }
+        }
+        let norm = w.norm_l2();
+        h[(j + 1, j)] = c64::new(norm, 0.0);
+        if norm > 0.0 {
+            w *= faer::Scale(c64::new(1.0 / norm, 0.0));
+            basis.col_mut(j + 1).copy_from(&w);
+        }
+        for (i, &(cs, sn)) in rotations.iter().enumerate() {
+            let (u, v) = (h[(i, j)], h[(i + 1, j)]);
+            h[(i, j)] = u * cs + sn * v;
+            h[(i + 1, j)] = v * cs - sn.conj() * u;
+        }
+        let (u, v) = (h[(j, j)], h[(j + 1, j)]);
+        let r = u.norm().hypot(v.norm());
+        let phase = if u.norm() > 0.0 {
+            u / u.norm()
+        } else {
+            c64::new(1.0, 0.0)
+        };
+        let (cs, sn) = (u.norm() / r, phase * v.conj() / r);
+        h[(j, j)] = phase * r;
+        h[(j + 1, j)] = zero;
+        g[j + 1] = -sn.conj() * g[j];
+        g[j] *= cs;
+        rotations.push((cs, sn));
+        if g[j + 1].norm() <= target || norm == 0.0 {
+            break;
+        }
+    }
+    // back substitution on the triangle R y = g
+    let mut y = g[..steps].to_vec();
+    for i in (0..steps).rev() {
+        for l in i + 1..steps {
+            let t = h[(i, l)] * y[l];
+            y[i] -= t;
+        }
+        y[i] /= h[(i, i)];
+    }
+    (steps, y)
 }
 
 fn max_abs1<T: Scalar>(v: faer::ColRef<'_, T>) -> f64 {

@@ -46,6 +46,14 @@ fn pencil_model(n: usize, bw: usize, seed: u64, damping: f64, omega: f64, zero: 
         .0
 }
 
+/// DoFs of `zeros` pairs of neighbours spread over 0..n, for [`pencil_model`]'s zero
+/// diagonal entries.
+fn zero_pairs(n: usize, zeros: usize) -> Vec<usize> {
+    (0..zeros.min(n / 2))
+        .flat_map(|z| [2 * z * n / 8 % (n - 1), 2 * z * n / 8 % (n - 1) + 1])
+        .collect()
+}
+
 /// Dense A(iω) of `model`.
 fn dense_a(model: &Model, omega: f64) -> Mat<c64> {
     let (m, k) = (dense(&model.mass), dense(&model.stiffness));
@@ -62,8 +70,9 @@ fn dense_a(model: &Model, omega: f64) -> Mat<c64> {
 }
 
 /// Solves A(iω) X = B (three random columns) with the LDLᵀ backend and the sweep's
-/// refinement, and where the refinement ends at its step limit, the sweep's remedy: the
-/// frequency factored again by the pivoting LBLᵀ, solved and refined; returns (relative forward error against the dense LU solve, the normwise
+/// refinement (GMRES where refinement ends at its step limit), and where that gives up too,
+/// the sweep's remedy: the frequency factored again by the pivoting LBLᵀ, solved and
+/// refined; returns (relative forward error against the dense LU solve, the normwise
 /// backward error ‖B − AX‖ / (‖A‖‖X‖ + ‖B‖) measured on the dense A, perturbed pivots of
 /// the LDLᵀ, whether the pivoting LBLᵀ took over).
 fn solve_both(model: &Model, omega: f64, seed: u64) -> (f64, f64, usize, bool) {
@@ -123,8 +132,7 @@ proptest! {
         zeros in 0usize..4,
     ) {
         let omega = 2.0 * std::f64::consts::PI * f;
-        let zero: Vec<usize> = (0..zeros.min(n / 2)).flat_map(|z| [2 * z * n / 8 % (n - 1), 2 * z * n / 8 % (n - 1) + 1]).collect();
-        let model = pencil_model(n, bw, seed, damping, omega, &zero);
+        let model = pencil_model(n, bw, seed, damping, omega, &zero_pairs(n, zeros));
         // a zero pivot's √ε perturbation can leave more than the refinement's three steps
         // can remove (n = 4, two zero diagonals: 5.9e-3 → 9.2e-7 componentwise); then the
         // pivoting LBLᵀ solves the frequency, as in the sweep
@@ -424,4 +432,53 @@ fn normwise_backward_error(
         .map(|j| (1.0 + omega * beta.abs()) * k1[j] + (omega * omega + omega * alpha.abs()) * m1[j])
         .fold(0.0, f64::max);
     (b - &ax).norm_max() / (norm_a * x.norm_max())
+}
+
+/// Where refinement ends at its step limit still halving, GMRES preconditioned by the
+/// perturbed factor takes over. Zero diagonals of A(iω) at DoFs 0–4 of a tridiagonal
+/// pencil (n = 7) perturb pivots by √ε; refinement stops at its limit, and a search of
+/// 20 000 random cases of the proptest above found this one case where its solution was
+/// not yet at the floor (59 others stopped at the limit already converged). GMRES needs two
+/// solves per column, as a rank-one difference between factor and A predicts.
+#[test]
+fn gmres_takes_over_where_refinement_stops_at_its_limit() {
+    let (n, seed, f) = (7, 3475, 1_977.139_720_242_526);
+    let omega = 2.0 * std::f64::consts::PI * f;
+    let model = pencil_model(n, 1, seed, 1e-4, omega, &zero_pairs(n, 3));
+    // the proptest's right-hand sides
+    let mut rng = StdRng::seed_from_u64(seed ^ 0x5eed);
+    let b = Mat::<c64>::from_fn(n, 3, |_, _| {
+        c64::new(rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0))
+    });
+    let pencil = Pencil::new(&model);
+    let an = Analysis::new(&pencil, Backend::Ldlt, 3).unwrap();
+    let mut num = an.numeric(&pencil).unwrap();
+    num.factor(&pencil, omega, Par::Seq).unwrap();
+    assert!(num.perturbed_pivots() >= 1);
+    let mut x = b.clone();
+    num.solve(x.as_mut(), Par::Seq);
+    let done = num.refine(&pencil, |mut out| out.copy_from(&b), x.as_mut(), Par::Seq);
+    assert_eq!(done.steps, sparsemor::factor::MAX_REFINEMENTS);
+    assert!(
+        (1..=3 * 4).contains(&done.gmres_solves),
+        "{} GMRES solves for 3 columns",
+        done.gmres_solves
+    );
+    let errors = done.backward_errors.expect("GMRES converged").to_vec();
+    let a = dense_a(&model, omega);
+    let dense_errors: Vec<f64> = (0..3)
+        .map(|c| {
+            let col = |m: &Mat<c64>| m.as_ref().subcols(c, 1).to_owned();
+            dense_componentwise_backward_error(&a, &col(&b), &col(&x))
+        })
+        .collect();
+    // both at rounding level: the library's residual and the dense one
+    for (e, d) in errors.iter().zip(&dense_errors) {
+        assert!(*e <= 4.0 * f64::EPSILON, "backward error {e:.1e}");
+        assert!(*d <= 4.0 * f64::EPSILON, "dense backward error {d:.1e}");
+    }
+    let reference = a.partial_piv_lu().solve(&b);
+    let forward = (&x - &reference).norm_l2() / reference.norm_l2();
+    assert!(forward <= 1e-12, "forward error {forward:.1e}");
+    assert!(!num.pivoted());
 }
