@@ -38,9 +38,9 @@ pub struct SliceStats {
     pub krylov_dim: usize,
     /// nnz of the factor.
     pub factor_nnz: usize,
-    /// Factorization time, s.
+    /// Factorization time (the shift's, and its moves), s.
     pub factor_s: f64,
-    /// Iteration time, s.
+    /// Iteration time (with a probe's estimating expansion, kept or not), s.
     pub iterate_s: f64,
     /// Applications of S.
     pub solves: usize,
