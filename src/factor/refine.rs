@@ -182,7 +182,7 @@ pub(super) fn gmres<F: Fn(usize) -> c64 + Sync>(
 /// on A M⁻¹ with two passes of modified Gram–Schmidt, the Hessenberg matrix reduced by
 /// complex Givens rotations as it grows; stops when the residual estimate is ≤ `target`, on
 /// a breakdown (the space is invariant: exact) or at [`GMRES_DIM`] steps. Returns the solves
-/// taken and y, the coefficients of the correction's M V y.
+/// taken and y, the coefficients of the correction M⁻¹V y.
 fn arnoldi<F: Fn(usize) -> c64 + Sync>(
     a: pattern::Lower<'_, F>,
     basis: &mut Mat<c64>,
@@ -231,6 +231,10 @@ fn arnoldi<F: Fn(usize) -> c64 + Sync>(
         }
         let (u, v) = (h[(j, j)], h[(j + 1, j)]);
         let r = u.norm().hypot(v.norm());
+        if !(r > 0.0) {
+            // A M⁻¹ v_j = 0 (or not finite): the step adds nothing to the correction
+            return (steps, solve_triangle(&h, &g, j));
+        }
         let phase = if u.norm() > 0.0 {
             u / u.norm()
         } else {
@@ -246,16 +250,20 @@ fn arnoldi<F: Fn(usize) -> c64 + Sync>(
             break;
         }
     }
-    // back substitution on the triangle R y = g
-    let mut y = g[..steps].to_vec();
-    for i in (0..steps).rev() {
-        for l in i + 1..steps {
+    (steps, solve_triangle(&h, &g, steps))
+}
+
+/// y of R y = g on the leading k × k triangle R of the rotated Hessenberg matrix `h`.
+fn solve_triangle(h: &Mat<c64>, g: &[c64], k: usize) -> Vec<c64> {
+    let mut y = g[..k].to_vec();
+    for i in (0..k).rev() {
+        for l in i + 1..k {
             let t = h[(i, l)] * y[l];
             y[i] -= t;
         }
         y[i] /= h[(i, i)];
     }
-    (steps, y)
+    y
 }
 
 fn max_abs1<T: Scalar>(v: faer::ColRef<'_, T>) -> f64 {
