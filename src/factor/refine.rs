@@ -132,46 +132,35 @@ pub(super) fn gmres<F: Fn(usize) -> c64 + Sync>(
     let mut rhs = Mat::<c64>::zeros(n, k);
     b(rhs.as_mut());
     let mut basis = Mat::<c64>::zeros(n, GMRES_DIM + 1);
+    // one N-vector for M⁻¹v of a step and for the correction M⁻¹V y of a cycle
+    let mut z = Mat::<c64>::zeros(n, 1);
     let mut solves = 0;
     let mut converged = true;
     for c in 0..k {
         let target = f64::EPSILON * (norm_a * x.as_ref().col(c).norm_l2() + rhs.col(c).norm_l2());
+        // each cycle starts from the residual r = b − A x of the column, and the last one's
+        // result is judged by its residual
         let mut done = false;
-        for _ in 0..GMRES_CYCLES {
-            // r = b − A x of this column
+        for cycle in 0..=GMRES_CYCLES {
             buffers.block(n, 1).copy_from(rhs.as_ref().subcols(c, 1));
             pattern::symmetric_residual(a, x.as_ref().subcols(c, 1), false, buffers, par);
             let beta = buffers.block(n, 1).col(0).norm_l2();
-            if beta <= target {
-                done = true;
+            done = beta <= target;
+            if done || cycle == GMRES_CYCLES {
                 break;
             }
             let mut v0 = basis.as_mut().col_mut(0);
             v0.copy_from(buffers.block(n, 1).col(0));
             v0 *= faer::Scale(c64::new(1.0 / beta, 0.0));
-            let (steps, y) = arnoldi(a, &mut basis, beta, target, &mut solve, buffers, par);
-            solves += steps;
+            let (steps, y) = arnoldi(
+                a, &mut basis, &mut z, beta, target, &mut solve, buffers, par,
+            );
             // x += M⁻¹ V y
-            let mut d = Mat::<c64>::zeros(n, 1);
-            for (j, &yj) in y.iter().enumerate() {
-                d.col_mut(0)
-                    .iter_mut()
-                    .zip(basis.col(j).iter())
-                    .for_each(|(d, &v)| *d += v * yj);
-            }
-            solve(d.as_mut());
-            solves += 1;
-            x.as_mut()
-                .col_mut(c)
-                .iter_mut()
-                .zip(d.col(0).iter())
-                .for_each(|(x, &d)| *x += d);
-        }
-        if !done {
-            // the last cycle's own residual estimate decides
-            buffers.block(n, 1).copy_from(rhs.as_ref().subcols(c, 1));
-            pattern::symmetric_residual(a, x.as_ref().subcols(c, 1), false, buffers, par);
-            done = buffers.block(n, 1).col(0).norm_l2() <= target;
+            z.copy_from(basis.as_ref().subcols(0, y.nrows()) * &y);
+            solve(z.as_mut());
+            solves += steps + 1;
+            let mut xc = x.as_mut().subcols_mut(c, 1);
+            xc += &z;
         }
         converged &= done;
     }
@@ -183,15 +172,17 @@ pub(super) fn gmres<F: Fn(usize) -> c64 + Sync>(
 /// complex Givens rotations as it grows; stops when the residual estimate is ≤ `target`, on
 /// a breakdown (the space is invariant: exact) or at [`GMRES_DIM`] steps. Returns the solves
 /// taken and y, the coefficients of the correction M⁻¹V y.
+#[allow(clippy::too_many_arguments)]
 fn arnoldi<F: Fn(usize) -> c64 + Sync>(
     a: pattern::Lower<'_, F>,
     basis: &mut Mat<c64>,
+    z: &mut Mat<c64>,
     beta: f64,
     target: f64,
     solve: &mut impl FnMut(MatMut<'_, c64>),
     buffers: &mut Buffers<c64>,
     par: Par,
-) -> (usize, Vec<c64>) {
+) -> (usize, Mat<c64>) {
     let n = basis.nrows();
     let zero = c64::new(0.0, 0.0);
     let mut h = Mat::<c64>::zeros(GMRES_DIM + 1, GMRES_DIM);
@@ -201,20 +192,25 @@ fn arnoldi<F: Fn(usize) -> c64 + Sync>(
     let mut steps = 0;
     while steps < GMRES_DIM {
         let j = steps;
-        // w = A M⁻¹ v_j: the residual of x = M⁻¹ v_j against b = 0 is −w
-        let mut z = basis.col(j).to_owned();
-        solve(z.as_mat_mut());
+        // the residual of x = M⁻¹ v_j against b = 0 is −A M⁻¹ v_j: w = −(that), built in
+        // the next basis column
+        z.copy_from(basis.as_ref().subcols(j, 1));
+        solve(z.as_mut());
         steps += 1;
         buffers.block(n, 1).fill(zero);
-        pattern::symmetric_residual(a, z.as_mat(), false, buffers, par);
-        let mut w = buffers.block(n, 1).col(0).to_owned();
+        pattern::symmetric_residual(a, z.as_ref(), false, buffers, par);
+        let (earlier, mut rest) = basis.as_mut().split_at_col_mut(j + 1);
+        let earlier = earlier.as_ref();
+        let mut w = rest.as_mut().col_mut(0);
+        w.copy_from(buffers.block(n, 1).col(0));
         w *= faer::Scale(c64::new(-1.0, 0.0));
         for _ in 0..2 {
             for i in 0..=j {
-                let hij = basis.col(i).adjoint() * &w;
+                let hij = earlier.col(i).adjoint() * w.as_ref();
                 h[(i, j)] += hij;
-                w.iter_mut()
-                    .zip(basis.col(i).iter())
+                w.as_mut()
+                    .iter_mut()
+                    .zip(earlier.col(i).iter())
                     .for_each(|(w, &v)| *w -= v * hij);
             }
         }
@@ -222,7 +218,6 @@ fn arnoldi<F: Fn(usize) -> c64 + Sync>(
         h[(j + 1, j)] = c64::new(norm, 0.0);
         if norm > 0.0 {
             w *= faer::Scale(c64::new(1.0 / norm, 0.0));
-            basis.col_mut(j + 1).copy_from(&w);
         }
         for (i, &(cs, sn)) in rotations.iter().enumerate() {
             let (u, v) = (h[(i, j)], h[(i + 1, j)]);
@@ -253,16 +248,15 @@ fn arnoldi<F: Fn(usize) -> c64 + Sync>(
     (steps, solve_triangle(&h, &g, steps))
 }
 
-/// y of R y = g on the leading k × k triangle R of the rotated Hessenberg matrix `h`.
-fn solve_triangle(h: &Mat<c64>, g: &[c64], k: usize) -> Vec<c64> {
-    let mut y = g[..k].to_vec();
-    for i in (0..k).rev() {
-        for l in i + 1..k {
-            let t = h[(i, l)] * y[l];
-            y[i] -= t;
-        }
-        y[i] /= h[(i, i)];
-    }
+/// y (k × 1) of R y = g on the leading k × k triangle R of the rotated Hessenberg matrix
+/// `h`.
+fn solve_triangle(h: &Mat<c64>, g: &[c64], k: usize) -> Mat<c64> {
+    let mut y = Mat::from_fn(k, 1, |i, _| g[i]);
+    faer::linalg::triangular_solve::solve_upper_triangular_in_place(
+        h.as_ref().submatrix(0, 0, k, k),
+        y.as_mut(),
+        Par::Seq,
+    );
     y
 }
 
