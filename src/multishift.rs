@@ -84,6 +84,9 @@ struct Ritz {
 pub(crate) struct Response {
     /// X = Pᵀ A(iω)⁻¹ P B (N × p).
     pub x: Mat<c64>,
+    /// X in the space's basis: X = Q c (k × p, k the basis's dimension when answered;
+    /// [`ShiftedSpace::basis`]). The basis only grows, so c stays valid as it does.
+    pub coefficients: Mat<c64>,
     /// Its true residual's measures.
     pub certificate: Certificate,
     /// max_j |τθ_j| / |1 − τθ_j| over the Ritz values: how much the shifted system amplifies
@@ -203,6 +206,12 @@ impl<'a> ShiftedSpace<'a> {
         Ok(space)
     }
 
+    /// The M-orthonormal basis Q (N × k). It only grows: a response's
+    /// [`Response::coefficients`] index its first columns for the space's whole life.
+    pub fn basis(&self) -> MatRef<'_, f64> {
+        self.q.as_ref()
+    }
+
     /// Vectors in the basis.
     pub fn dim(&self) -> usize {
         self.q.ncols()
@@ -304,20 +313,31 @@ impl<'a> ShiftedSpace<'a> {
         self.next = w;
     }
 
-    /// M-orthonormalizes the columns of `w` against the basis and each other (two
-    /// classical Gram–Schmidt passes per column), dropping a column left with less than
-    /// [`DEFLATE`] of `scale`: returns the new columns, M times them and the coefficients C
-    /// with w ≈ Q_new C (rows: kept columns).
+    /// M-orthonormalizes the columns of `w` against the basis (two block classical
+    /// Gram–Schmidt passes: each reads Q and MQ once for the whole block, not once per
+    /// column) and then each other (two passes per column against the new columns only),
+    /// dropping a column left with less than [`DEFLATE`] of `scale`: returns the new
+    /// columns, M times them and the coefficients C with w ≈ Q_new C (rows: kept columns).
     fn orthonormalize(&self, w: MatRef<'_, f64>, scale: &[f64]) -> (Mat<f64>, Mat<f64>, Mat<f64>) {
         let (n, b) = (w.nrows(), w.ncols());
+        let mut w = w.to_owned();
+        for _ in 0..2 {
+            let c = self.mq.transpose() * &w;
+            matmul(
+                w.as_mut(),
+                Accum::Add,
+                self.q.as_ref(),
+                c.as_ref(),
+                -1.0,
+                self.par,
+            );
+        }
         let mut qn = Mat::<f64>::zeros(n, 0);
         let mut mqn = Mat::<f64>::zeros(n, 0);
         let mut coef = Mat::<f64>::zeros(b, b);
         for j in 0..b {
             let mut v = w.col(j).to_owned();
             for _ in 0..2 {
-                let c = self.mq.transpose() * &v;
-                v -= &self.q * &c;
                 let cn = mqn.transpose() * &v;
                 v -= &qn * &cn;
                 for (i, &x) in cn.iter().enumerate() {
@@ -456,9 +476,12 @@ impl<'a> ShiftedSpace<'a> {
             .iter()
             .map(|&th| (tau * th).norm() / (c64::new(1.0, 0.0) - tau * th).norm())
             .fold(0.0, f64::max);
-        let (x, certificate) = self.lift(omega, y, scale, par);
+        let inv = scale.inv();
+        let coefficients = Mat::from_fn(y.nrows(), y.ncols(), |i, c| y[(i, c)] * inv);
+        let (x, certificate) = self.lift(omega, coefficients.as_ref(), par);
         Ok(Response {
             x,
+            coefficients,
             certificate,
             amplification,
         })
@@ -491,12 +514,11 @@ impl<'a> ShiftedSpace<'a> {
             .collect()
     }
 
-    /// X = Q y / (1 + iωβ), rigid-free, and its certificate.
-    fn lift(&self, omega: f64, y: Mat<c64>, scale: c64, par: Par) -> (Mat<c64>, Certificate) {
-        let (n, p) = (self.q.nrows(), y.ncols());
-        let inv = scale.inv();
-        let yr = Mat::from_fn(y.nrows(), p, |i, c| (y[(i, c)] * inv).re);
-        let yi = Mat::from_fn(y.nrows(), p, |i, c| (y[(i, c)] * inv).im);
+    /// X = Q c (c = y / (1 + iωβ)), rigid-free, and its certificate.
+    fn lift(&self, omega: f64, c: MatRef<'_, c64>, par: Par) -> (Mat<c64>, Certificate) {
+        let (n, p) = (self.q.nrows(), c.ncols());
+        let yr = c.map(|z| z.re);
+        let yi = c.map(|z| z.im);
         let mut xr = Mat::<f64>::zeros(n, p);
         let mut xi = Mat::<f64>::zeros(n, p);
         matmul(

@@ -1,6 +1,12 @@
 //! Solved responses X (N × p) kept by the frequency engine for a later pass — line-fitting's
-//! sampling loop refits from them after its interface grows (docs/design.md §3.5, steps 6–7):
-//! in memory, or spilled to a temporary file and streamed back.
+//! sampling loop refits from them after its interface grows (docs/design.md §3.5, steps 6–7).
+//! A response from the shifted Krylov space (§3.10) is kept as its coefficients c in the
+//! space's basis Q (X = Q c, k × p numbers); a factored one whole, in memory or spilled to a
+//! temporary file and streamed back.
+//!
+//! Responses in the span of Q need no pass over N × 2pz numbers: their streamed QR is built
+//! from c ([`crate::lsq::Split::state_in_span`]) and Q-DEIM's R of S is Lᵀ C, with
+//! QᵀQ = L Lᵀ (kept as Q grows) and C = [Re c_1, Im c_1, …]: S = Q C has SᵀS = Cᵀ L Lᵀ C.
 //!
 //! Q-DEIM growth ([`SnapshotStore::qdeim_next`]) never forms the N × 2pz snapshot matrix
 //! S = [Re X_1, Im X_1, …] (nor its N × r left singular vectors): it streams S in row blocks,
@@ -19,8 +25,10 @@
 //!
 //! Memory: O(block · 2pz + (2pz)² + kept rows · 2pz) besides the stored snapshots.
 
+use crate::lsq::{Split, StreamedQr};
 use crate::{Error, Result};
-use faer::{c64, Mat, MatRef};
+use faer::linalg::matmul::matmul;
+use faer::{c64, Accum, Mat, MatRef, Par};
 use std::io::{Read, Seek, SeekFrom, Write};
 use std::path::PathBuf;
 
@@ -63,8 +71,17 @@ impl GrowBy {
     }
 }
 
-/// Snapshots (N × p, complex) in memory or in an unnamed temporary file.
-pub(crate) enum SnapshotStore {
+/// Kept responses: those in the span of the Krylov basis as coefficients, the others whole.
+pub(crate) struct SnapshotStore {
+    full: Full,
+    /// c_k of X_k = Q c_k (k_k × p; Q the basis of the engine's shifted Krylov space).
+    span: Vec<Mat<c64>>,
+    /// QᵀQ of the basis's leading columns, extended as the basis grows.
+    gram: Mat<f64>,
+}
+
+/// Whole responses (N × p, complex) in memory or in an unnamed temporary file.
+enum Full {
     Memory(Vec<Mat<c64>>),
     File {
         /// The directory that holds the file (the file has no name: for messages).
@@ -83,32 +100,43 @@ pub(crate) fn spill_room(bytes_each: usize) -> Option<usize> {
 }
 
 impl SnapshotStore {
-    /// An empty store; `spill` puts the snapshots in a temporary file.
+    /// An empty store; `spill` puts the whole responses in a temporary file.
     pub fn new(spill: bool) -> Result<Self> {
-        if !spill {
-            return Ok(SnapshotStore::Memory(Vec::new()));
-        }
-        // an unnamed file (O_TMPFILE, or unlinked as soon as it is open): the system reclaims
-        // it when it is closed, however the process ends, even when it is killed
-        let path = std::env::temp_dir();
-        let file = tempfile::tempfile_in(&path).map_err(|e| Error::io(&path, e))?;
-        Ok(SnapshotStore::File {
-            path,
-            file,
-            shapes: Vec::new(),
+        let full = if spill {
+            // an unnamed file (O_TMPFILE, or unlinked as soon as it is open): the system
+            // reclaims it when it is closed, however the process ends, even when it is killed
+            let path = std::env::temp_dir();
+            let file = tempfile::tempfile_in(&path).map_err(|e| Error::io(&path, e))?;
+            Full::File {
+                path,
+                file,
+                shapes: Vec::new(),
+            }
+        } else {
+            Full::Memory(Vec::new())
+        };
+        Ok(SnapshotStore {
+            full,
+            span: Vec::new(),
+            gram: Mat::zeros(0, 0),
         })
     }
 
-    /// True when the snapshots live in a file.
+    /// True when the whole responses live in a file.
     pub fn spilled(&self) -> bool {
-        matches!(self, SnapshotStore::File { .. })
+        matches!(self.full, Full::File { .. })
     }
 
-    /// Appends snapshots.
+    /// Appends a response X = Q c by its coefficients c (k × p) in the Krylov basis Q.
+    pub fn push_span(&mut self, c: Mat<c64>) {
+        self.span.push(c);
+    }
+
+    /// Appends whole responses.
     pub fn extend(&mut self, snaps: impl Iterator<Item = Mat<c64>>) -> Result<()> {
-        match self {
-            SnapshotStore::Memory(v) => v.extend(snaps),
-            SnapshotStore::File { path, file, shapes } => {
+        match &mut self.full {
+            Full::Memory(v) => v.extend(snaps),
+            Full::File { path, file, shapes } => {
                 file.seek(SeekFrom::End(0))
                     .map_err(|e| Error::io(&*path, e))?;
                 let mut w = std::io::BufWriter::new(&*file);
@@ -129,11 +157,45 @@ impl SnapshotStore {
         Ok(())
     }
 
-    /// Calls `f` on every snapshot in the order they were added.
-    pub fn for_each(&mut self, mut f: impl FnMut(MatRef<'_, c64>) -> Result<()>) -> Result<()> {
-        match self {
-            SnapshotStore::Memory(v) => v.iter().try_for_each(|x| f(x.as_ref())),
-            SnapshotStore::File { path, file, shapes } => {
+    /// The streamed QR of every kept response for `split` (responses of p columns): the
+    /// whole ones absorbed again, the ones in the span of `basis` built from their
+    /// coefficients, and the two merged.
+    ///
+    /// # Errors
+    /// [`Error::InvalidSetting`] when responses in a span are kept but no basis is given;
+    /// as [`Split::absorb`], [`Split::state_in_span`]; I/O errors of a spill file.
+    pub fn regrow(
+        &mut self,
+        split: &Split,
+        p: usize,
+        basis: Option<MatRef<'_, f64>>,
+    ) -> Result<StreamedQr> {
+        let mut w = split.state(p);
+        self.for_each_full(|x| split.absorb(&mut w, x))?;
+        if self.span.is_empty() {
+            return Ok(w.qr);
+        }
+        let q = self.basis_for_span(basis)?;
+        w.qr.merge(split.state_in_span(q, &self.span)?)
+    }
+
+    /// `basis` when it is there and covers every kept coefficient block.
+    fn basis_for_span<'b>(&self, basis: Option<MatRef<'b, f64>>) -> Result<MatRef<'b, f64>> {
+        let k = self.span.iter().map(|c| c.nrows()).max().unwrap_or(0);
+        match basis {
+            Some(q) if q.ncols() >= k => Ok(q),
+            _ => Err(Error::InvalidSetting(format!(
+                "responses kept by their coefficients in a Krylov basis of {k} vectors, but \
+                 that basis is not there"
+            ))),
+        }
+    }
+
+    /// Calls `f` on every whole response in the order they were added.
+    fn for_each_full(&mut self, mut f: impl FnMut(MatRef<'_, c64>) -> Result<()>) -> Result<()> {
+        match &mut self.full {
+            Full::Memory(v) => v.iter().try_for_each(|x| f(x.as_ref())),
+            Full::File { path, file, shapes } => {
                 file.seek(SeekFrom::Start(0))
                     .map_err(|e| Error::io(&*path, e))?;
                 let mut r = std::io::BufReader::with_capacity(1 << 20, &*file);
@@ -151,28 +213,31 @@ impl SnapshotStore {
         }
     }
 
-    /// (N, p) of every snapshot, in order.
-    fn shapes(&self) -> Vec<(usize, usize)> {
-        match self {
-            SnapshotStore::Memory(v) => v.iter().map(|x| (x.nrows(), x.ncols())).collect(),
-            SnapshotStore::File { shapes, .. } => shapes.clone(),
-        }
+    /// The columns p of every kept response: those in the span first, then the whole ones
+    /// (the order of the columns of S in the Q-DEIM passes).
+    fn widths(&self) -> Vec<usize> {
+        let full: Vec<usize> = match &self.full {
+            Full::Memory(v) => v.iter().map(|x| x.ncols()).collect(),
+            Full::File { shapes, .. } => shapes.iter().map(|s| s.1).collect(),
+        };
+        self.span.iter().map(|c| c.ncols()).chain(full).collect()
     }
 
-    /// Number of real columns of S (2 per snapshot column) and rows N.
-    fn shape(&self) -> (usize, usize) {
-        let shapes = self.shapes();
-        let cols = shapes.iter().map(|s| 2 * s.1).sum();
-        (shapes.first().map(|s| s.0).unwrap_or(0), cols)
+    /// Rows N of the whole responses, when there are any.
+    fn full_rows(&self) -> Option<usize> {
+        match &self.full {
+            Full::Memory(v) => v.first().map(|x| x.nrows()),
+            Full::File { shapes, .. } => shapes.first().map(|s| s.0),
+        }
     }
 
     /// The column scaling D that gives each snapshot's columns [Re X_k, Im X_k] unit
     /// Frobenius norm (every frequency weighs the same, as the relative error does), from
-    /// the R of S = Q R (the column norms of S are those of R).
+    /// a matrix R with RᵀR = SᵀS (the column norms of S are those of R).
     fn frequency_scaling(&self, r: &Mat<f64>) -> Vec<f64> {
         let mut d = vec![1.0; r.ncols()];
         let mut c = 0;
-        for (_, p) in self.shapes() {
+        for p in self.widths() {
             let cols = c..c + 2 * p;
             let norm = cols
                 .clone()
@@ -187,19 +252,47 @@ impl SnapshotStore {
         d
     }
 
-    /// Calls `f(start, block)` for consecutive row blocks of S = [Re X_1, Im X_1, …]
-    /// (block: rows × 2pz real).
+    /// QᵀQ of `q` (k × k), from the kept one extended by the basis's new columns.
+    fn gram(&mut self, q: MatRef<'_, f64>) -> MatRef<'_, f64> {
+        let (k0, k) = (self.gram.nrows(), q.ncols());
+        if k > k0 {
+            let mut new = Mat::<f64>::zeros(k, k - k0);
+            let added = q.subcols(k0, k - k0);
+            matmul(
+                new.as_mut(),
+                Accum::Replace,
+                q.transpose(),
+                added,
+                1.0,
+                Par::rayon(0),
+            );
+            self.gram.resize_with(k, k, |i, j| {
+                if j >= k0 {
+                    new[(i, j - k0)]
+                } else {
+                    new[(j, i - k0)]
+                }
+            });
+        }
+        self.gram.as_ref()
+    }
+
+    /// Calls `f(start, block)` for consecutive row blocks of the whole responses'
+    /// columns of S, [Re X_1, Im X_1, …] (block: rows × their 2p's; no columns when every
+    /// response is in the span), over `n` rows.
     fn for_each_row_block(
         &mut self,
+        n: usize,
         mut f: impl FnMut(usize, MatRef<'_, f64>) -> Result<()>,
     ) -> Result<()> {
-        let (n, cols) = self.shape();
+        let span_cols: usize = self.span.iter().map(|c| 2 * c.ncols()).sum();
+        let cols = 2 * self.widths().iter().sum::<usize>() - span_cols;
         let mut start = 0;
         while start < n {
             let rows = BLOCK_ROWS.min(n - start);
             let mut block = Mat::<f64>::zeros(rows, cols);
-            match self {
-                SnapshotStore::Memory(v) => {
+            match &mut self.full {
+                Full::Memory(v) => {
                     let mut c = 0;
                     for x in v.iter() {
                         for j in 0..x.ncols() {
@@ -212,7 +305,7 @@ impl SnapshotStore {
                         }
                     }
                 }
-                SnapshotStore::File { path, file, shapes } => {
+                Full::File { path, file, shapes } => {
                     let (mut offset, mut c) = (0u64, 0);
                     let mut bytes = Vec::new();
                     for &(nr, p) in shapes.iter() {
@@ -236,35 +329,41 @@ impl SnapshotStore {
         Ok(())
     }
 
-    /// Q-DEIM continued from `interface` for as many pivots as `by` asks: the DoF outside it
-    /// whose row of the snapshots' left singular vectors adds the most to the span of the
-    /// interface rows (module doc), then the DoF that adds the most to the span with that one, and so
-    /// on. The later pivots are chosen among the rows of the largest first scores (8 per
-    /// pivot, at least 64): each pivot's row is taken out of the others (pivoted Gram–Schmidt),
-    /// so rows that repeat a chosen one's direction — its neighbours on the body — drop back.
-    /// The singular vectors are those of S D (each frequency weighing the same, as in the
-    /// count), the leading interface + count of them; picking stops early when no row adds
-    /// [`NEW_DIRECTION`] of the first pick's score, so fewer DoFs than `by.at_least` may come
-    /// back (never none).
-    ///
-    /// # Errors
-    /// [`Error::Factor`] when the SVD does not converge; [`Error::InvalidSetting`] when no
-    /// DoF is left outside the interface or the snapshots are empty; I/O errors of a spill file.
-    pub fn qdeim_next(&mut self, interface: &[usize], by: GrowBy) -> Result<Vec<usize>> {
-        let (n, cols) = self.shape();
-        if cols == 0 || interface.len() + by.at_least > n {
-            return Err(Error::InvalidSetting(
-                "Q-DEIM found no DoF outside the interface".into(),
-            ));
+    /// A matrix R with RᵀR = SᵀS, and the rows of S at `interface`: from the span when
+    /// [`Self::triangle_in_span`] can, otherwise the R of a QR of S merged over row blocks
+    /// (TSQR: R ← R of [R; S_block]), the span's columns formed block by block as Q_b C.
+    fn triangle(
+        &mut self,
+        n: usize,
+        interface: &[usize],
+        span: Option<(MatRef<'_, f64>, &Mat<f64>)>,
+    ) -> Result<(Mat<f64>, Mat<f64>)> {
+        let cols = 2 * self.widths().iter().sum::<usize>();
+        if let Some((q, c)) = span.filter(|(q, c)| cols - c.ncols() <= q.ncols()) {
+            if let Some(found) = self.triangle_in_span(n, interface, q, c)? {
+                return Ok(found);
+            }
         }
-        // pass 1: R of S (TSQR over row blocks) and the interface rows of S
         let mut r = Mat::<f64>::zeros(0, cols);
         let mut pos = vec![usize::MAX; n];
         for (k, &d) in interface.iter().enumerate() {
             pos[d] = k;
         }
         let mut s_i = Mat::<f64>::zeros(interface.len(), cols);
-        self.for_each_row_block(|start, block| {
+        self.for_each_row_block(n, |start, full| {
+            let block = match span {
+                Some((q, c)) => {
+                    let sb = q.subrows(start, full.nrows()) * c;
+                    Mat::from_fn(full.nrows(), cols, |i, j| {
+                        if j < sb.ncols() {
+                            sb[(i, j)]
+                        } else {
+                            full[(i, j - sb.ncols())]
+                        }
+                    })
+                }
+                None => full.to_owned(),
+            };
             for i in 0..block.nrows() {
                 if let Some(&k) = pos.get(start + i).filter(|&&k| k != usize::MAX) {
                     for c in 0..cols {
@@ -282,6 +381,123 @@ impl SnapshotStore {
             r = stacked.qr().thin_R().to_owned();
             Ok(())
         })?;
+        Ok((r, s_i))
+    }
+
+    /// [`Self::triangle`] for S = [Q C, F], F the whole responses' columns (at most k of
+    /// them): with QᵀQ = LLᵀ, Q = Q_o Lᵀ (Q_o orthonormal), and F = Q a + F⊥ (two classical
+    /// Gram–Schmidt passes, a = (QᵀQ)⁻¹QᵀF),
+    ///
+    /// ```text
+    /// S = [Q_o  F⊥/R_F] [ LᵀC  Lᵀa ]      R = [ LᵀC  Lᵀa ]
+    ///                   [  0   R_F ],          [  0   R_F ]
+    /// ```
+    ///
+    /// with R_F the triangle of F⊥: O(N·k·|F|) besides the Gram matrix's new columns.
+    /// `None` when QᵀQ has no Cholesky factor (the generic path decides then).
+    fn triangle_in_span(
+        &mut self,
+        n: usize,
+        interface: &[usize],
+        q: MatRef<'_, f64>,
+        c: &Mat<f64>,
+    ) -> Result<Option<(Mat<f64>, Mat<f64>)>> {
+        use faer::linalg::solvers::Solve;
+        let Ok(llt) = self.gram(q).llt(faer::Side::Lower) else {
+            return Ok(None);
+        };
+        let (k, cs) = (q.ncols(), c.ncols());
+        let cf = 2 * self.widths().iter().sum::<usize>() - cs;
+        let mut f = Mat::<f64>::zeros(n, cf);
+        if cf > 0 {
+            self.for_each_row_block(n, |start, block| {
+                f.as_mut()
+                    .subrows_mut(start, block.nrows())
+                    .copy_from(block);
+                Ok(())
+            })?;
+        }
+        let s_i = Mat::<f64>::from_fn(interface.len(), cs + cf, |i, j| {
+            let d = interface[i];
+            if j < cs {
+                (0..k).map(|l| q[(d, l)] * c[(l, j)]).sum()
+            } else {
+                f[(d, j - cs)]
+            }
+        });
+        let mut a = Mat::<f64>::zeros(k, cf);
+        for _ in 0..2 {
+            let mut w = Mat::<f64>::zeros(k, cf);
+            matmul(
+                w.as_mut(),
+                Accum::Replace,
+                q.transpose(),
+                f.as_ref(),
+                1.0,
+                Par::rayon(0),
+            );
+            let x = llt.solve(w.as_ref());
+            matmul(f.as_mut(), Accum::Add, q, x.as_ref(), -1.0, Par::rayon(0));
+            a += &x;
+        }
+        let rf = if cf > 0 {
+            f.qr().thin_R().to_owned()
+        } else {
+            Mat::zeros(0, 0)
+        };
+        let lt = llt.L().transpose().to_owned();
+        let (top_c, top_a) = (&lt * c, &lt * &a);
+        let r = Mat::<f64>::from_fn(k + rf.nrows(), cs + cf, |i, j| match (i < k, j < cs) {
+            (true, true) => top_c[(i, j)],
+            (true, false) => top_a[(i, j - cs)],
+            (false, true) => 0.0,
+            (false, false) => rf[(i - k, j - cs)],
+        });
+        Ok(Some((r, s_i)))
+    }
+
+    /// Q-DEIM continued from `interface` for as many pivots as `by` asks: the DoF outside it
+    /// whose row of the snapshots' left singular vectors adds the most to the span of the
+    /// interface rows (module doc), then the DoF that adds the most to the span with that one, and so
+    /// on. The later pivots are chosen among the rows of the largest first scores (8 per
+    /// pivot, at least 64): each pivot's row is taken out of the others (pivoted Gram–Schmidt),
+    /// so rows that repeat a chosen one's direction — its neighbours on the body — drop back.
+    /// The singular vectors are those of S D (each frequency weighing the same, as in the
+    /// count), the leading interface + count of them; picking stops early when no row adds
+    /// [`NEW_DIRECTION`] of the first pick's score, so fewer DoFs than `by.at_least` may come
+    /// back (never none). `basis` is the Krylov basis of the responses kept in its span.
+    ///
+    /// # Errors
+    /// [`Error::Factor`] when the SVD does not converge; [`Error::InvalidSetting`] when no
+    /// DoF is left outside the interface, the snapshots are empty or the basis is missing;
+    /// I/O errors of a spill file.
+    pub fn qdeim_next(
+        &mut self,
+        interface: &[usize],
+        by: GrowBy,
+        basis: Option<MatRef<'_, f64>>,
+    ) -> Result<Vec<usize>> {
+        let q = if self.span.is_empty() {
+            None
+        } else {
+            Some(self.basis_for_span(basis)?)
+        };
+        let n = self.full_rows().or(q.map(|q| q.nrows())).unwrap_or(0);
+        let cols = 2 * self.widths().iter().sum::<usize>();
+        if cols == 0 || interface.len() + by.at_least > n {
+            return Err(Error::InvalidSetting(
+                "Q-DEIM found no DoF outside the interface".into(),
+            ));
+        }
+        // the span's columns of S are Q C
+        let c = q.map(|q| crate::lsq::stacked_coefficients(&self.span, q.ncols()));
+        let span = q.zip(c.as_ref());
+        // pass 1: R of S and the interface rows of S
+        let (r, s_i) = self.triangle(n, interface, span)?;
+        let mut pos = vec![usize::MAX; n];
+        for (k, &d) in interface.iter().enumerate() {
+            pos[d] = k;
+        }
         // S D = U Σ Vᵀ, each frequency weighing the same; the numerical rank at rank_tol sets
         // the count, and the leading interface + count directions of U are the ones the
         // interface must see (textbook Q-DEIM: as many directions as DoFs; the trailing ones
@@ -313,20 +529,27 @@ impl SnapshotStore {
         // orthonormal basis of the interface rows' span (r × q), by a QR of U_Iᵀ
         let u_i_t = (&s_i * &t).transpose().to_owned();
         let qr = u_i_t.qr();
-        let (rr, q) = (qr.thin_R(), qr.compute_thin_Q());
+        let (rr, qi) = (qr.thin_R(), qr.compute_thin_Q());
         let rmax = (0..rr.nrows().min(rr.ncols()))
             .map(|k| rr[(k, k)].abs())
             .fold(0.0, f64::max);
         let basis: Vec<usize> = (0..rr.nrows().min(rr.ncols()))
             .filter(|&k| rr[(k, k)].abs() > 1e-12 * rmax)
             .collect();
-        let q = Mat::<f64>::from_fn(keep.len(), basis.len(), |i, k| q[(i, basis[k])]);
-        // pass 2: the part of each row of U outside span(Q); the rows of largest part kept
+        let qi = Mat::<f64>::from_fn(keep.len(), basis.len(), |i, k| qi[(i, basis[k])]);
+        // pass 2: the part of each row of U outside span(Q); the rows of largest part kept.
+        // The span's rows of U are Q_b (C T_span): O(k r) per row instead of O(2pz r)
+        let span_cols = c.as_ref().map_or(0, |c| c.ncols());
+        let ct = c.as_ref().map(|c| c * t.subrows(0, span_cols));
+        let t_full = t.subrows(span_cols, cols - span_cols);
         let pool = (8 * count).max(64);
         let mut top: Vec<(f64, usize, Vec<f64>)> = Vec::with_capacity(pool + 1);
-        self.for_each_row_block(|start, block| {
-            let u = block * &t;
-            let outside = &u - &u * &q * q.transpose();
+        self.for_each_row_block(n, |start, block| {
+            let mut u = block * t_full;
+            if let (Some(q), Some(ct)) = (q, ct.as_ref()) {
+                u += q.subrows(start, block.nrows()) * ct;
+            }
+            let outside = &u - &u * &qi * qi.transpose();
             for i in 0..u.nrows() {
                 if pos[start + i] != usize::MAX {
                     continue;
@@ -410,11 +633,14 @@ mod tests {
             at_most,
             rank_tol: 1e-3,
         };
-        assert_eq!(store.qdeim_next(&[], by(1, 10)).unwrap().len(), 4);
-        assert_eq!(store.qdeim_next(&[7], by(1, 10)).unwrap().len(), 3);
-        assert_eq!(store.qdeim_next(&[], by(1, 2)).unwrap().len(), 2);
+        assert_eq!(store.qdeim_next(&[], by(1, 10), None).unwrap().len(), 4);
+        assert_eq!(store.qdeim_next(&[7], by(1, 10), None).unwrap().len(), 3);
+        assert_eq!(store.qdeim_next(&[], by(1, 2), None).unwrap().len(), 2);
         assert_eq!(
-            store.qdeim_next(&[7, 8, 9, 10], by(1, 10)).unwrap().len(),
+            store
+                .qdeim_next(&[7, 8, 9, 10], by(1, 10), None)
+                .unwrap()
+                .len(),
             1
         );
     }
@@ -431,11 +657,101 @@ mod tests {
         });
         let mut store = SnapshotStore::new(false).unwrap();
         store.extend([x].into_iter()).unwrap();
-        assert_eq!(store.qdeim_next(&[], GrowBy::exactly(5)).unwrap().len(), 2);
         assert_eq!(
-            store.qdeim_next(&[17], GrowBy::exactly(5)).unwrap().len(),
+            store
+                .qdeim_next(&[], GrowBy::exactly(5), None)
+                .unwrap()
+                .len(),
+            2
+        );
+        assert_eq!(
+            store
+                .qdeim_next(&[17], GrowBy::exactly(5), None)
+                .unwrap()
+                .len(),
             1
         );
+    }
+
+    /// Responses kept by their coefficients in a basis Q (X_i = Q c_i, c_i with k_i ≤ k
+    /// rows, as a growing Krylov basis leaves them) refit and grow as the same responses kept
+    /// whole: W and the per-DoF fit residuals agree to rounding, the rows absorbed and the
+    /// Q-DEIM picks exactly; also with one response whole and outside the span (a factored
+    /// frequency, spilled).
+    #[test]
+    fn responses_in_a_span_refit_and_grow_as_whole_ones() {
+        let (n, k, p, z) = (3000, 40, 3, 6);
+        let mut rng = crate::random::Xorshift::new(5);
+        let mut rnd = || rng.next_centred();
+        let q = Mat::<f64>::from_fn(n, k, |_, _| rnd());
+        let coefs: Vec<Mat<c64>> = (0..z)
+            .map(|i| Mat::from_fn(20 + 4 * i, p, |_, _| c64::new(rnd(), rnd())))
+            .collect();
+        let xs: Vec<Mat<c64>> = coefs
+            .iter()
+            .map(|c| {
+                let qk = q.as_ref().subcols(0, c.nrows());
+                Mat::from_fn(n, p, |i, j| {
+                    (0..c.nrows()).map(|l| c[(l, j)] * qk[(i, l)]).sum::<c64>()
+                })
+            })
+            .collect();
+        // a factored response: near the span, not in it
+        let factored = Mat::from_fn(n, p, |i, j| {
+            xs[2][(i, j)] + c64::new(1e-3 * rnd(), 1e-3 * rnd())
+        });
+        let interface = vec![5, 700, 1500, 2999, 42, 1234, 2222];
+        let split = Split::from_interface(n, interface.clone());
+        let opts = crate::lsq::LsqOptions::default();
+        for mixed in [false, true] {
+            let mut ys = xs.clone();
+            if mixed {
+                ys[2] = factored.clone();
+            }
+            let mut whole = SnapshotStore::new(false).unwrap();
+            whole.extend(ys.iter().cloned()).unwrap();
+            let want = whole
+                .regrow(&split, p, None)
+                .unwrap()
+                .finish(&opts)
+                .unwrap();
+            let picks = whole
+                .qdeim_next(&interface, GrowBy::exactly(3), None)
+                .unwrap();
+            let mut store = SnapshotStore::new(mixed).unwrap();
+            for (i, c) in coefs.iter().enumerate() {
+                if mixed && i == 2 {
+                    store.extend([factored.clone()].into_iter()).unwrap();
+                } else {
+                    store.push_span(c.clone());
+                }
+            }
+            let got = store
+                .regrow(&split, p, Some(q.as_ref()))
+                .unwrap()
+                .finish(&opts)
+                .unwrap();
+            let scale = want.w.norm_max();
+            assert!(
+                (&got.w - &want.w).norm_max() <= 1e-11 * scale,
+                "mixed {mixed}"
+            );
+            for (a, b) in got.residual.iter().zip(&want.residual) {
+                assert!((a - b).abs() <= 1e-10, "mixed {mixed}: residual {a} vs {b}");
+            }
+            assert_eq!(got.rows, want.rows);
+            assert_eq!(
+                store
+                    .qdeim_next(&interface, GrowBy::exactly(3), Some(q.as_ref()))
+                    .unwrap(),
+                picks,
+                "mixed {mixed}"
+            );
+        }
+        // without the basis the coefficients mean nothing: an error, not a guess
+        let mut store = SnapshotStore::new(false).unwrap();
+        store.push_span(coefs[0].clone());
+        assert!(store.regrow(&split, p, None).is_err());
     }
 
     /// The streamed, interface-continued Q-DEIM picks the DoFs a dense computation picks:
@@ -490,7 +806,9 @@ mod tests {
             let mut store = SnapshotStore::new(spill).unwrap();
             store.extend(snaps.iter().cloned()).unwrap();
             assert_eq!(
-                store.qdeim_next(&interface, GrowBy::exactly(3)).unwrap(),
+                store
+                    .qdeim_next(&interface, GrowBy::exactly(3), None)
+                    .unwrap(),
                 want,
                 "spill {spill}"
             );

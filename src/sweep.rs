@@ -302,6 +302,9 @@ pub struct Snapshot<'a> {
     pub freq_hz: f64,
     /// Full-state response X (N × p).
     pub x: MatRef<'a, c64>,
+    /// X = Q c in the basis Q of the solver's shifted Krylov space, when the space answered
+    /// ([`Solver::with_basis`], docs/design.md §3.10): c (k × p).
+    pub coefficients: Option<MatRef<'a, c64>>,
 }
 
 /// Frequency-independent preparation of a sweep; see the module doc.
@@ -660,12 +663,13 @@ impl<'a> Solver<'a> {
                 let f = run.freqs_hz[k];
                 let r = match space {
                     Some(sp) => match self.space_response(sp, f, par()) {
-                        Ok((x, st)) => (run.step)(
+                        Ok((r, st)) => (run.step)(
                             &mut state,
                             Snapshot {
                                 index: k,
                                 freq_hz: f,
-                                x: x.as_ref(),
+                                x: r.x.as_ref(),
+                                coefficients: Some(r.coefficients.as_ref()),
                             },
                         )
                         .map(|()| Some(st)),
@@ -684,6 +688,7 @@ impl<'a> Solver<'a> {
                                 index: k,
                                 freq_hz: f,
                                 x,
+                                coefficients: None,
                             },
                         )?;
                         Ok(Some(st))
@@ -855,6 +860,19 @@ impl<'a> Solver<'a> {
         Ok(cost)
     }
 
+    /// Calls `f` with the basis Q of this solver's shifted Krylov space (N × k, the one
+    /// [`Snapshot::coefficients`] refer to), or with `None` when it has none.
+    pub(crate) fn with_basis<R>(&self, f: impl FnOnce(Option<MatRef<'_, f64>>) -> R) -> R {
+        let Some(cell) = &self.space else {
+            return f(None);
+        };
+        let space = cell.lock().unwrap_or_else(|p| p.into_inner());
+        match &*space {
+            Space::Made(s) => f(Some(s.basis())),
+            _ => f(None),
+        }
+    }
+
     /// The response at the rows `rows` at each of `freqs_hz` from the shifted Krylov space
     /// (made and grown for them if needed; [`ShiftedSpace::rows_at`]), not certified: `None`
     /// when this solver has no space, `None` entries where the space does not answer. Also
@@ -895,7 +913,7 @@ impl<'a> Solver<'a> {
         space: &ShiftedSpace<'_>,
         f: f64,
         par: Par,
-    ) -> std::result::Result<(Mat<c64>, FreqStats), Fallback> {
+    ) -> std::result::Result<(crate::multishift::Response, FreqStats), Fallback> {
         if !(f > 0.0) {
             return Err(Fallback::Factor);
         }
@@ -921,7 +939,7 @@ impl<'a> Solver<'a> {
             relative_residual: worst(&r.certificate.relative_residual),
             space_cost: (0, 0),
         };
-        Ok((r.x, stats))
+        Ok((r, stats))
     }
 
     /// Solves load + probe into `rhs` with the current factorization, refines all columns when

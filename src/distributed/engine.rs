@@ -14,7 +14,7 @@ use crate::sweep::{
     rows_of, FreqStats, ProgressFn, Response, Schedule, SolveAccuracy, Solver, SweepOptions,
 };
 use crate::{Error, Result};
-use faer::{c64, Mat};
+use faer::{c64, Mat, MatRef};
 use std::sync::Arc;
 
 /// Solves frequencies for one body: in this process, or — when the options carry a
@@ -24,12 +24,21 @@ pub(crate) struct Engine<'a> {
     opts: SweepOptions,
     /// This rank's solvers, one per (response, inputs), built on first use.
     solvers: Vec<(Response, Vec<usize>, Solver<'a>)>,
-    /// This rank's kept responses (for absorbing them again into another split).
-    store: Option<SnapshotStore>,
+    /// This rank's kept responses (for absorbing them again into another split), and the
+    /// inputs of the elastic solver whose Krylov basis their coefficients refer to.
+    store: Option<(Vec<usize>, SnapshotStore)>,
     /// Every frequency solved through this engine, on every rank.
     accuracy: SolveAccuracy,
     /// Seconds rank 0 spent receiving and merging the other ranks' answers.
     gather_s: f64,
+}
+
+/// What a solved response leaves in the snapshot store.
+enum Kept {
+    /// Its coefficients c in the solver's Krylov basis Q (X = Q c).
+    Span(Mat<c64>),
+    /// X itself (a factored frequency).
+    Full(Mat<c64>),
 }
 
 /// What [`Engine::absorb`] returns.
@@ -161,7 +170,7 @@ impl<'a> Engine<'a> {
 
     /// Whether this rank's kept snapshots are in a temporary file.
     pub fn spilled(&self) -> bool {
-        self.store.as_ref().is_some_and(|s| s.spilled())
+        self.store.as_ref().is_some_and(|s| s.1.spilled())
     }
 
     /// Runs `cmd` on every rank and returns the combined answer (sorted by frequency index).
@@ -225,12 +234,27 @@ impl<'a> Engine<'a> {
     /// process only: the snapshots of a distributed run stay on their ranks).
     pub fn qdeim_next(&mut self, interface: &[usize], by: GrowBy) -> Result<Vec<usize>> {
         self.check_qdeim()?;
-        self.store
-            .as_mut()
+        self.with_kept(|store, basis| store.qdeim_next(interface, by, basis))
             .ok_or_else(|| {
                 Error::InvalidSetting("the interface may not grow: no snapshots were kept".into())
             })?
-            .qdeim_next(interface, by)
+    }
+
+    /// Calls `f` with the kept responses and the Krylov basis their coefficients refer to
+    /// (`None` when their solver has no space); `None` when nothing is kept.
+    fn with_kept<R>(
+        &mut self,
+        f: impl FnOnce(&mut SnapshotStore, Option<MatRef<'_, f64>>) -> R,
+    ) -> Option<R> {
+        let (inputs, store) = self.store.as_mut()?;
+        let solver = self
+            .solvers
+            .iter()
+            .find(|(r, i, _)| *r == Response::Elastic && i == inputs);
+        Some(match solver {
+            Some((_, _, s)) => s.with_basis(|basis| f(store, basis)),
+            None => f(store, None),
+        })
     }
 
     /// Whether Q-DEIM growth can run: the snapshots must all be in this process.
@@ -304,43 +328,47 @@ impl<'a> Engine<'a> {
                 let split = Split::from_interface(self.body.n(), interface.clone());
                 let keep_x = *keep != Keep::No;
                 if keep_x && self.store.is_none() {
-                    self.store = Some(SnapshotStore::new(*keep == Keep::Spill)?);
+                    let store = SnapshotStore::new(*keep == Keep::Spill)?;
+                    self.store = Some((inputs.clone(), store));
                 }
                 let p = inputs.len();
-                // X at the outputs, or all of X when the snapshots are kept
-                type State = (SplitState, Vec<(usize, Mat<c64>)>);
+                // coefficients refer to the basis of the solver the store was made for
+                let span_ok = self.store.as_ref().is_some_and(|(i, _)| i == inputs);
+                // X at the outputs, and what is kept of X when the snapshots are kept
+                type State = (SplitState, Vec<(usize, Mat<c64>, Option<Kept>)>);
                 let solver = self.solver(Response::Elastic, inputs)?;
                 let (states, stats) = solver.run(
                     &mine,
                     || (split.state(p), Vec::new()),
                     |s: &mut State, snap| {
                         split.absorb(&mut s.0, snap.x)?;
-                        let x = if keep_x {
-                            snap.x.to_owned()
-                        } else {
-                            rows_of(outputs, snap.x)
-                        };
-                        s.1.push((index[snap.index], x));
+                        let kept = keep_x.then(|| match snap.coefficients {
+                            Some(c) if span_ok => Kept::Span(c.to_owned()),
+                            _ => Kept::Full(snap.x.to_owned()),
+                        });
+                        s.1.push((index[snap.index], rows_of(outputs, snap.x), kept));
                         Ok(())
                     },
                     progress,
                 )?;
                 let (workers, xs): (Vec<SplitState>, Vec<_>) = states.into_iter().unzip();
-                let mut xs: Vec<(usize, Mat<c64>)> = xs.into_iter().flatten().collect();
+                let mut xs: Vec<_> = xs.into_iter().flatten().collect();
                 xs.sort_by_key(|t| t.0);
                 let absorb_s = workers.iter().map(|w| w.absorb_s).sum();
                 let qr = Some(Split::merge(workers)?);
-                let x = match self.store.as_mut().filter(|_| keep_x) {
-                    Some(store) => {
-                        let h = xs
-                            .iter()
-                            .map(|(k, x)| (*k, rows_of(outputs, x.as_ref())))
-                            .collect();
-                        store.extend(xs.into_iter().map(|t| t.1))?;
-                        h
+                let mut full = Vec::new();
+                let mut x = Vec::with_capacity(xs.len());
+                for (k, h, kept) in xs {
+                    x.push((k, h));
+                    match (kept, self.store.as_mut()) {
+                        (Some(Kept::Span(c)), Some((_, store))) => store.push_span(c),
+                        (Some(Kept::Full(xk)), Some(_)) => full.push(xk),
+                        _ => {}
                     }
-                    None => xs,
-                };
+                }
+                if let Some((_, store)) = self.store.as_mut() {
+                    store.extend(full.into_iter())?;
+                }
                 Ok(Reply {
                     qr,
                     x,
@@ -350,13 +378,14 @@ impl<'a> Engine<'a> {
             }
             Command::Regrow { inputs, interface } => {
                 let split = Split::from_interface(self.body.n(), interface.clone());
-                let mut w = split.state(*inputs);
-                if let Some(store) = self.store.as_mut() {
-                    store.for_each(|x| split.absorb(&mut w, x))?;
-                }
+                let t = std::time::Instant::now();
+                let qr = self
+                    .with_kept(|store, basis| store.regrow(&split, *inputs, basis))
+                    .transpose()?
+                    .unwrap_or_else(|| split.empty_qr());
                 Ok(Reply {
-                    absorb_s: w.absorb_s,
-                    qr: Some(w.qr),
+                    absorb_s: t.elapsed().as_secs_f64(),
+                    qr: Some(qr),
                     ..Reply::default()
                 })
             }

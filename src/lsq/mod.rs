@@ -44,7 +44,7 @@
 
 mod split;
 
-pub use split::{Split, SplitState};
+pub use split::{stacked_coefficients, Split, SplitState};
 
 use crate::error::{Error, Result};
 use faer::linalg::matmul::matmul;
