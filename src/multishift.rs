@@ -44,7 +44,7 @@
 //! moment-matching projection about σ (Grimme 1997, rational Krylov with one pole).
 
 use crate::dense::sym_eigen;
-use crate::eigen::ShiftInvert;
+use crate::eigen::{project_out, ShiftInvert};
 use crate::factor::{certify, Certificate};
 use crate::pencil::{Coefficient, Pencil};
 use crate::rigid::RigidBody;
@@ -278,19 +278,9 @@ impl<'a> ShiftedSpace<'a> {
         // coefficients are T's new columns
         let mut w = self.mq.subcols(k, bn).to_owned();
         self.apply_s(w.as_mut(), false);
-        for _ in 0..2 {
-            let c = self.mq.transpose() * &w;
-            matmul(
-                w.as_mut(),
-                Accum::Add,
-                self.q.as_ref(),
-                c.as_ref(),
-                -1.0,
-                self.par,
-            );
-            let mut tc = self.t.as_mut().subcols_mut(k, bn);
-            tc += &c;
-        }
+        let c = project_out(self.q.as_ref(), self.mq.as_ref(), &mut w, self.par);
+        let mut tc = self.t.as_mut().subcols_mut(k, bn);
+        tc += &c;
         let image = self.t.as_ref().subcols(k, bn).to_owned();
         self.set_next(w, Some(image.as_ref()));
         self.ritz = None;
@@ -321,17 +311,7 @@ impl<'a> ShiftedSpace<'a> {
     fn orthonormalize(&self, w: MatRef<'_, f64>, scale: &[f64]) -> (Mat<f64>, Mat<f64>, Mat<f64>) {
         let (n, b) = (w.nrows(), w.ncols());
         let mut w = w.to_owned();
-        for _ in 0..2 {
-            let c = self.mq.transpose() * &w;
-            matmul(
-                w.as_mut(),
-                Accum::Add,
-                self.q.as_ref(),
-                c.as_ref(),
-                -1.0,
-                self.par,
-            );
-        }
+        project_out(self.q.as_ref(), self.mq.as_ref(), &mut w, self.par);
         let mut qn = Mat::<f64>::zeros(n, 0);
         let mut mqn = Mat::<f64>::zeros(n, 0);
         let mut coef = Mat::<f64>::zeros(b, b);

@@ -485,7 +485,12 @@ fn fresh_vector(
 /// the modified one (CGS2); returns the coefficients summed over both passes. Each pass reads
 /// Q and MQ once for all the columns of W, on the threads `par` (one per slice when slices
 /// run side by side: nested parallel products only contend).
-fn project_out(q: MatRef<'_, f64>, mq: MatRef<'_, f64>, w: &mut Mat<f64>, par: Par) -> Mat<f64> {
+pub(crate) fn project_out(
+    q: MatRef<'_, f64>,
+    mq: MatRef<'_, f64>,
+    w: &mut Mat<f64>,
+    par: Par,
+) -> Mat<f64> {
     use faer::linalg::matmul::matmul;
     use faer::Accum;
     let mut coef = Mat::<f64>::zeros(q.ncols(), w.ncols());
