@@ -37,7 +37,8 @@
 //!
 //! Cost: one real Cholesky factorization (a quarter of a complex one's flops) and one block
 //! solve per block of the basis; per frequency a k × p solve, the product Q y (O(N k p)) and
-//! the certificate (one pass over the pattern). Memory: Q and MQ, 16 N k bytes.
+//! the certificate (one pass over the pattern). Memory: Q and MQ, 16 N k bytes, and per worker
+//! the blocks of one response ([`ResponseBuffers`], kept from one frequency to the next).
 //!
 //! The shift-invariant Krylov space for shifted systems: Freund, "Solution of shifted linear
 //! systems by quasi-minimal residual iterations" (1993); the same Galerkin space is the
@@ -45,7 +46,7 @@
 
 use crate::dense::sym_eigen;
 use crate::eigen::{project_out, ShiftInvert};
-use crate::factor::{certify, Certificate};
+use crate::factor::{certify, Certificate, CertifyBuffers};
 use crate::pencil::{Coefficient, Pencil};
 use crate::rigid::RigidBody;
 use crate::units::hz_to_omega;
@@ -80,10 +81,9 @@ struct Ritz {
     c: Mat<f64>,
 }
 
-/// A response and how it was certified.
+/// A response and how it was certified; X itself is in the [`ResponseBuffers`] it was
+/// computed in.
 pub(crate) struct Response {
-    /// X = Pᵀ A(iω)⁻¹ P B (N × p).
-    pub x: Mat<c64>,
     /// X in the space's basis: X = Q c (k × p, k the basis's dimension when answered;
     /// [`ShiftedSpace::basis`]). The basis only grows, so c stays valid as it does.
     pub coefficients: Mat<c64>,
@@ -117,6 +117,41 @@ impl Response {
     }
 }
 
+/// The N-sized blocks of [`ShiftedSpace::response`], kept by a worker from one frequency to
+/// the next: allocated anew, their pages are faulted in and zeroed on every call.
+pub(crate) struct ResponseBuffers {
+    /// Q [Re c, Im c] (N × 2p).
+    parts: Mat<f64>,
+    /// X = Pᵀ A(iω)⁻¹ P B (N × p) of the last response.
+    x: Mat<c64>,
+    certify: CertifyBuffers,
+}
+
+impl Default for ResponseBuffers {
+    fn default() -> Self {
+        ResponseBuffers {
+            parts: Mat::zeros(0, 0),
+            x: Mat::zeros(0, 0),
+            certify: CertifyBuffers::default(),
+        }
+    }
+}
+
+impl ResponseBuffers {
+    /// X of the last [`ShiftedSpace::response`] (N × p).
+    pub fn x(&self) -> MatRef<'_, c64> {
+        self.x.as_ref()
+    }
+}
+
+/// `m` as an `r` × `c` matrix: kept when it has that shape (its values then stale), else
+/// a new one.
+fn shaped<T: faer::traits::ComplexField>(m: &mut Mat<T>, r: usize, c: usize) {
+    if m.nrows() != r || m.ncols() != c {
+        *m = Mat::zeros(r, c);
+    }
+}
+
 /// The growing Krylov space of one body and load; see the module doc.
 pub(crate) struct ShiftedSpace<'a> {
     pencil: &'a Pencil,
@@ -146,6 +181,9 @@ pub(crate) struct ShiftedSpace<'a> {
     next_scale: Vec<f64>,
     ritz: Option<Ritz>,
     max_dim: usize,
+    /// Columns Q and MQ have room for: they grow by doubling, not by a copy per block (each
+    /// copy of 16 N k bytes faults in fresh pages; a sixth of the 10⁶-DoF bar's seed step).
+    capacity: usize,
     block_solves: usize,
     par: Par,
 }
@@ -197,6 +235,7 @@ impl<'a> ShiftedSpace<'a> {
             next_scale: Vec::new(),
             ritz: None,
             max_dim: max_dim.min(n),
+            capacity: 0,
             block_solves: 0,
             par,
         };
@@ -254,9 +293,11 @@ impl<'a> ShiftedSpace<'a> {
             return false;
         }
         let kn = k + bn;
-        let cap = (2 * kn).min(self.max_dim).max(kn);
-        self.q.reserve(n, cap);
-        self.mq.reserve(n, cap);
+        if kn > self.capacity {
+            self.capacity = (2 * kn).min(self.max_dim).max(kn);
+            self.q.reserve(n, self.capacity);
+            self.mq.reserve(n, self.capacity);
+        }
         self.q.resize_with(n, kn, |i, j| qn[(i, j - k)]);
         self.mq.resize_with(n, kn, |i, j| mqn[(i, j - k)]);
         self.t.resize_with(kn, kn, |_, _| 0.0);
@@ -314,6 +355,8 @@ impl<'a> ShiftedSpace<'a> {
         project_out(self.q.as_ref(), self.mq.as_ref(), &mut w, self.par);
         let mut qn = Mat::<f64>::zeros(n, 0);
         let mut mqn = Mat::<f64>::zeros(n, 0);
+        qn.reserve(n, b);
+        mqn.reserve(n, b);
         let mut coef = Mat::<f64>::zeros(b, b);
         for j in 0..b {
             let mut v = w.col(j).to_owned();
@@ -438,11 +481,16 @@ impl<'a> ShiftedSpace<'a> {
     }
 
     /// X = Pᵀ A(iω)⁻¹ P B at `freq_hz` from the space, with its certificate (module doc);
-    /// after [`Self::grow_for`].
+    /// after [`Self::grow_for`]. X is left in `buffers` ([`ResponseBuffers::x`]).
     ///
     /// # Errors
     /// [`Error::NotConverged`] when the space was not decomposed by [`Self::grow_for`].
-    pub fn response(&self, freq_hz: f64, par: Par) -> Result<Response> {
+    pub fn response(
+        &self,
+        freq_hz: f64,
+        par: Par,
+        buffers: &mut ResponseBuffers,
+    ) -> Result<Response> {
         let omega = hz_to_omega(freq_hz);
         let (tau, scale) = self.shift(omega);
         let ritz = self.ritz.as_ref().ok_or_else(|| {
@@ -458,9 +506,8 @@ impl<'a> ShiftedSpace<'a> {
             .fold(0.0, f64::max);
         let inv = scale.inv();
         let coefficients = Mat::from_fn(y.nrows(), y.ncols(), |i, c| y[(i, c)] * inv);
-        let (x, certificate) = self.lift(omega, coefficients.as_ref(), par);
+        let certificate = self.lift(omega, coefficients.as_ref(), par, buffers);
         Ok(Response {
-            x,
             coefficients,
             certificate,
             amplification,
@@ -494,35 +541,56 @@ impl<'a> ShiftedSpace<'a> {
             .collect()
     }
 
-    /// X = Q c (c = y / (1 + iωβ)), rigid-free, and its certificate.
-    fn lift(&self, omega: f64, c: MatRef<'_, c64>, par: Par) -> (Mat<c64>, Certificate) {
+    /// X = Q c (c = y / (1 + iωβ)), rigid-free, into `buffers`, and its certificate. One
+    /// product Q [Re c, Im c] reads Q once.
+    fn lift(
+        &self,
+        omega: f64,
+        c: MatRef<'_, c64>,
+        par: Par,
+        buffers: &mut ResponseBuffers,
+    ) -> Certificate {
         let (n, p) = (self.q.nrows(), c.ncols());
-        let yr = c.map(|z| z.re);
-        let yi = c.map(|z| z.im);
-        let mut xr = Mat::<f64>::zeros(n, p);
-        let mut xi = Mat::<f64>::zeros(n, p);
+        let parts = Mat::<f64>::from_fn(c.nrows(), 2 * p, |i, j| {
+            if j < p {
+                c[(i, j)].re
+            } else {
+                c[(i, j - p)].im
+            }
+        });
+        shaped(&mut buffers.parts, n, 2 * p);
         matmul(
-            xr.as_mut(),
+            buffers.parts.as_mut(),
             Accum::Replace,
             self.q.as_ref(),
-            yr.as_ref(),
+            parts.as_ref(),
             1.0,
             par,
         );
-        matmul(
-            xi.as_mut(),
-            Accum::Replace,
-            self.q.as_ref(),
-            yi.as_ref(),
-            1.0,
-            par,
-        );
-        let mut x = Mat::from_fn(n, p, |i, c| c64::new(xr[(i, c)], xi[(i, c)]));
-        if let Some(rb) = self.rigid {
-            rb.project_response(x.as_mut());
+        shaped(&mut buffers.x, n, p);
+        let xp = &buffers.parts;
+        for j in 0..p {
+            let (re, im) = (xp.col(j), xp.col(p + j));
+            for (x, (&r, &i)) in buffers
+                .x
+                .col_mut(j)
+                .iter_mut()
+                .zip(re.iter().zip(im.iter()))
+            {
+                *x = c64::new(r, i);
+            }
         }
-        let certificate = certify(self.pencil, omega, self.load.as_ref(), x.as_ref(), par);
-        (x, certificate)
+        if let Some(rb) = self.rigid {
+            rb.project_response(buffers.x.as_mut());
+        }
+        certify(
+            self.pencil,
+            omega,
+            self.load.as_ref(),
+            buffers.x.as_ref(),
+            par,
+            &mut buffers.certify,
+        )
     }
 }
 
@@ -672,7 +740,9 @@ mod tests {
         space.grow_for(&freqs, GROW_TO).unwrap();
         let rows = [0, 7, body.n() - 1];
         for (f, h) in freqs.iter().zip(space.rows_at(&freqs, &rows)) {
-            let x = space.response(*f, Par::Seq).unwrap().x;
+            let mut buffers = ResponseBuffers::default();
+            space.response(*f, Par::Seq, &mut buffers).unwrap();
+            let x = buffers.x();
             let h = h.expect("the space answers every frequency it was grown for");
             let want = Mat::from_fn(rows.len(), x.ncols(), |i, c| x[(rows[i], c)]);
             let err = (&h - &want).norm_l2() / want.norm_l2();
@@ -694,6 +764,7 @@ mod tests {
         assert_eq!(space.dim(), 18);
         assert!(!space.can_grow());
         assert!(space.estimates(&[900.0])[0] > GROW_TO);
-        assert!(!space.response(900.0, Par::Seq).unwrap().certified());
+        let r = space.response(900.0, Par::Seq, &mut ResponseBuffers::default());
+        assert!(!r.unwrap().certified());
     }
 }

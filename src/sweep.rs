@@ -30,7 +30,7 @@
 
 use crate::body::Body;
 use crate::factor::{Analysis, Backend, Numeric, Storage, SymbolicStats};
-use crate::multishift::{ShiftedSpace, GROW_TO};
+use crate::multishift::{ResponseBuffers, ShiftedSpace, GROW_TO};
 pub use crate::multishift::{CERTIFIED_BACKWARD_ERROR, CERTIFIED_RELATIVE_RESIDUAL};
 use crate::random::Xorshift;
 use crate::rigid::RigidBody;
@@ -654,6 +654,7 @@ impl<'a> Solver<'a> {
                 .take()
                 .unwrap_or_else(run.init);
             let mut factored = None;
+            let mut spaced = ResponseBuffers::default();
             let mut mine = items.iter().skip(w).step_by(workers);
             while !run.stop.load(Ordering::Relaxed) {
                 let Some(&k) = mine.next() else {
@@ -662,13 +663,13 @@ impl<'a> Solver<'a> {
                 };
                 let f = run.freqs_hz[k];
                 let r = match space {
-                    Some(sp) => match self.space_response(sp, f, par()) {
+                    Some(sp) => match self.space_response(sp, f, par(), &mut spaced) {
                         Ok((r, st)) => (run.step)(
                             &mut state,
                             Snapshot {
                                 index: k,
                                 freq_hz: f,
-                                x: r.x.as_ref(),
+                                x: spaced.x(),
                                 coefficients: Some(r.coefficients.as_ref()),
                             },
                         )
@@ -904,21 +905,24 @@ impl<'a> Solver<'a> {
         Ok((rows, cost))
     }
 
-    /// The response at `f` from the Krylov space, when the answer passes its certificate and
-    /// its forward error estimate is within the probe tolerance (else the frequency is
-    /// factored, where the probe decides: at an undamped eigenfrequency it is refused as
-    /// singular).
+    /// The response at `f` from the Krylov space (X in `buffers`), when the answer passes
+    /// its certificate and its forward error estimate is within the probe tolerance (else
+    /// the frequency is factored, where the probe decides: at an undamped eigenfrequency it
+    /// is refused as singular).
     fn space_response(
         &self,
         space: &ShiftedSpace<'_>,
         f: f64,
         par: Par,
+        buffers: &mut ResponseBuffers,
     ) -> std::result::Result<(crate::multishift::Response, FreqStats), Fallback> {
         if !(f > 0.0) {
             return Err(Fallback::Factor);
         }
         let t = Instant::now();
-        let r = space.response(f, par).map_err(|_| Fallback::Factor)?;
+        let r = space
+            .response(f, par, buffers)
+            .map_err(|_| Fallback::Factor)?;
         if !r.certified() {
             return Err(Fallback::Grow);
         }

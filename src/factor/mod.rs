@@ -588,17 +588,25 @@ impl Certificate {
     }
 }
 
+/// The buffers of [`certify`] (about 40 N p bytes for p columns), kept by a caller that
+/// certifies many responses of one body: fresh blocks of that size cost page faults and
+/// zeroing on every call (on the 10⁶-DoF 3 m bar, p = 9, about a quarter of the time of a
+/// response from the shifted Krylov space; docs/design.md §3.10).
+#[derive(Default)]
+pub struct CertifyBuffers(pattern::ResidualScratch<c64>);
+
 /// The [`Certificate`] of `x` as a solution of A(iω) X = B for the real B `b`: one pass over
 /// the pencil's pattern with the exact A(iω) (entries by [`Pencil::value`]), the residual's
-/// columns in parallel under `par`.
+/// columns in parallel under `par`, in `buffers`.
 pub fn certify(
     pencil: &Pencil,
     omega: f64,
     b: faer::MatRef<'_, f64>,
     x: faer::MatRef<'_, c64>,
     par: Par,
+    buffers: &mut CertifyBuffers,
 ) -> Certificate {
-    let mut scratch = pattern::ResidualScratch::<c64>::default();
+    let scratch = &mut buffers.0;
     let mut block = scratch.block(x.nrows(), x.ncols());
     for c in 0..x.ncols() {
         for (d, &v) in block.as_mut().col_mut(c).iter_mut().zip(b.col(c).iter()) {
@@ -612,7 +620,7 @@ pub fn certify(
         },
         x,
         true,
-        &mut scratch,
+        scratch,
         par,
     );
     let backward_error = scratch.column_errors().to_vec();
