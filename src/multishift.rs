@@ -739,8 +739,9 @@ mod tests {
         let mut space = ShiftedSpace::new(&body, load, sigma, body.n(), Par::Seq).unwrap();
         space.grow_for(&freqs, GROW_TO).unwrap();
         let rows = [0, 7, body.n() - 1];
+        // one set of buffers for every frequency, as a sweep worker keeps them
+        let mut buffers = ResponseBuffers::default();
         for (f, h) in freqs.iter().zip(space.rows_at(&freqs, &rows)) {
-            let mut buffers = ResponseBuffers::default();
             space.response(*f, Par::Seq, &mut buffers).unwrap();
             let x = buffers.x();
             let h = h.expect("the space answers every frequency it was grown for");
