@@ -27,7 +27,8 @@
 //!    Otherwise stop when the budget of full solves is spent, or on stagnation (the step's
 //!    error did not drop below 0.9× the best of the previous max(3, ⌈6/threads⌉) steps). On
 //!    stagnation, if `max_order` allows, the interface grows by a tenth of its order (at least
-//!    one DoF, [`Growth`]) and the fit is redone from the stored snapshots. A loop stopped so
+//!    one DoF, [`Growth`]), or by the band's resonances the ROM cannot have when that is more
+//!    ([`missing_modes`]), and the fit is redone from the stored snapshots. A loop stopped so
 //!    whose best ROM was within tol on one step is [`Outcome::Confirmed`] when the
 //!    verification pass measures it within tol too.
 //!
@@ -53,6 +54,7 @@ use crate::distributed::{Engine, Keep};
 use crate::factor::count_eigenvalues_below_with;
 use crate::grid::linspace;
 use crate::lsq::StreamedQr;
+use crate::metrics::rom_spectrum;
 use crate::reduce::rom::{Provenance, Rom, Timing};
 use crate::scene::{positive_band, Scene};
 use crate::snapshots::GrowBy;
@@ -75,6 +77,25 @@ fn elastic_modes_below(body: &Body, f_hz: f64) -> Result<usize> {
     };
     let rigid = if body.rigid().is_some() { 6 } else { 0 };
     Ok(below.saturating_sub(rigid))
+}
+
+/// How many of the body's `c` elastic eigenfrequencies below `top_hz` the ROM lacks: c less
+/// the ROM's own elastic eigenfrequencies there, c′. A ROM reproduces the band's c
+/// resonances only with c eigenfrequencies in the band, and an interface DoF adds one
+/// eigenvalue, so c − c′ is the least growth that can give it them (docs/design.md §3.5,
+/// step 6). The ROM is a Galerkin projection (Mr = VᵀMV, Kr = VᵀKV): its k-th eigenvalue
+/// is at least the body's k-th (Courant–Fischer), so c′ is at most c plus the rigid modes.
+///
+/// # Errors
+/// As [`rom_spectrum`].
+fn missing_modes(c: usize, rom: &Rom, top_hz: f64) -> Result<usize> {
+    let spectrum = rom_spectrum(rom)?;
+    let below = spectrum
+        .freqs_hz
+        .iter()
+        .filter(|&&f| f > 0.0 && f <= top_hz)
+        .count();
+    Ok(c.saturating_sub(below))
 }
 
 /// The budget of full solves the spill file has room for, when that is below `max_points`:
@@ -711,10 +732,13 @@ impl<'a> Loop<'a> {
             ));
         }
         // at least a tenth of the order at once (at least one): the 3 m bar grows from 30 to
-        // 61 in 8 steps instead of 31; Q-DEIM grows to the snapshots' numerical rank at tol
-        // when that is more
+        // 61 in 8 steps instead of 31; at least the resonances the ROM misses; Q-DEIM grows
+        // to the snapshots' numerical rank at tol when that is more
         let room = self.max_order - self.part.order();
-        let g = (self.part.order() / 10).max(1).min(room);
+        let g = (self.part.order() / 10)
+            .max(1)
+            .max(self.missing_modes())
+            .min(room);
         let d: Vec<usize> = match self.growth {
             Growth::Residual | Growth::Auto => {
                 let fit = self.rom.fit();
@@ -763,6 +787,15 @@ impl<'a> Loop<'a> {
             ),
         });
         Ok(())
+    }
+
+    /// [`missing_modes`] of the current ROM: 0 when the band's count is unknown (explicit
+    /// interface and order cap) or the ROM's spectrum is not computable.
+    fn missing_modes(&self) -> usize {
+        let top = positive_band(self.scene.band_hz)[1];
+        self.modes_in_band
+            .and_then(|c| missing_modes(c, &self.rom, top).ok())
+            .unwrap_or(0)
     }
 
     /// The current ROM's true error at each sampled point (their H1 at the outputs is kept).
@@ -959,4 +992,50 @@ fn pick_maxima(grid: &[f64], delta: &[f64], sampled: &[f64], k: usize) -> Vec<f6
         .collect();
     maxima.sort_by(|&a, &b| delta[b].total_cmp(&delta[a]));
     maxima.into_iter().take(k).map(|i| grid[i]).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fe::{bar_model, paper_scene, BoxSpec};
+    use crate::reduce::linefit::References;
+
+    /// A line-fitting ROM never has more eigenfrequencies below f than the body (inertia
+    /// count, rigid modes included), at any f, and the count it lacks at the band's top is
+    /// the body's elastic count less its own: the free bar of 1.5 m (22 elastic modes below
+    /// 1000 Hz) fitted at order 14.
+    #[test]
+    fn a_rom_has_no_more_eigenfrequencies_below_f_than_the_body() {
+        let spec = BoxSpec {
+            elements: [1, 2, 150],
+            size_m: [0.006, 0.008, 1.5],
+            ..BoxSpec::paper_bar()
+        };
+        let model = bar_model(&spec).unwrap();
+        let body = Body::new(&model).unwrap();
+        let scene = paper_scene(&spec);
+        let refs = References::Explicit(vec![10.0, 300.0, 700.0, 1000.0]);
+        let opts = LineFitOptions::new(Interface::OutputsPlus(5), refs);
+        let rom =
+            super::super::reduce(&body, &scene, &opts, None, &crate::sweep::no_progress).unwrap();
+        let rigid = if body.rigid().is_some() { 6 } else { 0 };
+        let spectrum = rom_spectrum(&rom).unwrap();
+        for f in [50.0, 200.0, 500.0, 1000.0, 3000.0] {
+            let rom_below = spectrum.freqs_hz.iter().filter(|&&x| x <= f).count();
+            let body_below = elastic_modes_below(&body, f).unwrap() + rigid;
+            assert!(
+                rom_below <= body_below,
+                "{f} Hz: {rom_below} > {body_below}"
+            );
+        }
+        let c = elastic_modes_below(&body, 1000.0).unwrap();
+        assert_eq!(c, 22);
+        let elastic_below = spectrum
+            .freqs_hz
+            .iter()
+            .filter(|&&x| x > 0.0 && x <= 1000.0)
+            .count();
+        assert!(elastic_below < c);
+        assert_eq!(missing_modes(c, &rom, 1000.0).unwrap(), c - elastic_below);
+    }
 }

@@ -48,7 +48,7 @@ impl LineFitOptions {
 }
 
 /// How the interface grows when frequencies stop helping (by a tenth of the order at a time,
-/// at least one DoF).
+/// at least one DoF, or by the band's resonances the ROM misses when that is more).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Growth {
     /// The default: [`Self::QDeim`] in one process, [`Self::Residual`] over the ranks of a
