@@ -186,6 +186,18 @@ pub(crate) struct ShiftedSpace<'a> {
     capacity: usize,
     block_solves: usize,
     par: Par,
+    /// The last [`Self::rows_at`] answer: the same question to a space that has not grown
+    /// has the same answer (the sampling loop asks its candidate grid at every step).
+    answered: Option<RowsAnswer>,
+}
+
+/// [`ShiftedSpace::rows_at`]'s question (frequencies, rows, the space's dimension) and its
+/// answer.
+struct RowsAnswer {
+    freqs_hz: Vec<f64>,
+    rows: Vec<usize>,
+    dim: usize,
+    h: Vec<Option<Mat<c64>>>,
 }
 
 impl<'a> ShiftedSpace<'a> {
@@ -238,6 +250,7 @@ impl<'a> ShiftedSpace<'a> {
             capacity: 0,
             block_solves: 0,
             par,
+            answered: None,
         };
         space.apply_s(b0.as_mut(), false);
         space.set_next(b0, None);
@@ -520,7 +533,10 @@ impl<'a> ShiftedSpace<'a> {
     /// 100 × [`GROW_TO`] (grow the space for those frequencies first). Not certified: the
     /// sampling loop uses it to find where the ROM's error is largest, and certifies the
     /// responses it keeps.
-    pub fn rows_at(&self, freqs_hz: &[f64], rows: &[usize]) -> Vec<Option<Mat<c64>>> {
+    pub fn rows_at(&mut self, freqs_hz: &[f64], rows: &[usize]) -> Vec<Option<Mat<c64>>> {
+        if let Some(h) = self.answer(freqs_hz, rows) {
+            return h;
+        }
         let Some(ritz) = &self.ritz else {
             return vec![None; freqs_hz.len()];
         };
@@ -534,11 +550,27 @@ impl<'a> ShiftedSpace<'a> {
             })
             .unzip();
         let d = resolvent(ritz, &taus, &scales);
-        scaled_products(qz.as_ref(), &d, ritz.c.as_ref())
+        let h: Vec<Option<Mat<c64>>> = scaled_products(qz.as_ref(), &d, ritz.c.as_ref())
             .into_iter()
             .zip(self.estimates(freqs_hz))
             .map(|(h, e)| (e <= 100.0 * GROW_TO).then_some(h))
-            .collect()
+            .collect();
+        self.answered = Some(RowsAnswer {
+            freqs_hz: freqs_hz.to_vec(),
+            rows: rows.to_vec(),
+            dim: k,
+            h: h.clone(),
+        });
+        h
+    }
+
+    /// [`Self::rows_at`]'s answer when it was last asked the same, and the space has not
+    /// grown since.
+    pub fn answer(&self, freqs_hz: &[f64], rows: &[usize]) -> Option<Vec<Option<Mat<c64>>>> {
+        self.answered
+            .as_ref()
+            .filter(|a| a.dim == self.dim() && a.freqs_hz == freqs_hz && a.rows == rows)
+            .map(|a| a.h.clone())
     }
 
     /// X = Q c (c = y / (1 + iωβ)), rigid-free, into `buffers`, and its certificate. One
@@ -726,7 +758,9 @@ mod tests {
     }
 
     /// The outputs' rows from the batched products equal the rows of the lifted response at
-    /// each frequency (the same Galerkin solution, summed in another order).
+    /// each frequency (the same Galerkin solution, summed in another order), and still do
+    /// after the space grew since they were last asked (a kept answer would be the smaller
+    /// space's).
     #[test]
     fn rows_at_equal_the_lifted_responses() {
         let (body, inputs) = bar(Damping::Rayleigh {
@@ -737,18 +771,38 @@ mod tests {
         let sigma = -crate::units::hz_to_lambda(50.0);
         let freqs = [30.0, 333.0, 777.0, 990.0];
         let mut space = ShiftedSpace::new(&body, load, sigma, body.n(), Par::Seq).unwrap();
-        space.grow_for(&freqs, GROW_TO).unwrap();
         let rows = [0, 7, body.n() - 1];
         // one set of buffers for every frequency, as a sweep worker keeps them
         let mut buffers = ResponseBuffers::default();
-        for (f, h) in freqs.iter().zip(space.rows_at(&freqs, &rows)) {
-            space.response(*f, Par::Seq, &mut buffers).unwrap();
-            let x = buffers.x();
-            let h = h.expect("the space answers every frequency it was grown for");
-            let want = Mat::from_fn(rows.len(), x.ncols(), |i, c| x[(rows[i], c)]);
-            let err = (&h - &want).norm_l2() / want.norm_l2();
-            assert!(err <= 1e-12, "{f} Hz: {err:.2e}");
+        let mut dims = Vec::new();
+        for target in [GROW_TO, 1e-6 * GROW_TO] {
+            space.grow_for(&freqs, target).unwrap();
+            dims.push(space.dim());
+            assert!(
+                space.answer(&freqs, &rows).is_none(),
+                "asked of a grown space"
+            );
+            for (f, h) in freqs.iter().zip(space.rows_at(&freqs, &rows)) {
+                space.response(*f, Par::Seq, &mut buffers).unwrap();
+                let x = buffers.x();
+                let h = h.expect("the space answers every frequency it was grown for");
+                let want = Mat::from_fn(rows.len(), x.ncols(), |i, c| x[(rows[i], c)]);
+                let err = (&h - &want).norm_l2() / want.norm_l2();
+                assert!(err <= 1e-12, "{f} Hz, dimension {}: {err:.2e}", space.dim());
+            }
+            assert!(
+                space.answer(&freqs, &rows).is_some(),
+                "asked again, same space"
+            );
+            assert!(
+                space.answer(&freqs[1..], &rows).is_none(),
+                "asked other frequencies"
+            );
         }
+        assert!(
+            dims[1] > dims[0],
+            "the tighter target grew the space: {dims:?}"
+        );
     }
 
     /// A space too small for a frequency fails its certificate: the certificate can fail.
