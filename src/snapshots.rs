@@ -463,7 +463,9 @@ impl SnapshotStore {
     /// pivot, at least 64): each pivot's row is taken out of the others (pivoted Gram–Schmidt),
     /// so rows that repeat a chosen one's direction — its neighbours on the body — drop back.
     /// The singular vectors are those of S D (each frequency weighing the same, as in the
-    /// count), the leading interface + count of them; picking stops early when no row adds
+    /// count), the leading interface + count of them. When the pool's rows add no direction
+    /// before `count` picks (a slender body's few cross-sections), another pass measures every
+    /// row against the interface and the picks so far. Picking stops early when no row adds
     /// [`NEW_DIRECTION`] of the first pick's score, so fewer DoFs than `by.at_least` may come
     /// back (never none). `basis` is the Krylov basis of the responses kept in its span.
     ///
