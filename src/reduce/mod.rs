@@ -4,7 +4,7 @@
 //! and the methods that build V: [`linefit`] (§3.3, §3.5), [`serep`] (§3.6) and
 //! [`craig_bampton`] (§3.8), behind one entry, [`reduce`] with a [`Reductor`]. Every
 //! reductor takes a prepared [`crate::body::Body`] and a [`crate::scene::Scene`] and ends in
-//! [`project`]; [`interface`] chooses the physical DoFs of line-fitting and Craig–Bampton. [`flexible`] turns any ROM's basis into the rigid-free elastic basis a
+//! [`project`]; `spectrum.rs` gives a ROM's eigenpairs; [`interface`] chooses the physical DoFs of line-fitting and Craig–Bampton. [`flexible`] turns any ROM's basis into the rigid-free elastic basis a
 //! floating-frame multibody code needs (§3.9).
 
 pub mod craig_bampton;
@@ -15,6 +15,7 @@ pub(crate) mod projection;
 mod reductor;
 pub(crate) mod rom;
 pub mod serep;
+pub(crate) mod spectrum;
 
 pub use projection::{project, Definiteness, Projected};
 pub use reductor::{reduce, Context, Reductor};
