@@ -186,8 +186,9 @@ pub(crate) struct ShiftedSpace<'a> {
     capacity: usize,
     block_solves: usize,
     par: Par,
-    /// The last [`Self::rows_at`] answer: the same question to a space that has not grown
-    /// has the same answer (the sampling loop asks its candidate grid at every step).
+    /// The last [`Self::rows_at`] answer, kept for [`Self::answer`]: the same question to a
+    /// space that has not grown has the same answer (the sampling loop asks its candidate
+    /// grid at every step).
     answered: Option<RowsAnswer>,
 }
 
@@ -532,11 +533,8 @@ impl<'a> ShiftedSpace<'a> {
     /// frequency after one q × k product. `None` where the estimated residual is above
     /// 100 × [`GROW_TO`] (grow the space for those frequencies first). Not certified: the
     /// sampling loop uses it to find where the ROM's error is largest, and certifies the
-    /// responses it keeps.
+    /// responses it keeps. The answer is kept for [`Self::answer`].
     pub fn rows_at(&mut self, freqs_hz: &[f64], rows: &[usize]) -> Vec<Option<Mat<c64>>> {
-        if let Some(h) = self.answer(freqs_hz, rows) {
-            return h;
-        }
         let Some(ritz) = &self.ritz else {
             return vec![None; freqs_hz.len()];
         };

@@ -583,8 +583,8 @@ impl SnapshotStore {
                     break;
                 };
                 let (_, dof, pivot) = top.swap_remove(best);
-                chosen.push(dof);
                 pos[dof] = interface.len() + chosen.len();
+                chosen.push(dof);
                 let norm = pivot.iter().map(|x| x * x).sum::<f64>().sqrt();
                 for (score, _, row) in &mut top {
                     let c = row.iter().zip(&pivot).map(|(a, b)| a * b).sum::<f64>() / norm;
