@@ -1,5 +1,6 @@
 //! Small dense symmetric matrices — projected, reduced and Ritz matrices of order up to a few
-//! hundred: their symmetric part and their eigendecomposition.
+//! hundred: their symmetric part and their eigendecomposition; and the modal superpositions
+//! A diag(d) C of such a decomposition at many frequencies at once.
 //!
 //! **Why a wrapper.** faer 0.24 computes symmetric eigenvectors by tridiagonal divide and
 //! conquer from order 128 on, and deflates there with the tolerance 8ε·max(|d|_max, |z|_max),
@@ -11,7 +12,7 @@
 //! matrix is therefore scaled to max |a_ij| = 1 before the decomposition and the eigenvalues
 //! scaled back — exact in binary floating point up to the one rounding of the scale factor.
 
-use faer::{Mat, MatRef, Side};
+use faer::{c64, Mat, MatRef, Side};
 
 /// sym(A) = ½(A + Aᵀ) of a small dense square matrix.
 pub fn sym(a: MatRef<'_, f64>) -> Mat<f64> {
@@ -49,4 +50,21 @@ fn scaled_sym(a: MatRef<'_, f64>) -> (Mat<f64>, f64) {
         1.0
     };
     (sym(a) * (1.0 / s), s)
+}
+
+/// A diag(d_f) C for each row d_f of D (frequencies × k, complex), for real A (m × k) and
+/// C (k × p): with E[i·p + c, j] = A[i, j] C[j, c] (mp × k), the columns of E (Re Dᵀ, Im Dᵀ)
+/// are the products, so every frequency costs a share of two real products instead of two
+/// small ones of its own, and reads its own contiguous column of them.
+pub fn scaled_products(a: MatRef<'_, f64>, d: &Mat<c64>, c: MatRef<'_, f64>) -> Vec<Mat<c64>> {
+    let (m, p, k) = (a.nrows(), c.ncols(), a.ncols());
+    let e = Mat::<f64>::from_fn(m * p, k, |ic, j| a[(ic / p, j)] * c[(j, ic % p)]);
+    let re = &e * Mat::<f64>::from_fn(k, d.nrows(), |j, f| d[(f, j)].re);
+    let im = &e * Mat::<f64>::from_fn(k, d.nrows(), |j, f| d[(f, j)].im);
+    (0..d.nrows())
+        .map(|f| {
+            let (re, im) = (re.col(f), im.col(f));
+            Mat::from_fn(m, p, |i, col| c64::new(re[i * p + col], im[i * p + col]))
+        })
+        .collect()
 }

@@ -107,8 +107,8 @@ impl Reference {
         }
         let mut eps_elastic = Vec::with_capacity(self.freqs_hz.len());
         let mut eps_total = Vec::with_capacity(self.freqs_hz.len());
-        for (k, &f) in self.freqs_hz.iter().enumerate() {
-            let diff = (&self.h1[k] - rom.transfer(f)).norm_l2();
+        for (k, hr) in rom.transfers(&self.freqs_hz).into_iter().enumerate() {
+            let diff = (&self.h1[k] - hr).norm_l2();
             eps_elastic.push(diff / self.h1[k].norm_l2());
             eps_total.push(diff / self.h[k].norm_l2());
         }

@@ -44,7 +44,7 @@
 //! systems by quasi-minimal residual iterations" (1993); the same Galerkin space is the
 //! moment-matching projection about σ (Grimme 1997, rational Krylov with one pole).
 
-use crate::dense::sym_eigen;
+use crate::dense::{scaled_products, sym_eigen};
 use crate::eigen::{project_out, ShiftInvert};
 use crate::factor::{certify, Certificate, CertifyBuffers};
 use crate::pencil::{Coefficient, Pencil};
@@ -431,7 +431,7 @@ impl<'a> ShiftedSpace<'a> {
     /// The estimated relative residual ‖(I − τS)x − b₀‖_M/‖b₀‖_M (worst column) of the
     /// Galerkin response at each of `freqs_hz`, from the Lanczos relation (module doc);
     /// infinite before the space was decomposed by [`Self::grow_for`]. The last block's
-    /// coefficients at all of them come from one pair of products ([`scaled_products`]).
+    /// coefficients at all of them come from one pair of products ([`crate::dense::scaled_products`]).
     fn estimates(&self, freqs_hz: &[f64]) -> Vec<f64> {
         let Some(ritz) = &self.ritz else {
             return vec![f64::INFINITY; freqs_hz.len()];
@@ -629,24 +629,6 @@ fn resolvent(ritz: &Ritz, taus: &[c64], s: &[c64]) -> Mat<c64> {
     Mat::from_fn(taus.len(), ritz.theta.len(), |f, j| {
         s[f] / (c64::new(1.0, 0.0) - taus[f] * ritz.theta[j])
     })
-}
-
-/// A diag(d_f) C for each row d_f of D (frequencies × k, complex), for real A (m × k) and
-/// C (k × p): with E[j, i·p + c] = A[i, j] C[j, c] (k × mp), the rows of D E are the products,
-/// so every frequency costs a share of two real products (Re D, Im D) instead of two small
-/// ones of its own.
-fn scaled_products(a: MatRef<'_, f64>, d: &Mat<c64>, c: MatRef<'_, f64>) -> Vec<Mat<c64>> {
-    let (m, p) = (a.nrows(), c.ncols());
-    let e = Mat::<f64>::from_fn(a.ncols(), m * p, |j, ic| a[(ic / p, j)] * c[(j, ic % p)]);
-    let re = Mat::<f64>::from_fn(d.nrows(), d.ncols(), |f, j| d[(f, j)].re) * &e;
-    let im = Mat::<f64>::from_fn(d.nrows(), d.ncols(), |f, j| d[(f, j)].im) * &e;
-    (0..d.nrows())
-        .map(|f| {
-            Mat::from_fn(m, p, |i, col| {
-                c64::new(re[(f, i * p + col)], im[(f, i * p + col)])
-            })
-        })
-        .collect()
 }
 
 #[cfg(test)]

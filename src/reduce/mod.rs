@@ -16,6 +16,7 @@ mod reductor;
 pub(crate) mod rom;
 pub mod serep;
 pub(crate) mod spectrum;
+mod transfer;
 
 pub use projection::{project, Definiteness, Projected};
 pub use reductor::{reduce, Context, Reductor};

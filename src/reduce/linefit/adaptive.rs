@@ -192,11 +192,7 @@ fn errors_at(
         false,
         progress,
     )?;
-    Ok(freqs
-        .iter()
-        .zip(&h1)
-        .map(|(&f, h)| (f, rel_err(rom, f, h)))
-        .collect())
+    Ok(rel_errs(rom, freqs.iter().copied().zip(&h1)))
 }
 
 /// A local search for the largest error of a measured ROM near its worst measured point
@@ -613,12 +609,14 @@ impl<'a> Loop<'a> {
             self.progress,
         )?;
         // the current ROM's true error at the new points, then at the sampled ones
-        let measured: Vec<(f64, f64)> = picks
-            .iter()
-            .zip(&absorbed.h)
-            .map(|(&f, h)| (f, rel_err(&self.rom, f, h)))
-            .chain(self.sampled_errors())
-            .collect();
+        let measured = rel_errs(
+            &self.rom,
+            picks
+                .iter()
+                .copied()
+                .zip(&absorbed.h)
+                .chain(self.sampled_h1.iter().map(|(f, h)| (*f, h))),
+        );
         let max = |e: &[(f64, f64)]| e.iter().map(|e| e.1).fold(0.0, f64::max);
         let true_error = max(&measured[..picks.len()]);
         let sampled_error = max(&measured[picks.len()..]);
@@ -735,10 +733,8 @@ impl<'a> Loop<'a> {
         // 61 in 8 steps instead of 31; at least the resonances the ROM misses; Q-DEIM grows
         // to the snapshots' numerical rank at tol when that is more
         let room = self.max_order - self.part.order();
-        let g = (self.part.order() / 10)
-            .max(1)
-            .max(self.missing_modes())
-            .min(room);
+        let missing = self.missing_modes();
+        let g = (self.part.order() / 10).max(1).max(missing).min(room);
         let d: Vec<usize> = match self.growth {
             Growth::Residual | Growth::Auto => {
                 let fit = self.rom.fit();
@@ -777,7 +773,11 @@ impl<'a> Loop<'a> {
             factorizations: self.counted + self.engine.accuracy().factorizations(),
             seconds: self.start.elapsed().as_secs_f64(),
             action: format!(
-                "stagnated: grow interface by DoF{} {} (order {}), refit from kept snapshots",
+                "{}: grow interface by DoF{} {} (order {}), refit from kept snapshots",
+                match missing {
+                    0 => "stagnated".to_string(),
+                    m => format!("lacks {m} of the band's resonances"),
+                },
                 if d.len() > 1 { "s" } else { "" },
                 d.iter()
                     .map(|x| x.to_string())
@@ -798,16 +798,13 @@ impl<'a> Loop<'a> {
             .unwrap_or(0)
     }
 
-    /// The current ROM's true error at each sampled point (their H1 at the outputs is kept).
-    fn sampled_errors(&self) -> impl Iterator<Item = (f64, f64)> + use<'_, 'a> {
-        self.sampled_h1
-            .iter()
-            .map(|(f, h)| (*f, rel_err(&self.rom, *f, h)))
-    }
-
-    /// The current ROM's max true error at the sampled points.
+    /// The current ROM's max true error at the sampled points (their H1 at the outputs is
+    /// kept).
     fn sampled_error(&self) -> f64 {
-        self.sampled_errors().map(|e| e.1).fold(0.0, f64::max)
+        rel_errs(&self.rom, self.sampled_h1.iter().map(|(f, h)| (*f, h)))
+            .into_iter()
+            .map(|e| e.1)
+            .fold(0.0, f64::max)
     }
 
     /// The current ROM's true elastic error at every candidate, from the shifted Krylov
@@ -824,13 +821,19 @@ impl<'a> Loop<'a> {
         else {
             return Ok(None);
         };
-        Ok(Some(
+        let answered = rel_errs(
+            &self.rom,
             self.candidates
                 .iter()
                 .zip(&h)
-                .map(|(&f, h)| {
-                    h.as_ref()
-                        .map_or(f64::INFINITY, |h| rel_err(&self.rom, f, h))
+                .filter_map(|(&f, h)| h.as_ref().map(|h| (f, h))),
+        );
+        let mut answered = answered.into_iter().map(|e| e.1);
+        Ok(Some(
+            h.iter()
+                .map(|h| match h {
+                    Some(_) => answered.next().unwrap_or(f64::INFINITY),
+                    None => f64::INFINITY,
                 })
                 .collect(),
         ))
@@ -956,9 +959,19 @@ impl<'a> Loop<'a> {
     }
 }
 
-/// ‖H1 − Hr‖_F / ‖H1‖_F at f.
-fn rel_err(rom: &Rom, f: f64, h1: &Mat<c64>) -> f64 {
-    (h1 - rom.transfer(f)).norm_l2() / h1.norm_l2()
+/// (f, ‖H1 − Hr‖_F / ‖H1‖_F) at each (f, H1), the ROM evaluated at all of them at once
+/// ([`Rom::transfers`]).
+fn rel_errs<'h>(
+    rom: &Rom,
+    points: impl IntoIterator<Item = (f64, &'h Mat<c64>)>,
+) -> Vec<(f64, f64)> {
+    let (freqs, h1): (Vec<f64>, Vec<&Mat<c64>>) = points.into_iter().unzip();
+    freqs
+        .iter()
+        .zip(h1)
+        .zip(rom.transfers(&freqs))
+        .map(|((&f, h1), hr)| (f, (h1 - hr).norm_l2() / h1.norm_l2()))
+        .collect()
 }
 
 /// Whether a frequency is a sampled one or a grid neighbour of one (within 1.01 grid steps).
