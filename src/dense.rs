@@ -53,14 +53,26 @@ fn scaled_sym(a: MatRef<'_, f64>) -> (Mat<f64>, f64) {
 }
 
 /// A diag(d_f) C for each row d_f of D (frequencies × k, complex), for real A (m × k) and
-/// C (k × p): with E[i·p + c, j] = A[i, j] C[j, c] (mp × k), the columns of E (Re Dᵀ, Im Dᵀ)
-/// are the products, so every frequency costs a share of two real products instead of two
-/// small ones of its own, and reads its own contiguous column of them.
-pub fn scaled_products(a: MatRef<'_, f64>, d: &Mat<c64>, c: MatRef<'_, f64>) -> Vec<Mat<c64>> {
-    let (m, p, k) = (a.nrows(), c.ncols(), a.ncols());
-    let e = Mat::<f64>::from_fn(m * p, k, |ic, j| a[(ic / p, j)] * c[(j, ic % p)]);
+/// C (k × p), as two real matrices (mp × frequencies: column f holds the product's real or
+/// imaginary part, entry (i, c) at row i·p + c): with E[i·p + c, j] = A[i, j] C[j, c]
+/// (mp × k) they are E (Re Dᵀ) and E (Im Dᵀ), so every frequency costs a share of two real
+/// products instead of two small ones of its own, and reads its own contiguous column.
+pub fn scaled_product_parts(
+    a: MatRef<'_, f64>,
+    d: &Mat<c64>,
+    c: MatRef<'_, f64>,
+) -> (Mat<f64>, Mat<f64>) {
+    let (p, k) = (c.ncols(), a.ncols());
+    let e = Mat::<f64>::from_fn(a.nrows() * p, k, |ic, j| a[(ic / p, j)] * c[(j, ic % p)]);
     let re = &e * Mat::<f64>::from_fn(k, d.nrows(), |j, f| d[(f, j)].re);
     let im = &e * Mat::<f64>::from_fn(k, d.nrows(), |j, f| d[(f, j)].im);
+    (re, im)
+}
+
+/// [`scaled_product_parts`] as one complex m × p matrix per frequency.
+pub fn scaled_products(a: MatRef<'_, f64>, d: &Mat<c64>, c: MatRef<'_, f64>) -> Vec<Mat<c64>> {
+    let (m, p) = (a.nrows(), c.ncols());
+    let (re, im) = scaled_product_parts(a, d, c);
     (0..d.nrows())
         .map(|f| {
             let (re, im) = (re.col(f), im.col(f));

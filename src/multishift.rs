@@ -44,7 +44,7 @@
 //! systems by quasi-minimal residual iterations" (1993); the same Galerkin space is the
 //! moment-matching projection about σ (Grimme 1997, rational Krylov with one pole).
 
-use crate::dense::{scaled_products, sym_eigen};
+use crate::dense::{scaled_product_parts, scaled_products, sym_eigen};
 use crate::eigen::{project_out, ShiftInvert};
 use crate::factor::{certify, Certificate, CertifyBuffers};
 use crate::pencil::{Coefficient, Pencil};
@@ -431,7 +431,8 @@ impl<'a> ShiftedSpace<'a> {
     /// The estimated relative residual ‖(I − τS)x − b₀‖_M/‖b₀‖_M (worst column) of the
     /// Galerkin response at each of `freqs_hz`, from the Lanczos relation (module doc);
     /// infinite before the space was decomposed by [`Self::grow_for`]. The last block's
-    /// coefficients at all of them come from one pair of products ([`crate::dense::scaled_products`]).
+    /// coefficients at all of them come from one pair of products
+    /// ([`crate::dense::scaled_product_parts`]).
     fn estimates(&self, freqs_hz: &[f64]) -> Vec<f64> {
         let Some(ritz) = &self.ritz else {
             return vec![f64::INFINITY; freqs_hz.len()];
@@ -445,27 +446,32 @@ impl<'a> ShiftedSpace<'a> {
             .collect();
         let d = resolvent(ritz, &taus, &vec![c64::new(1.0, 0.0); taus.len()]);
         let last = ritz.z.subrows(self.last, self.dim() - self.last);
-        let ys = scaled_products(last, &d, ritz.c.as_ref());
+        let (b, p) = (last.nrows(), self.r0.ncols());
+        let (re, im) = scaled_product_parts(last, &d, ritz.c.as_ref());
         let g = &self.next_gram;
-        let norms: Vec<f64> = (0..self.r0.ncols())
-            .map(|c| self.r0.col(c).norm_l2())
-            .collect();
-        ys.iter()
-            .zip(&taus)
-            .map(|(y, tau)| {
-                let mut worst = 0.0f64;
-                for (c, &bn) in norms.iter().enumerate().filter(|(_, &bn)| bn > 0.0) {
-                    // yᴴ G y for real G: the real part's and the imaginary part's forms
-                    let mut q = 0.0;
-                    for i in 0..y.nrows() {
-                        for j in 0..y.nrows() {
-                            let (a, b) = (y[(i, c)], y[(j, c)]);
-                            q += g[(i, j)] * (a.re * b.re + a.im * b.im);
-                        }
-                    }
-                    worst = worst.max(tau.norm() * q.max(0.0).sqrt() / bn);
-                }
-                worst
+        let norms: Vec<f64> = (0..p).map(|c| self.r0.col(c).norm_l2()).collect();
+        // yᴴ G y for real G: the real part's and the imaginary part's forms
+        let form = |y: faer::ColRef<'_, f64>, c: usize| -> f64 {
+            (0..b)
+                .map(|j| {
+                    let gy: f64 = (0..b).map(|i| g[(i, j)] * y[i * p + c]).sum();
+                    gy * y[j * p + c]
+                })
+                .sum()
+        };
+        taus.iter()
+            .enumerate()
+            .map(|(f, tau)| {
+                let (yr, yi) = (re.col(f), im.col(f));
+                norms
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, &bn)| bn > 0.0)
+                    .map(|(c, &bn)| {
+                        let q = form(yr, c) + form(yi, c);
+                        tau.norm() * q.max(0.0).sqrt() / bn
+                    })
+                    .fold(0.0f64, f64::max)
             })
             .collect()
     }
