@@ -576,6 +576,7 @@ impl<'a> Loop<'a> {
                 return Ok(Next::Stop(Outcome::Converged));
             }
         }
+        let fit_limited = grid.is_some() && self.forced.is_empty() && self.fit_limited_on(&delta);
         let picks = if self.forced.is_empty() {
             pick_maxima(&self.candidates, &delta, &self.sampled, self.threads)
         } else {
@@ -584,6 +585,9 @@ impl<'a> Loop<'a> {
         self.last_delta_max = delta.iter().copied().fold(0.0, f64::max);
         self.last_used = self.steps.last().map(|s| s.solves).unwrap_or(0) + self.verify_spent;
         self.verify_spent = 0;
+        if fit_limited {
+            return Ok(Next::Stagnated);
+        }
         let picks = if picks.is_empty() {
             match self.largest_away(&delta) {
                 Some(f) => vec![f],
@@ -698,6 +702,24 @@ impl<'a> Loop<'a> {
         } else {
             Next::Refit
         })
+    }
+
+    /// Whether the grid's true errors `delta` show the fit at its limit before any new point
+    /// is solved: the error at the sampled points is above tol and no candidate away from
+    /// them is worse, so new points cannot lower it and the interface must grow — the
+    /// `fit_limited` test of a step, made without spending the step's solves (from the
+    /// second step on, when a step has been measured).
+    fn fit_limited_on(&self, delta: &[f64]) -> bool {
+        if self.best.is_none() || self.part.order() >= self.max_order {
+            return false;
+        }
+        let sampled_error = self.sampled_error();
+        let near = near_sampled(&self.candidates, &self.sampled);
+        let away = (0..delta.len())
+            .filter(|&i| !near(self.candidates[i]))
+            .map(|i| delta[i])
+            .fold(0.0, f64::max);
+        sampled_error > self.sampling.tol && sampled_error >= away
     }
 
     /// Every local maximum of Δ lies next to a sampled point. While nothing away from the seeds
