@@ -555,6 +555,7 @@ impl<'a> Loop<'a> {
                     .collect()
             }
         };
+        let mut fit_limited = false;
         if grid.is_some() && self.forced.is_empty() {
             // the ROM's error over the whole grid is known: within tol there and at the
             // sampled points, it has converged (the verification pass certifies it)
@@ -575,8 +576,8 @@ impl<'a> Loop<'a> {
                 });
                 return Ok(Next::Stop(Outcome::Converged));
             }
+            fit_limited = self.fit_limited_on(&delta, sampled_error);
         }
-        let fit_limited = grid.is_some() && self.forced.is_empty() && self.fit_limited_on(&delta);
         let picks = if self.forced.is_empty() {
             pick_maxima(&self.candidates, &delta, &self.sampled, self.threads)
         } else {
@@ -705,15 +706,14 @@ impl<'a> Loop<'a> {
     }
 
     /// Whether the grid's true errors `delta` show the fit at its limit before any new point
-    /// is solved: the error at the sampled points is above tol and no candidate away from
-    /// them is worse, so new points cannot lower it and the interface must grow — the
-    /// `fit_limited` test of a step, made without spending the step's solves (from the
-    /// second step on, when a step has been measured).
-    fn fit_limited_on(&self, delta: &[f64]) -> bool {
+    /// is solved: the error at the sampled points (`sampled_error`) is above tol and no
+    /// candidate away from them is worse, so new points cannot lower it and the interface
+    /// must grow — the `fit_limited` test of a step, made without spending the step's solves
+    /// (from the second step on, when a step has been measured).
+    fn fit_limited_on(&self, delta: &[f64], sampled_error: f64) -> bool {
         if self.best.is_none() || self.part.order() >= self.max_order {
             return false;
         }
-        let sampled_error = self.sampled_error();
         let near = near_sampled(&self.candidates, &self.sampled);
         let away = (0..delta.len())
             .filter(|&i| !near(self.candidates[i]))
