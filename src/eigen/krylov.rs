@@ -12,8 +12,13 @@
 //! Each restart sorts the Ritz values by |θ| (nearest to σ first), locks the leading run of
 //! converged ones, keeps the next best (thick restart) and expands the basis again. M Q is
 //! kept beside Q, so a step costs one solve, one product with M and the Gram–Schmidt passes:
-//! classical, twice (CGS2), for the whole block at once against the columns before it (Q and
-//! MQ read twice per block of b vectors), then among the block's own columns.
+//! the block Lanczos step against the columns it couples to, then one full classical pass for
+//! the whole block against every column before it (Q and MQ read once per block of b vectors;
+//! a second pass only where DGKS's test asks for it), then among the block's own columns.
+//! The full pass is the reorthogonalization that keeps Q M-orthonormal to rounding: after the
+//! Lanczos step only rounding is left along the older columns, so one pass removes it where
+//! classical Gram–Schmidt against the whole basis needs two (the cancellation of S q against
+//! its own Ritz directions happens in the Lanczos step).
 //!
 //! **Convergence.** The pair i is converged when |b_aᵀ y_i| ≤ tol·|θ_i| + 4ε·θ_max, θ_max the
 //! largest active |θ| (the norm of S deflated of the locked pairs, on the Krylov space). The first term is ARPACK's
@@ -190,10 +195,10 @@ pub(super) fn solve(
                 .min(ma_new)
         };
         let keep = nc + keep_active;
+        // M Q Y from Q Y by one sparse product: cheaper than the dense (MQ) Y, and exact
         let qy = q.as_ref().subcols(nl, ma) * y.as_ref().subcols(0, keep);
-        let mqy = mq.as_ref().subcols(nl, ma) * y.as_ref().subcols(0, keep);
         q.as_mut().subcols_mut(nl, keep).copy_from(&qy);
-        mq.as_mut().subcols_mut(nl, keep).copy_from(&mqy);
+        op.mass_mul(qy.as_ref(), mq.as_mut().subcols_mut(nl, keep));
         if done {
             break;
         }
@@ -358,10 +363,18 @@ impl Basis {
     }
 
     /// Expands from column `start` in blocks of b: the b columns j..j+b go through one block
-    /// solve S Q_j; the block is M-orthogonalized against all previous columns (locked ones
-    /// included; coefficients recorded from column `nl` on) by two classical Gram–Schmidt
-    /// passes for the whole block at once (CGS2: Q and MQ are read twice per block, not twice
-    /// per vector), then its columns against each other, and column c becomes j + b + c.
+    /// solve W = S Q_j, then are M-orthogonalized (coefficients recorded from column `nl` on):
+    /// 1. **the Lanczos step**, one classical Gram–Schmidt pass against the columns W couples
+    ///    to in exact arithmetic: H is symmetric and banded, so the previous block and Q_j for
+    ///    j > `start`; every active column for the first block after a restart (the arrow of
+    ///    the kept Ritz vectors);
+    /// 2. **full reorthogonalization**, one pass for the whole block against every column
+    ///    before it (locked ones included), which removes what rounding left (Q and MQ are read
+    ///    once per block);
+    /// 3. its columns against each other, and column c becomes j + b + c. Where the full pass
+    ///    removed more than it left (DGKS's test, η = 1/√2: the cancellation was in the full
+    ///    pass, not in the Lanczos step) the column goes through the full pass once more.
+    ///
     /// Stops at m_e = start + b⌊(m − start)/b⌋; returns (solves, m_e).
     fn expand(
         &mut self,
@@ -376,24 +389,48 @@ impl Basis {
             let mut w = self.mq.as_ref().subcols(j, bs).to_owned();
             op.solve_in_place(w.as_mut());
             let base = j + bs;
-            let coef = project_out(
+            let lo = if j == start { nl } else { (j - bs).max(nl) };
+            let local = project_once(
+                self.q.as_ref().subcols(lo, base - lo),
+                self.mq.as_ref().subcols(lo, base - lo),
+                &mut w,
+                op.par,
+            );
+            let full = project_once(
                 self.q.as_ref().subcols(0, base),
                 self.mq.as_ref().subcols(0, base),
                 &mut w,
                 op.par,
             );
+            let mut coef = full.clone();
+            let mut near = coef.as_mut().subrows_mut(lo, base - lo);
+            near += &local;
             for c in 0..bs {
                 let top = base + c;
                 // then against the block's earlier columns
                 let mut wc = w.as_ref().subcols(c, 1).to_owned();
-                let inner = project_out(
+                let mut inner = project_out(
                     self.q.as_ref().subcols(base, c),
                     self.mq.as_ref().subcols(base, c),
                     &mut wc,
                     Par::Seq,
                 );
                 op.mass_mul(wc.as_ref(), mw.as_mut());
-                let beta = (wc.col(0).transpose() * mw.col(0)).max(0.0).sqrt();
+                let mut beta = (wc.col(0).transpose() * mw.col(0)).max(0.0).sqrt();
+                if full.col(c).squared_norm_l2() > inner.squared_norm_l2() + beta * beta {
+                    let again = project_once(
+                        self.q.as_ref().subcols(0, top),
+                        self.mq.as_ref().subcols(0, top),
+                        &mut wc,
+                        op.par,
+                    );
+                    let mut before = coef.as_mut().col_mut(c);
+                    before += again.as_ref().subrows(0, base).col(0);
+                    let mut within = inner.as_mut().col_mut(0);
+                    within += again.as_ref().subrows(base, c).col(0);
+                    op.mass_mul(wc.as_ref(), mw.as_mut());
+                    beta = (wc.col(0).transpose() * mw.col(0)).max(0.0).sqrt();
+                }
                 let projected = coef.col(c).squared_norm_l2() + inner.squared_norm_l2();
                 let norm0 = (projected + beta * beta).sqrt();
                 for i in nl..base {
@@ -480,6 +517,25 @@ fn fresh_vector(
     Ok(())
 }
 
+/// W ← W − Q (MQ)ᵀ W: one classical Gram–Schmidt pass in the M-inner product against the
+/// M-orthonormal columns of Q (MQ = M Q), reading Q and MQ once for all the columns of W;
+/// returns the coefficients (MQ)ᵀ W.
+fn project_once(q: MatRef<'_, f64>, mq: MatRef<'_, f64>, w: &mut Mat<f64>, par: Par) -> Mat<f64> {
+    use faer::linalg::matmul::matmul;
+    use faer::Accum;
+    let mut coef = Mat::<f64>::zeros(q.ncols(), w.ncols());
+    matmul(
+        coef.as_mut(),
+        Accum::Replace,
+        mq.transpose(),
+        w.as_ref(),
+        1.0,
+        par,
+    );
+    matmul(w.as_mut(), Accum::Add, q, coef.as_ref(), -1.0, par);
+    coef
+}
+
 /// W ← W − Q (MQ)ᵀ W, twice: classical Gram–Schmidt in the M-inner product against the
 /// M-orthonormal columns of Q (MQ = M Q), with the second pass that makes it as accurate as
 /// the modified one (CGS2); returns the coefficients summed over both passes. Each pass reads
@@ -491,22 +547,8 @@ pub(crate) fn project_out(
     w: &mut Mat<f64>,
     par: Par,
 ) -> Mat<f64> {
-    use faer::linalg::matmul::matmul;
-    use faer::Accum;
-    let mut coef = Mat::<f64>::zeros(q.ncols(), w.ncols());
-    let mut again = Mat::<f64>::zeros(q.ncols(), w.ncols());
-    for c in [&mut coef, &mut again] {
-        matmul(
-            c.as_mut(),
-            Accum::Replace,
-            mq.transpose(),
-            w.as_ref(),
-            1.0,
-            par,
-        );
-        matmul(w.as_mut(), Accum::Add, q, c.as_ref(), -1.0, par);
-    }
-    coef += &again;
+    let mut coef = project_once(q, mq, w, par);
+    coef += project_once(q, mq, w, par);
     coef
 }
 
