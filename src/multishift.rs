@@ -10,8 +10,9 @@
 //! ```
 //!
 //! and the block Krylov space K_k(S, b₀) does not depend on τ (shift invariance): one space
-//! serves every frequency. Block Lanczos with full M-reorthogonalization (classical
-//! Gram–Schmidt, two passes) builds an M-orthonormal basis Q with
+//! serves every frequency. Block Lanczos with full M-reorthogonalization (the Lanczos step,
+//! then one classical Gram–Schmidt pass against the whole basis, as in
+//! [`crate::eigen`]'s Krylov–Schur) builds an M-orthonormal basis Q with
 //!
 //! ```text
 //! S Q = Q T + R E_lastᵀ,     T = QᵀMSQ (k × k, symmetric),     b₀ = Q E₁ R₀,
@@ -45,7 +46,7 @@
 //! moment-matching projection about σ (Grimme 1997, rational Krylov with one pole).
 
 use crate::dense::{scaled_product_parts, scaled_products, sym_eigen};
-use crate::eigen::{project_out, ShiftInvert};
+use crate::eigen::{project_once, ShiftInvert};
 use crate::factor::{certify, Certificate, CertifyBuffers};
 use crate::pencil::{Coefficient, Pencil};
 use crate::rigid::RigidBody;
@@ -328,16 +329,36 @@ impl<'a> ShiftedSpace<'a> {
                 .submatrix_mut(k, self.last, bn, prev)
                 .copy_from(coef.subrows(0, bn));
         }
+        let before = self.last;
         self.last = k;
-        // the image of the new block, Gram–Schmidt against the whole basis twice; the
-        // coefficients are T's new columns
+        // the image of the new block: the block Lanczos step against the blocks it couples
+        // to (T is banded), then one full pass of reorthogonalization, and a second where
+        // DGKS's test asks for it; the coefficients are T's new columns
         let mut w = self.mq.subcols(k, bn).to_owned();
         self.apply_s(w.as_mut(), false);
-        let c = project_out(self.q.as_ref(), self.mq.as_ref(), &mut w, self.par);
+        let near = before..kn;
+        let local = project_once(
+            self.q.as_ref().subcols(before, kn - before),
+            self.mq.as_ref().subcols(before, kn - before),
+            &mut w,
+            self.par,
+        );
+        let full = project_once(self.q.as_ref(), self.mq.as_ref(), &mut w, self.par);
         let mut tc = self.t.as_mut().subcols_mut(k, bn);
-        tc += &c;
+        tc += &full;
+        let mut tnear = tc.subrows_mut(near.start, near.len());
+        tnear += &local;
         let image = self.t.as_ref().subcols(k, bn).to_owned();
         self.set_next(w, Some(image.as_ref()));
+        let left = (0..bn).all(|j| full.col(j).squared_norm_l2() <= self.next_gram[(j, j)]);
+        if !left {
+            let mut w = std::mem::replace(&mut self.next, Mat::zeros(n, 0));
+            let again = project_once(self.q.as_ref(), self.mq.as_ref(), &mut w, self.par);
+            let mut tc = self.t.as_mut().subcols_mut(k, bn);
+            tc += &again;
+            let image = self.t.as_ref().subcols(k, bn).to_owned();
+            self.set_next(w, Some(image.as_ref()));
+        }
         self.ritz = None;
         true
     }
@@ -358,15 +379,13 @@ impl<'a> ShiftedSpace<'a> {
         self.next = w;
     }
 
-    /// M-orthonormalizes the columns of `w` against the basis (two block classical
-    /// Gram–Schmidt passes: each reads Q and MQ once for the whole block, not once per
-    /// column) and then each other (two passes per column against the new columns only),
+    /// M-orthonormalizes the columns of `w`, M-orthogonal to the basis already (the image's
+    /// passes in [`Self::extend`]; b₀ comes before any basis), against each other (two
+    /// passes per column against the new columns only),
     /// dropping a column left with less than [`DEFLATE`] of `scale`: returns the new
     /// columns, M times them and the coefficients C with w ≈ Q_new C (rows: kept columns).
     fn orthonormalize(&self, w: MatRef<'_, f64>, scale: &[f64]) -> (Mat<f64>, Mat<f64>, Mat<f64>) {
         let (n, b) = (w.nrows(), w.ncols());
-        let mut w = w.to_owned();
-        project_out(self.q.as_ref(), self.mq.as_ref(), &mut w, self.par);
         let mut qn = Mat::<f64>::zeros(n, 0);
         let mut mqn = Mat::<f64>::zeros(n, 0);
         qn.reserve(n, b);

@@ -520,7 +520,12 @@ fn fresh_vector(
 /// W ← W − Q (MQ)ᵀ W: one classical Gram–Schmidt pass in the M-inner product against the
 /// M-orthonormal columns of Q (MQ = M Q), reading Q and MQ once for all the columns of W;
 /// returns the coefficients (MQ)ᵀ W.
-fn project_once(q: MatRef<'_, f64>, mq: MatRef<'_, f64>, w: &mut Mat<f64>, par: Par) -> Mat<f64> {
+pub(crate) fn project_once(
+    q: MatRef<'_, f64>,
+    mq: MatRef<'_, f64>,
+    w: &mut Mat<f64>,
+    par: Par,
+) -> Mat<f64> {
     use faer::linalg::matmul::matmul;
     use faer::Accum;
     let mut coef = Mat::<f64>::zeros(q.ncols(), w.ncols());
@@ -541,12 +546,7 @@ fn project_once(q: MatRef<'_, f64>, mq: MatRef<'_, f64>, w: &mut Mat<f64>, par: 
 /// the modified one (CGS2); returns the coefficients summed over both passes. Each pass reads
 /// Q and MQ once for all the columns of W, on the threads `par` (one per slice when slices
 /// run side by side: nested parallel products only contend).
-pub(crate) fn project_out(
-    q: MatRef<'_, f64>,
-    mq: MatRef<'_, f64>,
-    w: &mut Mat<f64>,
-    par: Par,
-) -> Mat<f64> {
+fn project_out(q: MatRef<'_, f64>, mq: MatRef<'_, f64>, w: &mut Mat<f64>, par: Par) -> Mat<f64> {
     let mut coef = project_once(q, mq, w, par);
     coef += project_once(q, mq, w, par);
     coef

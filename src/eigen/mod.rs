@@ -44,7 +44,7 @@ pub use modes::{Modes, MAX_BACKWARD_ERROR, RIGID_RTOL};
 pub use options::{EigenBackend, EigenOptions, Request};
 pub use stats::{EigenProgress, EigenStats, SliceStats};
 
-pub(crate) use krylov::project_out;
+pub(crate) use krylov::project_once;
 pub(crate) use operator::ShiftInvert;
 
 use crate::body::Body;
