@@ -203,7 +203,10 @@ fn band(
         }));
     }
     let below = lower.map_or(0, |l| l.1);
-    Ok((slicer.solve(&slicer.split(lower, upper)?, progress)?, below))
+    Ok((
+        slicer.solve(&slicer.split(lower, upper, &[])?, progress)?,
+        below,
+    ))
 }
 
 /// The c lowest modes: the bottom slice's c' lowest first (below the spectrum, which also
@@ -254,9 +257,18 @@ fn lowest(
         None if first == n => f64::INFINITY,
         None => l[l.len() - 1] * 1.01 + 1e-300,
     };
+    // the step towards B from a bound with k modes below it (Weyl's λ^{3/2} growth)
+    let grow = |k: usize| (c as f64 / k.max(1) as f64).powf(2.0 / 3.0).max(1.25) * 1.05;
+    // ν(b₁) is nearly always the probe's count below b₁: the first step towards B is counted
+    // beside b₁ (one round of factorizations side by side, not two in a row) when it is needed
+    let below_b1 = l.iter().filter(|&&x| x < b1).count();
+    let ahead = (b1.is_finite() && below_b1 < c).then(|| b1 * grow(below_b1));
     let mut probe = None;
+    let mut ahead_count = None;
     let mut bottom = if b1.is_finite() {
-        let nu = slicer.count(&[b1])?[0];
+        let counted = slicer.count(&[Some(b1), ahead].into_iter().flatten().collect::<Vec<_>>())?;
+        let nu = counted[0];
+        ahead_count = counted.get(1).copied();
         let have = l.iter().filter(|&&x| x < nu.0).count();
         // the first shift came from the band end, not from the spectrum: a shift far below
         // the modes found (|σ| < b/1000) leaves the elastic directions of K − σM badly
@@ -281,12 +293,18 @@ fn lowest(
     if bottom.lambdas.len() >= c || !b1.is_finite() {
         return Ok((vec![bottom], probe));
     }
-    // find B with ν(B) ≥ c, from Weyl's λ^{3/2} growth, then slice (b1, B]
+    // find B with ν(B) ≥ c, from Weyl's λ^{3/2} growth, then slice (b1, B]; every point
+    // counted on the way is handed to the slicing, which places its bounds among them
+    let mut counted = Vec::new();
     let mut lower = (b1, bottom.lambdas.len());
     let mut upper;
     loop {
-        let grow = (c as f64 / lower.1.max(1) as f64).powf(2.0 / 3.0).max(1.25) * 1.05;
-        upper = slicer.count(&[lower.0 * grow])?[0];
+        let step = lower.0 * grow(lower.1);
+        upper = match ahead_count.take() {
+            Some(ahead) if lower == (b1, below_b1) && ahead.0 == step => ahead,
+            _ => slicer.count(&[step])?[0],
+        };
+        counted.push(upper);
         if upper.1 >= c {
             break;
         }
@@ -301,9 +319,9 @@ fn lowest(
             let t = ((target - nl) / (nu - nl)).clamp(0.0, 1.0);
             slicing::weyl_between(lower.0, upper.0, t)
         };
-        let tries = [at(c as f64 * 1.02), at(c as f64 * 1.06)];
-        if let Some(b) = slicer
-            .count(&tries)?
+        let tried = slicer.count(&[at(c as f64 * 1.02), at(c as f64 * 1.06)])?;
+        counted.extend_from_slice(&tried);
+        if let Some(b) = tried
             .into_iter()
             .filter(|&(l, k)| k >= c && l > lower.0)
             .min_by(|a, b| a.0.total_cmp(&b.0))
@@ -311,7 +329,7 @@ fn lowest(
             upper = b;
         }
     }
-    let targets = slicer.split(Some((b1, bottom.lambdas.len())), upper)?;
+    let targets = slicer.split(Some((b1, bottom.lambdas.len())), upper, &counted)?;
     let mut rest = slicer.solve(&targets, progress)?;
     bottom.stats.count = bottom.lambdas.len();
     rest.insert(0, bottom);

@@ -157,6 +157,7 @@ impl<'b> Slicer<'b> {
         &self,
         lower: Option<(f64, usize)>,
         upper: (f64, usize),
+        counted: &[(f64, usize)],
     ) -> Result<Vec<Target>> {
         let (lo, nu_lo) = lower.map_or((0.0, 0), |(l, c)| (l.max(0.0), c));
         let total = upper.1.saturating_sub(nu_lo);
@@ -176,19 +177,20 @@ impl<'b> Slicer<'b> {
         // counted points (λ, ν), ascending; the lower end of a bottom band as (0, 0), for
         // the interpolation only
         let mut known = vec![(lo, nu_lo), upper];
-        let mut guesses: Vec<f64> = want.iter().map(|&w| interpolate(&known, w)).collect();
+        known.extend(counted.iter().filter(|k| k.0 > lo && k.0 < upper.0));
+        known.sort_by(|a, b| a.0.total_cmp(&b.0));
         for _ in 0..COUNT_ROUNDS {
-            guesses.retain(|g| known.iter().all(|k| k.0 != *g));
+            let guesses: Vec<f64> = want
+                .iter()
+                .filter(|&&w| (nearest(&known, w).1 as f64 - w).abs() > slack)
+                .map(|&w| interpolate(&known, w))
+                .filter(|g| known.iter().all(|k| k.0 != *g))
+                .collect();
             if guesses.is_empty() {
                 break;
             }
             known.extend(self.count(&guesses)?);
             known.sort_by(|a, b| a.0.total_cmp(&b.0));
-            guesses = want
-                .iter()
-                .filter(|&&w| (nearest(&known, w).1 as f64 - w).abs() > slack)
-                .map(|&w| interpolate(&known, w))
-                .collect();
         }
         let mut bounds = vec![lower.unwrap_or((f64::NEG_INFINITY, 0))];
         for &w in &want {
