@@ -558,3 +558,49 @@ pub(super) fn random_vector(n: usize, seed: u64) -> Mat<f64> {
     let mut rng = Xorshift::new(0x2545f4914f6cdd1d ^ seed.wrapping_mul(0x9e3779b97f4a7c15));
     Mat::from_fn(n, 1, |_, _| rng.next_centred())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::body::Body;
+    use crate::fe::{bar_model, BoxSpec};
+
+    /// After an expansion, Q is M-orthonormal and the recorded H is the projection
+    /// (MQ)ᵀ S Q of S: the Lanczos step's coefficients and the full pass's are both in H, and
+    /// one full pass leaves Q orthonormal to rounding (`Basis::expand`).
+    #[test]
+    fn one_full_pass_keeps_q_orthonormal_and_h_the_projection() {
+        let spec = BoxSpec {
+            elements: [1, 2, 24],
+            ..BoxSpec::paper_bar()
+        };
+        let body = Body::new(&bar_model(&spec).unwrap()).unwrap();
+        // below the spectrum (free bar: K − σM positive definite for σ < 0)
+        let sigma = -1e4;
+        let mut op =
+            ShiftInvert::new(body.pencil(), body.symbolic().unwrap(), sigma, Par::Seq, 4).unwrap();
+        let (m, b) = (80, 4);
+        let mut basis = Basis::new(&op, m, b).unwrap();
+        let (solves, me) = basis.expand(&mut op, 0, 0).unwrap();
+        assert_eq!((solves, me), (m, m));
+        let (q, mq) = (
+            basis.q.as_ref().subcols(0, me + b),
+            basis.mq.as_ref().subcols(0, me + b),
+        );
+        let gram = q.transpose() * mq;
+        let lost = (0..me + b)
+            .flat_map(|i| (0..me + b).map(move |j| (i, j)))
+            .map(|(i, j)| (gram[(i, j)] - f64::from(u8::from(i == j))).abs())
+            .fold(0.0, f64::max);
+        assert!(lost < 1e-13, "Q is M-orthonormal only to {lost:.1e}");
+        let mut sq = basis.mq.as_ref().subcols(0, me).to_owned();
+        for j in (0..me).step_by(b) {
+            op.solve_in_place(sq.as_mut().subcols_mut(j, b));
+        }
+        let projection = mq.transpose() * &sq;
+        let h = basis.h.as_ref().submatrix(0, 0, me + b, me);
+        let scale = projection.norm_max();
+        let off = (&projection - h).norm_max() / scale;
+        assert!(off < 1e-12, "H differs from (MQ)ᵀSQ by {off:.1e} relative");
+    }
+}
