@@ -46,7 +46,7 @@
 //! moment-matching projection about σ (Grimme 1997, rational Krylov with one pole).
 
 use crate::dense::{scaled_product_parts, scaled_products, sym_eigen};
-use crate::eigen::{project_once, ShiftInvert};
+use crate::eigen::{lanczos_step_and_full_pass, project_once, ShiftInvert};
 use crate::factor::{certify, Certificate, CertifyBuffers};
 use crate::pencil::{Coefficient, Pencil};
 use crate::rigid::RigidBody;
@@ -336,31 +336,26 @@ impl<'a> ShiftedSpace<'a> {
         // DGKS's test asks for it; the coefficients are T's new columns
         let mut w = self.mq.subcols(k, bn).to_owned();
         self.apply_s(w.as_mut(), false);
-        let near = before..kn;
-        let local = project_once(
-            self.q.as_ref().subcols(before, kn - before),
-            self.mq.as_ref().subcols(before, kn - before),
-            &mut w,
-            self.par,
-        );
-        let full = project_once(self.q.as_ref(), self.mq.as_ref(), &mut w, self.par);
-        let mut tc = self.t.as_mut().subcols_mut(k, bn);
-        tc += &full;
-        let mut tnear = tc.subrows_mut(near.start, near.len());
-        tnear += &local;
-        let image = self.t.as_ref().subcols(k, bn).to_owned();
-        self.set_next(w, Some(image.as_ref()));
+        let (c, full) =
+            lanczos_step_and_full_pass(self.q.as_ref(), self.mq.as_ref(), &mut w, before, self.par);
+        self.add_image(k, w, c.as_ref());
         let left = (0..bn).all(|j| full.col(j).squared_norm_l2() <= self.next_gram[(j, j)]);
         if !left {
             let mut w = std::mem::replace(&mut self.next, Mat::zeros(n, 0));
             let again = project_once(self.q.as_ref(), self.mq.as_ref(), &mut w, self.par);
-            let mut tc = self.t.as_mut().subcols_mut(k, bn);
-            tc += &again;
-            let image = self.t.as_ref().subcols(k, bn).to_owned();
-            self.set_next(w, Some(image.as_ref()));
+            self.add_image(k, w, again.as_ref());
         }
         self.ritz = None;
         true
+    }
+
+    /// Adds the coefficients `c` of the image of the block at column k to T's columns and
+    /// makes `w`, what is left of the image, the next block.
+    fn add_image(&mut self, k: usize, w: Mat<f64>, c: MatRef<'_, f64>) {
+        let mut tc = self.t.as_mut().subcols_mut(k, w.ncols());
+        tc += c;
+        let image = self.t.as_ref().subcols(k, w.ncols()).to_owned();
+        self.set_next(w, Some(image.as_ref()));
     }
 
     /// Makes `w` the part of the next block outside the space: its M-Gram matrix G = wᵀMw

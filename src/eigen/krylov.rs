@@ -390,21 +390,13 @@ impl Basis {
             op.solve_in_place(w.as_mut());
             let base = j + bs;
             let lo = if j == start { nl } else { (j - bs).max(nl) };
-            let local = project_once(
-                self.q.as_ref().subcols(lo, base - lo),
-                self.mq.as_ref().subcols(lo, base - lo),
-                &mut w,
-                op.par,
-            );
-            let full = project_once(
+            let (mut coef, full) = lanczos_step_and_full_pass(
                 self.q.as_ref().subcols(0, base),
                 self.mq.as_ref().subcols(0, base),
                 &mut w,
+                lo,
                 op.par,
             );
-            let mut coef = full.clone();
-            let mut near = coef.as_mut().subrows_mut(lo, base - lo);
-            near += &local;
             for c in 0..bs {
                 let top = base + c;
                 // then against the block's earlier columns
@@ -539,6 +531,27 @@ pub(crate) fn project_once(
     );
     matmul(w.as_mut(), Accum::Add, q, coef.as_ref(), -1.0, par);
     coef
+}
+
+/// The block Lanczos step and the full reorthogonalization (module doc): W is first
+/// M-orthogonalized by one classical pass against the columns `near..` of Q (those it couples
+/// to in exact arithmetic), then by one pass against all of Q. Returns the coefficients summed
+/// over both passes, (MQ)ᵀ W of the W given, and those of the full pass alone: where they
+/// outweigh what is left of W, DGKS's test asks for one more pass.
+pub(crate) fn lanczos_step_and_full_pass(
+    q: MatRef<'_, f64>,
+    mq: MatRef<'_, f64>,
+    w: &mut Mat<f64>,
+    near: usize,
+    par: Par,
+) -> (Mat<f64>, Mat<f64>) {
+    let k = q.ncols() - near;
+    let local = project_once(q.subcols(near, k), mq.subcols(near, k), w, par);
+    let full = project_once(q, mq, w, par);
+    let mut coef = full.clone();
+    let mut rows = coef.as_mut().subrows_mut(near, k);
+    rows += &local;
+    (coef, full)
 }
 
 /// W ← W − Q (MQ)ᵀ W, twice: classical Gram–Schmidt in the M-inner product against the

@@ -44,7 +44,7 @@ pub use modes::{Modes, MAX_BACKWARD_ERROR, RIGID_RTOL};
 pub use options::{EigenBackend, EigenOptions, Request};
 pub use stats::{EigenProgress, EigenStats, SliceStats};
 
-pub(crate) use krylov::project_once;
+pub(crate) use krylov::{lanczos_step_and_full_pass, project_once};
 pub(crate) use operator::ShiftInvert;
 
 use crate::body::Body;
@@ -266,7 +266,9 @@ fn lowest(
     let mut probe = None;
     let mut ahead_count = None;
     let mut bottom = if b1.is_finite() {
-        let counted = slicer.count(&[Some(b1), ahead].into_iter().flatten().collect::<Vec<_>>())?;
+        let mut points = vec![b1];
+        points.extend(ahead);
+        let counted = slicer.count(&points)?;
         let nu = counted[0];
         ahead_count = counted.get(1).copied();
         let have = l.iter().filter(|&&x| x < nu.0).count();
@@ -301,7 +303,7 @@ fn lowest(
     loop {
         let step = lower.0 * grow(lower.1);
         upper = match ahead_count.take() {
-            Some(ahead) if lower == (b1, below_b1) && ahead.0 == step => ahead,
+            Some(ahead) if ahead.0 == step => ahead,
             _ => slicer.count(&[step])?[0],
         };
         counted.push(upper);
