@@ -53,30 +53,97 @@ fn scaled_sym(a: MatRef<'_, f64>) -> (Mat<f64>, f64) {
 }
 
 /// A diag(d_f) C for each row d_f of D (frequencies × k, complex), for real A (m × k) and
-/// C (k × p), as two real matrices (mp × frequencies: column f holds the product's real or
-/// imaginary part, entry (i, c) at row i·p + c): with E[i·p + c, j] = A[i, j] C[j, c]
-/// (mp × k) they are E (Re Dᵀ) and E (Im Dᵀ), so every frequency costs a share of two real
-/// products instead of two small ones of its own, and reads its own contiguous column.
-pub fn scaled_product_parts(
+/// C (k × p), handed to `visit(f, re, im)` as its real and imaginary parts (length mp, entry
+/// (i, c) at i·p + c), frequency by frequency in ascending order. With
+/// E[i·p + c, j] = A[i, j] C[j, c] (mp × k) a block of frequencies takes two real products,
+/// E (Re Dᵀ) and E (Im Dᵀ), instead of two small ones per frequency. The blocks are sized
+/// so that each product stays within 128 KiB: the same memory serves every
+/// block, in cache, and no large temporary is mapped afresh for each call (on the paper
+/// bar, 2000 frequencies at m = p = 9, k = 14: 3.4 ms in one block, 1.6 ms in blocks).
+pub fn for_each_scaled_product(
     a: MatRef<'_, f64>,
     d: &Mat<c64>,
     c: MatRef<'_, f64>,
-) -> (Mat<f64>, Mat<f64>) {
+    mut visit: impl FnMut(usize, &[f64], &[f64]),
+) {
     let (p, k) = (c.ncols(), a.ncols());
-    let e = Mat::<f64>::from_fn(a.nrows() * p, k, |ic, j| a[(ic / p, j)] * c[(j, ic % p)]);
-    let re = &e * Mat::<f64>::from_fn(k, d.nrows(), |j, f| d[(f, j)].re);
-    let im = &e * Mat::<f64>::from_fn(k, d.nrows(), |j, f| d[(f, j)].im);
-    (re, im)
+    let mp = a.nrows() * p;
+    let e = Mat::<f64>::from_fn(mp, k, |ic, j| a[(ic / p, j)] * c[(j, ic % p)]);
+    let par = faer::get_global_parallelism();
+    let block = (SCALED_BLOCK_BYTES / (8 * mp.max(1))).max(1);
+    let (mut re, mut im) = (Mat::<f64>::zeros(mp, 0), Mat::<f64>::zeros(mp, 0));
+    for start in (0..d.nrows()).step_by(block) {
+        let len = block.min(d.nrows() - start);
+        let product = |out: &mut Mat<f64>, part: fn(c64) -> f64| {
+            out.resize_with(mp, len, |_, _| 0.0);
+            let dt = Mat::<f64>::from_fn(k, len, |j, i| part(d[(start + i, j)]));
+            faer::linalg::matmul::matmul(
+                out.as_mut(),
+                faer::Accum::Replace,
+                e.as_ref(),
+                dt.as_ref(),
+                1.0,
+                par,
+            );
+        };
+        product(&mut re, |z| z.re);
+        product(&mut im, |z| z.im);
+        for i in 0..len {
+            visit(start + i, re.col_as_slice(i), im.col_as_slice(i));
+        }
+    }
 }
 
-/// [`scaled_product_parts`] as one complex m × p matrix per frequency.
+/// The most bytes one real part of a block of [`for_each_scaled_product`] takes.
+const SCALED_BLOCK_BYTES: usize = 128 << 10;
+
+/// [`for_each_scaled_product`] as one complex m × p matrix per frequency.
 pub fn scaled_products(a: MatRef<'_, f64>, d: &Mat<c64>, c: MatRef<'_, f64>) -> Vec<Mat<c64>> {
     let (m, p) = (a.nrows(), c.ncols());
-    let (re, im) = scaled_product_parts(a, d, c);
-    (0..d.nrows())
-        .map(|f| {
-            let (re, im) = (re.col(f), im.col(f));
-            Mat::from_fn(m, p, |i, col| c64::new(re[i * p + col], im[i * p + col]))
-        })
-        .collect()
+    let mut out = Vec::with_capacity(d.nrows());
+    for_each_scaled_product(a, d, c, |_, re, im| {
+        out.push(Mat::from_fn(m, p, |i, col| {
+            c64::new(re[i * p + col], im[i * p + col])
+        }));
+    });
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::random::Xorshift;
+
+    /// Every frequency, across several blocks and the last partial one, gets A diag(d_f) C
+    /// as a per-frequency product computes it, in ascending order.
+    #[test]
+    fn blockwise_products_equal_each_frequencys_own() {
+        let mut rng = Xorshift::new(7);
+        let (m, k, p, nf) = (9, 14, 9, 1000);
+        let a = Mat::<f64>::from_fn(m, k, |_, _| rng.next_centred());
+        let c = Mat::<f64>::from_fn(k, p, |_, _| rng.next_centred());
+        let d = Mat::<c64>::from_fn(nf, k, |_, _| {
+            c64::new(rng.next_centred(), rng.next_centred())
+        });
+        assert!(nf * 8 * m * p > 3 * SCALED_BLOCK_BYTES);
+        let mut next = 0;
+        for_each_scaled_product(a.as_ref(), &d, c.as_ref(), |f, re, im| {
+            assert_eq!(f, next);
+            next += 1;
+            let want = |i: usize, col: usize| -> c64 {
+                (0..k).map(|j| d[(f, j)] * (a[(i, j)] * c[(j, col)])).sum()
+            };
+            for i in 0..m {
+                for col in 0..p {
+                    let got = c64::new(re[i * p + col], im[i * p + col]);
+                    let w = want(i, col);
+                    assert!(
+                        (got - w).norm() <= 1e-13 * (1.0 + w.norm()),
+                        "{f}: {got} {w}"
+                    );
+                }
+            }
+        });
+        assert_eq!(next, nf);
+    }
 }

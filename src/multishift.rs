@@ -45,7 +45,7 @@
 //! systems by quasi-minimal residual iterations" (1993); the same Galerkin space is the
 //! moment-matching projection about σ (Grimme 1997, rational Krylov with one pole).
 
-use crate::dense::{scaled_product_parts, scaled_products, sym_eigen};
+use crate::dense::{for_each_scaled_product, scaled_products, sym_eigen};
 use crate::eigen::{lanczos_step_and_full_pass, project_once, ShiftInvert};
 use crate::factor::{certify, Certificate, CertifyBuffers};
 use crate::pencil::{Coefficient, Pencil};
@@ -191,6 +191,9 @@ pub(crate) struct ShiftedSpace<'a> {
     /// space that has not grown has the same answer (the sampling loop asks its candidate
     /// grid at every step).
     answered: Option<RowsAnswer>,
+    /// The estimates [`Self::grow_for`] ended on (the space's dimension, the frequencies,
+    /// the estimates): [`Self::rows_at`] asks the same right after it.
+    estimated: Option<(usize, Vec<f64>, Vec<f64>)>,
 }
 
 /// [`ShiftedSpace::rows_at`]'s question (frequencies, rows, the space's dimension) and its
@@ -253,6 +256,7 @@ impl<'a> ShiftedSpace<'a> {
             block_solves: 0,
             par,
             answered: None,
+            estimated: None,
         };
         space.apply_s(b0.as_mut(), false);
         space.set_next(b0, None);
@@ -446,7 +450,7 @@ impl<'a> ShiftedSpace<'a> {
     /// Galerkin response at each of `freqs_hz`, from the Lanczos relation (module doc);
     /// infinite before the space was decomposed by [`Self::grow_for`]. The last block's
     /// coefficients at all of them come from one pair of products
-    /// ([`crate::dense::scaled_product_parts`]).
+    /// ([`for_each_scaled_product`]).
     fn estimates(&self, freqs_hz: &[f64]) -> Vec<f64> {
         let Some(ritz) = &self.ritz else {
             return vec![f64::INFINITY; freqs_hz.len()];
@@ -460,34 +464,31 @@ impl<'a> ShiftedSpace<'a> {
             .collect();
         let d = resolvent(ritz, &taus, &vec![c64::new(1.0, 0.0); taus.len()]);
         let last = ritz.z.subrows(self.last, self.dim() - self.last);
-        let (b, p) = (last.nrows(), self.r0.ncols());
-        let (re, im) = scaled_product_parts(last, &d, ritz.c.as_ref());
-        let g = &self.next_gram;
-        let norms: Vec<f64> = (0..p).map(|c| self.r0.col(c).norm_l2()).collect();
-        // yᴴ G y for real G: the real part's and the imaginary part's forms
-        let form = |y: faer::ColRef<'_, f64>, c: usize| -> f64 {
-            (0..b)
-                .map(|j| {
-                    let gy: f64 = (0..b).map(|i| g[(i, j)] * y[i * p + c]).sum();
-                    gy * y[j * p + c]
-                })
-                .sum()
+        let p = self.r0.ncols();
+        // yᴴGy = ‖G^{1/2} y‖² for the next block's M-Gram matrix G = VΛVᵀ ⪰ 0 (its rounding
+        // below 0 clamped): with G^{1/2} = Λ^{1/2}Vᵀ folded into the coefficients' left
+        // factor, each frequency's form is a sum of squares of its product
+        let Some((lambda, v)) = sym_eigen(self.next_gram.as_ref()) else {
+            return vec![f64::INFINITY; freqs_hz.len()];
         };
-        taus.iter()
-            .enumerate()
-            .map(|(f, tau)| {
-                let (yr, yi) = (re.col(f), im.col(f));
-                norms
-                    .iter()
-                    .enumerate()
-                    .filter(|(_, &bn)| bn > 0.0)
-                    .map(|(c, &bn)| {
-                        let q = form(yr, c) + form(yi, c);
-                        tau.norm() * q.max(0.0).sqrt() / bn
-                    })
-                    .fold(0.0f64, f64::max)
-            })
-            .collect()
+        let root = Mat::<f64>::from_fn(lambda.len(), v.nrows(), |i, j| {
+            lambda[i].max(0.0).sqrt() * v[(j, i)]
+        });
+        let left = &root * last;
+        let b = left.nrows();
+        let norms: Vec<f64> = (0..p).map(|c| self.r0.col(c).norm_l2()).collect();
+        let mut out = Vec::with_capacity(taus.len());
+        for_each_scaled_product(left.as_ref(), &d, ritz.c.as_ref(), |f, yr, yi| {
+            let mut worst = 0.0f64;
+            for (c, &bn) in norms.iter().enumerate().filter(|(_, &bn)| bn > 0.0) {
+                let q: f64 = (0..b)
+                    .map(|i| yr[i * p + c].powi(2) + yi[i * p + c].powi(2))
+                    .sum();
+                worst = worst.max(taus[f].norm() * q.sqrt() / bn);
+            }
+            out.push(worst);
+        });
+        out
     }
 
     /// Grows the space until the estimated relative residual at every frequency of
@@ -501,7 +502,9 @@ impl<'a> ShiftedSpace<'a> {
     pub fn grow_for(&mut self, freqs_hz: &[f64], target: f64) -> Result<()> {
         loop {
             self.decompose()?;
-            if self.estimates(freqs_hz).iter().all(|&e| e <= target) {
+            let e = self.estimates(freqs_hz);
+            if e.iter().all(|&e| e <= target) {
+                self.estimated = Some((self.dim(), freqs_hz.to_vec(), e));
                 return Ok(());
             }
             let b = self.next.ncols().max(1);
@@ -570,7 +573,10 @@ impl<'a> ShiftedSpace<'a> {
         let d = resolvent(ritz, &taus, &scales);
         let h: Vec<Option<Mat<c64>>> = scaled_products(qz.as_ref(), &d, ritz.c.as_ref())
             .into_iter()
-            .zip(self.estimates(freqs_hz))
+            .zip(match self.estimated.take() {
+                Some((dim, f, e)) if dim == k && f == freqs_hz => e,
+                _ => self.estimates(freqs_hz),
+            })
             .map(|(h, e)| (e <= 100.0 * GROW_TO).then_some(h))
             .collect();
         self.answered = Some(RowsAnswer {
