@@ -107,8 +107,12 @@ impl Reference {
         }
         let mut eps_elastic = Vec::with_capacity(self.freqs_hz.len());
         let mut eps_total = Vec::with_capacity(self.freqs_hz.len());
-        for (k, hr) in rom.transfers(&self.freqs_hz).into_iter().enumerate() {
-            let diff = (&self.h1[k] - hr).norm_l2();
+        let h1: Vec<&Mat<c64>> = self.h1.iter().collect();
+        for (k, diff) in rom
+            .transfer_differences(&self.freqs_hz, &h1)
+            .into_iter()
+            .enumerate()
+        {
             eps_elastic.push(diff / self.h1[k].norm_l2());
             eps_total.push(diff / self.h[k].norm_l2());
         }

@@ -15,7 +15,7 @@
 
 use super::spectrum::rom_modes;
 use super::Rom;
-use crate::dense::scaled_products;
+use crate::dense::for_each_scaled_product;
 use crate::units::hz_to_omega;
 use faer::{c64, Mat, MatRef};
 
@@ -29,25 +29,62 @@ impl Rom {
     /// each f to [`MODAL_RTOL`] relative, much faster for many frequencies (see the module
     /// doc).
     pub fn transfers(&self, freqs_hz: &[f64]) -> Vec<Mat<c64>> {
+        let (q, p) = (self.cr.nrows(), self.br.ncols());
+        let mut out = Vec::with_capacity(freqs_hz.len());
+        self.for_each_transfer(freqs_hz, |k, h| {
+            out.push(match h {
+                Some((re, im)) => Mat::from_fn(q, p, |i, c| c64::new(re[i * p + c], im[i * p + c])),
+                None => self.transfer(freqs_hz[k]),
+            });
+        });
+        out
+    }
+
+    /// ‖H_k − Hr(i·2πf_k)‖_F for each f_k of `freqs_hz` and H_k of `h` (outputs × inputs,
+    /// as many as frequencies): the error of the ROM against responses known at these
+    /// frequencies, from the values of [`Rom::transfers`] without a matrix per frequency.
+    pub fn transfer_differences(&self, freqs_hz: &[f64], h: &[&Mat<c64>]) -> Vec<f64> {
+        let p = self.br.ncols();
+        let mut out = Vec::with_capacity(freqs_hz.len());
+        self.for_each_transfer(freqs_hz, |k, hr| {
+            let h = h[k];
+            out.push(match hr {
+                Some((re, im)) => {
+                    let mut sum = 0.0;
+                    for c in 0..h.ncols() {
+                        for i in 0..h.nrows() {
+                            let r = c64::new(re[i * p + c], im[i * p + c]);
+                            sum += (h[(i, c)] - r).norm_sqr();
+                        }
+                    }
+                    sum.sqrt()
+                }
+                None => (h - self.transfer(freqs_hz[k])).norm_l2(),
+            });
+        });
+        out
+    }
+
+    /// Hands each f_k of `freqs_hz`, in order, to `visit(k, hr)`: hr the modal value's
+    /// real and imaginary parts (entry (i, c) at i·p + c) where its bound certifies it to
+    /// [`MODAL_RTOL`], `None` where the LU must answer (module doc).
+    fn for_each_transfer(
+        &self,
+        freqs_hz: &[f64],
+        mut visit: impl FnMut(usize, Option<(&[f64], &[f64])>),
+    ) {
         let modal = match freqs_hz.len() {
             0 | 1 => None,
             _ => Modal::new(self),
         };
         let Some(modal) = modal else {
-            return freqs_hz.iter().map(|&f| self.transfer(f)).collect();
+            (0..freqs_hz.len()).for_each(|k| visit(k, None));
+            return;
         };
-        modal
-            .transfers(freqs_hz)
-            .into_iter()
-            .zip(freqs_hz)
-            .map(|((h, bound), &f)| {
-                if bound <= MODAL_RTOL * h.norm_l2() {
-                    h
-                } else {
-                    self.transfer(f)
-                }
-            })
-            .collect()
+        modal.for_each_transfer(freqs_hz, |k, re, im, bound| {
+            let norm = re.iter().chain(im).map(|x| x * x).sum::<f64>().sqrt();
+            visit(k, (bound <= MODAL_RTOL * norm).then_some((re, im)));
+        });
     }
 }
 
@@ -129,9 +166,14 @@ impl Modal {
         })
     }
 
-    /// Hr(i·2πf) from the modal form at each f of `freqs_hz`, all by one pair of real
-    /// products ([`scaled_products`]), each with the bound of its error (module doc).
-    fn transfers(&self, freqs_hz: &[f64]) -> Vec<(Mat<c64>, f64)> {
+    /// Hr(i·2πf) from the modal form at each f_k of `freqs_hz`, by blocks of real products
+    /// ([`for_each_scaled_product`]), handed to `visit(k, re, im, bound)` with the bound of
+    /// its error (module doc).
+    fn for_each_transfer(
+        &self,
+        freqs_hz: &[f64],
+        mut visit: impl FnMut(usize, &[f64], &[f64], f64),
+    ) {
         let n = self.lambda.len();
         let d = Mat::<c64>::from_fn(freqs_hz.len(), n, |i, k| {
             let w = hz_to_omega(freqs_hz[i]);
@@ -149,10 +191,9 @@ impl Modal {
                 self.bound(hz_to_omega(f), &inv_mag)
             })
             .collect();
-        scaled_products(self.g.as_ref(), &d, self.f.as_ref())
-            .into_iter()
-            .zip(bounds)
-            .collect()
+        for_each_scaled_product(self.g.as_ref(), &d, self.f.as_ref(), |k, re, im| {
+            visit(k, re, im, bounds[k]);
+        });
     }
 
     /// The bound of ‖H_modal − Hr‖_F at ω (module doc) from the magnitudes 1/|d_k| of the
@@ -244,27 +285,37 @@ mod tests {
     }
 
     /// Checks at each of `freqs` that the modal value is within its bound of the LU's (plus
-    /// the LU's own rounding) and that `transfers` equals `transfer` to MODAL_RTOL; returns
-    /// the frequencies whose bound is above MODAL_RTOL (the LU answers there).
+    /// the LU's own rounding), that `transfers` equals `transfer` to MODAL_RTOL and that
+    /// `transfer_differences` against the LU's values is within MODAL_RTOL of 0; returns the
+    /// frequencies whose bound is above MODAL_RTOL (the LU answers there).
     fn refused_after_checking(rom: &Rom, freqs: &[f64]) -> Vec<f64> {
         let modal = Modal::new(rom).unwrap();
+        let lu: Vec<Mat<c64>> = freqs.iter().map(|&f| rom.transfer(f)).collect();
+        let p = rom.br.ncols();
         let mut refused = Vec::new();
-        for ((h, bound), &f) in modal.transfers(freqs).iter().zip(freqs) {
-            let lu = rom.transfer(f);
-            let diff = (h - &lu).norm_l2();
+        modal.for_each_transfer(freqs, |k, re, im, bound| {
+            let (f, lu) = (freqs[k], &lu[k]);
+            let h = Mat::from_fn(lu.nrows(), p, |i, c| c64::new(re[i * p + c], im[i * p + c]));
+            let diff = (&h - lu).norm_l2();
             assert!(
                 diff <= bound + 1e-12 * lu.norm_l2(),
                 "{f} Hz: {diff:e} > {bound:e}"
             );
-            if *bound > MODAL_RTOL * h.norm_l2() {
+            if bound > MODAL_RTOL * h.norm_l2() {
                 refused.push(f);
             }
+        });
+        for (h, (&f, lu)) in rom.transfers(freqs).iter().zip(freqs.iter().zip(&lu)) {
+            assert!(rel_diff(h, lu) <= MODAL_RTOL + 1e-12, "{f} Hz");
         }
-        for (h, &f) in rom.transfers(freqs).iter().zip(freqs) {
-            assert!(
-                rel_diff(h, &rom.transfer(f)) <= MODAL_RTOL + 1e-12,
-                "{f} Hz"
-            );
+        let refs: Vec<&Mat<c64>> = lu.iter().collect();
+        for ((d, &f), lu) in rom
+            .transfer_differences(freqs, &refs)
+            .iter()
+            .zip(freqs)
+            .zip(&lu)
+        {
+            assert!(*d <= (MODAL_RTOL + 1e-12) * lu.norm_l2(), "{f} Hz: {d:e}");
         }
         refused
     }

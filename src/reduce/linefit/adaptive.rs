@@ -990,9 +990,9 @@ fn rel_errs<'h>(
     let (freqs, h1): (Vec<f64>, Vec<&Mat<c64>>) = points.into_iter().unzip();
     freqs
         .iter()
-        .zip(h1)
-        .zip(rom.transfers(&freqs))
-        .map(|((&f, h1), hr)| (f, (h1 - hr).norm_l2() / h1.norm_l2()))
+        .zip(&h1)
+        .zip(rom.transfer_differences(&freqs, &h1))
+        .map(|((&f, h1), diff)| (f, diff / h1.norm_l2()))
         .collect()
 }
 
