@@ -333,8 +333,23 @@ struct Loop<'a> {
     start: Instant,
 }
 
-/// Line-fitting with iteratively chosen reference frequencies; see the module doc.
+/// Line-fitting with iteratively chosen reference frequencies; see the module doc. The
+/// whole loop runs in one pool of the sweep's threads (docs/design.md §3.5), which every
+/// step's solves and growths then share.
 pub(super) fn reduce(
+    body: &Body,
+    scene: &Scene,
+    opts: &LineFitOptions,
+    sampling: &SamplingOptions,
+    progress: ProgressFn<'_>,
+) -> Result<Rom> {
+    crate::pool::with_pool(opts.sweep.resolved_threads(), || {
+        run_loop(body, scene, opts, sampling, progress)
+    })?
+}
+
+/// The loop of [`reduce`], inside its pool.
+fn run_loop(
     body: &Body,
     scene: &Scene,
     opts: &LineFitOptions,
