@@ -101,12 +101,14 @@ const SCALED_BLOCK_BYTES: usize = 128 << 10;
 pub fn scaled_products(a: MatRef<'_, f64>, d: &Mat<c64>, c: MatRef<'_, f64>) -> Vec<Mat<c64>> {
     let (m, p) = (a.nrows(), c.ncols());
     let mut out = Vec::with_capacity(d.nrows());
-    for_each_scaled_product(a, d, c, |_, re, im| {
-        out.push(Mat::from_fn(m, p, |i, col| {
-            c64::new(re[i * p + col], im[i * p + col])
-        }));
-    });
+    for_each_scaled_product(a, d, c, |_, re, im| out.push(from_parts(m, p, re, im)));
     out
+}
+
+/// The complex m × p matrix whose real and imaginary parts are `re` and `im`, entry (i, c)
+/// at i·p + c (the layout of [`for_each_scaled_product`]).
+pub fn from_parts(m: usize, p: usize, re: &[f64], im: &[f64]) -> Mat<c64> {
+    Mat::from_fn(m, p, |i, c| c64::new(re[i * p + c], im[i * p + c]))
 }
 
 #[cfg(test)]
@@ -133,10 +135,10 @@ mod tests {
             let want = |i: usize, col: usize| -> c64 {
                 (0..k).map(|j| d[(f, j)] * (a[(i, j)] * c[(j, col)])).sum()
             };
+            let got = from_parts(m, p, re, im);
             for i in 0..m {
                 for col in 0..p {
-                    let got = c64::new(re[i * p + col], im[i * p + col]);
-                    let w = want(i, col);
+                    let (got, w) = (got[(i, col)], want(i, col));
                     assert!(
                         (got - w).norm() <= 1e-13 * (1.0 + w.norm()),
                         "{f}: {got} {w}"

@@ -15,7 +15,7 @@
 
 use super::spectrum::rom_modes;
 use super::Rom;
-use crate::dense::for_each_scaled_product;
+use crate::dense::{for_each_scaled_product, from_parts};
 use crate::units::hz_to_omega;
 use faer::{c64, Mat, MatRef};
 
@@ -33,7 +33,7 @@ impl Rom {
         let mut out = Vec::with_capacity(freqs_hz.len());
         self.for_each_transfer(freqs_hz, |k, h| {
             out.push(match h {
-                Some((re, im)) => Mat::from_fn(q, p, |i, c| c64::new(re[i * p + c], im[i * p + c])),
+                Some((re, im)) => from_parts(q, p, re, im),
                 None => self.transfer(freqs_hz[k]),
             });
         });
@@ -295,7 +295,7 @@ mod tests {
         let mut refused = Vec::new();
         modal.for_each_transfer(freqs, |k, re, im, bound| {
             let (f, lu) = (freqs[k], &lu[k]);
-            let h = Mat::from_fn(lu.nrows(), p, |i, c| c64::new(re[i * p + c], im[i * p + c]));
+            let h = from_parts(lu.nrows(), p, re, im);
             let diff = (&h - lu).norm_l2();
             assert!(
                 diff <= bound + 1e-12 * lu.norm_l2(),
