@@ -97,12 +97,47 @@ pub fn for_each_scaled_product(
 /// The most bytes one real part of a block of [`for_each_scaled_product`] takes.
 const SCALED_BLOCK_BYTES: usize = 128 << 10;
 
-/// [`for_each_scaled_product`] as one complex m × p matrix per frequency.
-pub fn scaled_products(a: MatRef<'_, f64>, d: &Mat<c64>, c: MatRef<'_, f64>) -> Vec<Mat<c64>> {
-    let (m, p) = (a.nrows(), c.ncols());
-    let mut out = Vec::with_capacity(d.nrows());
-    for_each_scaled_product(a, d, c, |_, re, im| out.push(from_parts(m, p, re, im)));
-    out
+/// Complex m × p matrices, one per frequency, in one allocation (each column-major): many
+/// frequencies' responses without an allocation per frequency (2000 of them at m = p = 9
+/// took 2.7 ms to allocate as matrices, against 1.7 ms for the products themselves).
+#[derive(Clone, Debug, Default)]
+pub struct MatStack {
+    m: usize,
+    p: usize,
+    data: Vec<c64>,
+}
+
+impl MatStack {
+    /// [`for_each_scaled_product`]: A diag(d_f) C for each row d_f of D.
+    pub fn scaled_products(a: MatRef<'_, f64>, d: &Mat<c64>, c: MatRef<'_, f64>) -> Self {
+        let (m, p) = (a.nrows(), c.ncols());
+        let mut data = vec![c64::new(0.0, 0.0); m * p * d.nrows()];
+        for_each_scaled_product(a, d, c, |f, re, im| {
+            let out = &mut data[f * m * p..(f + 1) * m * p];
+            for col in 0..p {
+                for i in 0..m {
+                    out[col * m + i] = c64::new(re[i * p + col], im[i * p + col]);
+                }
+            }
+        });
+        MatStack { m, p, data }
+    }
+
+    /// The number of matrices.
+    pub fn len(&self) -> usize {
+        self.data.len() / (self.m * self.p).max(1)
+    }
+
+    /// Whether the stack holds no matrix.
+    pub fn is_empty(&self) -> bool {
+        self.data.is_empty()
+    }
+
+    /// The k-th matrix.
+    pub fn get(&self, k: usize) -> MatRef<'_, c64> {
+        let mp = self.m * self.p;
+        MatRef::from_column_major_slice(&self.data[k * mp..(k + 1) * mp], self.m, self.p)
+    }
 }
 
 /// The complex m × p matrix whose real and imaginary parts are `re` and `im`, entry (i, c)
@@ -116,36 +151,67 @@ mod tests {
     use super::*;
     use crate::random::Xorshift;
 
-    /// Every frequency, across several blocks and the last partial one, gets A diag(d_f) C
-    /// as a per-frequency product computes it, in ascending order.
-    #[test]
-    fn blockwise_products_equal_each_frequencys_own() {
+    /// A diag(d_f) C for one frequency, entry by entry.
+    fn product(a: &Mat<f64>, d: &Mat<c64>, c: &Mat<f64>, f: usize) -> Mat<c64> {
+        Mat::from_fn(a.nrows(), c.ncols(), |i, col| {
+            (0..a.ncols())
+                .map(|j| d[(f, j)] * (a[(i, j)] * c[(j, col)]))
+                .sum()
+        })
+    }
+
+    /// Random A (m × k), C (k × p) and D (nf × k, complex).
+    fn operands(m: usize, k: usize, p: usize, nf: usize) -> (Mat<f64>, Mat<c64>, Mat<f64>) {
         let mut rng = Xorshift::new(7);
-        let (m, k, p, nf) = (9, 14, 9, 1000);
         let a = Mat::<f64>::from_fn(m, k, |_, _| rng.next_centred());
         let c = Mat::<f64>::from_fn(k, p, |_, _| rng.next_centred());
         let d = Mat::<c64>::from_fn(nf, k, |_, _| {
             c64::new(rng.next_centred(), rng.next_centred())
         });
+        (a, d, c)
+    }
+
+    fn assert_close(got: MatRef<'_, c64>, want: &Mat<c64>, f: usize) {
+        assert_eq!((got.nrows(), got.ncols()), (want.nrows(), want.ncols()));
+        for i in 0..want.nrows() {
+            for col in 0..want.ncols() {
+                let (g, w) = (got[(i, col)], want[(i, col)]);
+                assert!((g - w).norm() <= 1e-13 * (1.0 + w.norm()), "{f}: {g} {w}");
+            }
+        }
+    }
+
+    /// Every frequency, across several blocks and the last partial one, gets A diag(d_f) C
+    /// as a per-frequency product computes it, in ascending order.
+    #[test]
+    fn blockwise_products_equal_each_frequencys_own() {
+        let (m, k, p, nf) = (9, 14, 9, 1000);
+        let (a, d, c) = operands(m, k, p, nf);
         assert!(nf * 8 * m * p > 3 * SCALED_BLOCK_BYTES);
         let mut next = 0;
         for_each_scaled_product(a.as_ref(), &d, c.as_ref(), |f, re, im| {
             assert_eq!(f, next);
             next += 1;
-            let want = |i: usize, col: usize| -> c64 {
-                (0..k).map(|j| d[(f, j)] * (a[(i, j)] * c[(j, col)])).sum()
-            };
-            let got = from_parts(m, p, re, im);
-            for i in 0..m {
-                for col in 0..p {
-                    let (got, w) = (got[(i, col)], want(i, col));
-                    assert!(
-                        (got - w).norm() <= 1e-13 * (1.0 + w.norm()),
-                        "{f}: {got} {w}"
-                    );
-                }
-            }
+            assert_close(
+                from_parts(m, p, re, im).as_ref(),
+                &product(&a, &d, &c, f),
+                f,
+            );
         });
         assert_eq!(next, nf);
+    }
+
+    /// The stack holds each frequency's product, rows and columns in place (m ≠ p), across
+    /// several blocks.
+    #[test]
+    fn a_stack_holds_each_frequencys_product() {
+        let (m, k, p, nf) = (5, 11, 3, 4000);
+        let (a, d, c) = operands(m, k, p, nf);
+        assert!(nf * 8 * m * p > 3 * SCALED_BLOCK_BYTES);
+        let stack = MatStack::scaled_products(a.as_ref(), &d, c.as_ref());
+        assert_eq!(stack.len(), nf);
+        for f in 0..nf {
+            assert_close(stack.get(f), &product(&a, &d, &c, f), f);
+        }
     }
 }

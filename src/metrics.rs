@@ -107,7 +107,7 @@ impl Reference {
         }
         let mut eps_elastic = Vec::with_capacity(self.freqs_hz.len());
         let mut eps_total = Vec::with_capacity(self.freqs_hz.len());
-        let h1: Vec<&Mat<c64>> = self.h1.iter().collect();
+        let h1: Vec<MatRef<'_, c64>> = self.h1.iter().map(|h| h.as_ref()).collect();
         for (k, diff) in rom
             .transfer_differences(&self.freqs_hz, &h1)
             .into_iter()

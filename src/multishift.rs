@@ -45,7 +45,7 @@
 //! systems by quasi-minimal residual iterations" (1993); the same Galerkin space is the
 //! moment-matching projection about σ (Grimme 1997, rational Krylov with one pole).
 
-use crate::dense::{for_each_scaled_product, scaled_products, sym_eigen};
+use crate::dense::{for_each_scaled_product, sym_eigen, MatStack};
 use crate::eigen::{lanczos_step_and_full_pass, project_once, ShiftInvert};
 use crate::factor::{certify, Certificate, CertifyBuffers};
 use crate::pencil::{Coefficient, Pencil};
@@ -54,6 +54,7 @@ use crate::units::hz_to_omega;
 use crate::{Error, Result};
 use faer::linalg::matmul::matmul;
 use faer::{c64, Accum, Mat, MatRef, Par};
+use std::sync::Arc;
 
 /// The space first grows until the estimated (M-norm, preconditioned) relative residual at
 /// every frequency asked is at most this. The certificate measures the residual itself in
@@ -202,7 +203,27 @@ struct RowsAnswer {
     freqs_hz: Vec<f64>,
     rows: Vec<usize>,
     dim: usize,
-    h: Vec<Option<Mat<c64>>>,
+    h: Arc<Rows>,
+}
+
+/// The response at some rows at each of a set of frequencies, from a shifted Krylov space
+/// ([`ShiftedSpace::rows_at`]): `None` at a frequency the space does not answer.
+#[derive(Debug)]
+pub struct Rows {
+    h: MatStack,
+    answered: Vec<bool>,
+}
+
+impl Rows {
+    /// The number of frequencies asked.
+    pub fn len(&self) -> usize {
+        self.answered.len()
+    }
+
+    /// The response at the k-th frequency (rows × inputs), where the space answers it.
+    pub fn get(&self, k: usize) -> Option<MatRef<'_, c64>> {
+        self.answered[k].then(|| self.h.get(k))
+    }
 }
 
 impl<'a> ShiftedSpace<'a> {
@@ -557,9 +578,12 @@ impl<'a> ShiftedSpace<'a> {
     /// 100 × [`GROW_TO`] (grow the space for those frequencies first). Not certified: the
     /// sampling loop uses it to find where the ROM's error is largest, and certifies the
     /// responses it keeps. The answer is kept for [`Self::answer`].
-    pub fn rows_at(&mut self, freqs_hz: &[f64], rows: &[usize]) -> Vec<Option<Mat<c64>>> {
+    pub fn rows_at(&mut self, freqs_hz: &[f64], rows: &[usize]) -> Arc<Rows> {
         let Some(ritz) = &self.ritz else {
-            return vec![None; freqs_hz.len()];
+            return Arc::new(Rows {
+                h: MatStack::default(),
+                answered: vec![false; freqs_hz.len()],
+            });
         };
         let k = self.dim();
         let qz = Mat::<f64>::from_fn(rows.len(), k, |i, j| self.q[(rows[i], j)]) * &ritz.z;
@@ -571,30 +595,31 @@ impl<'a> ShiftedSpace<'a> {
             })
             .unzip();
         let d = resolvent(ritz, &taus, &scales);
-        let h: Vec<Option<Mat<c64>>> = scaled_products(qz.as_ref(), &d, ritz.c.as_ref())
-            .into_iter()
-            .zip(match self.estimated.take() {
-                Some((dim, f, e)) if dim == k && f == freqs_hz => e,
-                _ => self.estimates(freqs_hz),
-            })
-            .map(|(h, e)| (e <= 100.0 * GROW_TO).then_some(h))
-            .collect();
+        let h = MatStack::scaled_products(qz.as_ref(), &d, ritz.c.as_ref());
+        let answered = match self.estimated.take() {
+            Some((dim, f, e)) if dim == k && f == freqs_hz => e,
+            _ => self.estimates(freqs_hz),
+        }
+        .into_iter()
+        .map(|e| e <= 100.0 * GROW_TO)
+        .collect();
+        let h = Arc::new(Rows { h, answered });
         self.answered = Some(RowsAnswer {
             freqs_hz: freqs_hz.to_vec(),
             rows: rows.to_vec(),
             dim: k,
-            h: h.clone(),
+            h: Arc::clone(&h),
         });
         h
     }
 
     /// [`Self::rows_at`]'s answer when it was last asked the same, and the space has not
     /// grown since.
-    pub fn answer(&self, freqs_hz: &[f64], rows: &[usize]) -> Option<Vec<Option<Mat<c64>>>> {
+    pub fn answer(&self, freqs_hz: &[f64], rows: &[usize]) -> Option<Arc<Rows>> {
         self.answered
             .as_ref()
             .filter(|a| a.dim == self.dim() && a.freqs_hz == freqs_hz && a.rows == rows)
-            .map(|a| a.h.clone())
+            .map(|a| Arc::clone(&a.h))
     }
 
     /// X = Q c (c = y / (1 + iωβ)), rigid-free, into `buffers`, and its certificate. One
@@ -788,12 +813,16 @@ mod tests {
                 space.answer(&freqs, &rows).is_none(),
                 "asked of a grown space"
             );
-            for (f, h) in freqs.iter().zip(space.rows_at(&freqs, &rows)) {
+            let answer = space.rows_at(&freqs, &rows);
+            assert_eq!(answer.len(), freqs.len());
+            for (k, f) in freqs.iter().enumerate() {
                 space.response(*f, Par::Seq, &mut buffers).unwrap();
                 let x = buffers.x();
-                let h = h.expect("the space answers every frequency it was grown for");
+                let h = answer
+                    .get(k)
+                    .expect("the space answers every frequency it was grown for");
                 let want = Mat::from_fn(rows.len(), x.ncols(), |i, c| x[(rows[i], c)]);
-                let err = (&h - &want).norm_l2() / want.norm_l2();
+                let err = (h - &want).norm_l2() / want.norm_l2();
                 assert!(err <= 1e-12, "{f} Hz, dimension {}: {err:.2e}", space.dim());
             }
             assert!(

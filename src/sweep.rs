@@ -30,14 +30,14 @@
 
 use crate::body::Body;
 use crate::factor::{Analysis, Backend, Numeric, Storage, SymbolicStats};
-use crate::multishift::{ResponseBuffers, ShiftedSpace, GROW_TO};
+use crate::multishift::{ResponseBuffers, Rows, ShiftedSpace, GROW_TO};
 pub use crate::multishift::{CERTIFIED_BACKWARD_ERROR, CERTIFIED_RELATIVE_RESIDUAL};
 use crate::random::Xorshift;
 use crate::rigid::RigidBody;
 use crate::{Error, Result};
 use faer::{c64, Mat, MatRef, Par};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 /// Probe errors above this trigger iterative refinement (see the module doc).
@@ -887,7 +887,7 @@ impl<'a> Solver<'a> {
         &self,
         freqs_hz: &[f64],
         rows: &[usize],
-    ) -> Result<(Option<Vec<Option<Mat<c64>>>>, (usize, usize))> {
+    ) -> Result<(Option<Arc<Rows>>, (usize, usize))> {
         let Some(cell) = &self.space else {
             return Ok((None, (0, 0)));
         };

@@ -9,6 +9,7 @@ use super::protocol::{gather, Command, Keep, Reply};
 use crate::body::Body;
 use crate::factor::SymbolicStats;
 use crate::lsq::{Split, SplitState, StreamedQr};
+use crate::multishift::Rows;
 use crate::snapshots::{GrowBy, SnapshotStore};
 use crate::sweep::{
     rows_of, FreqStats, ProgressFn, Response, Schedule, SolveAccuracy, Solver, SweepOptions,
@@ -115,7 +116,7 @@ impl<'a> Engine<'a> {
         inputs: &[usize],
         outputs: &[usize],
         freqs: &[f64],
-    ) -> Result<Option<Vec<Option<Mat<c64>>>>> {
+    ) -> Result<Option<Arc<Rows>>> {
         if self.ranks() > 1 || !self.krylov(response) {
             return Ok(None);
         }

@@ -43,7 +43,7 @@ impl Rom {
     /// ‖H_k − Hr(i·2πf_k)‖_F for each f_k of `freqs_hz` and H_k of `h` (outputs × inputs,
     /// as many as frequencies): the error of the ROM against responses known at these
     /// frequencies, from the values of [`Rom::transfers`] without a matrix per frequency.
-    pub fn transfer_differences(&self, freqs_hz: &[f64], h: &[&Mat<c64>]) -> Vec<f64> {
+    pub fn transfer_differences(&self, freqs_hz: &[f64], h: &[MatRef<'_, c64>]) -> Vec<f64> {
         let p = self.br.ncols();
         let mut out = Vec::with_capacity(freqs_hz.len());
         self.for_each_transfer(freqs_hz, |k, hr| {
@@ -308,7 +308,7 @@ mod tests {
         for (h, (&f, lu)) in rom.transfers(freqs).iter().zip(freqs.iter().zip(&lu)) {
             assert!(rel_diff(h, lu) <= MODAL_RTOL + 1e-12, "{f} Hz");
         }
-        let refs: Vec<&Mat<c64>> = lu.iter().collect();
+        let refs: Vec<MatRef<'_, c64>> = lu.iter().map(|h| h.as_ref()).collect();
         for ((d, &f), lu) in rom
             .transfer_differences(freqs, &refs)
             .iter()

@@ -61,7 +61,7 @@ use crate::snapshots::GrowBy;
 use crate::sweep::{ProgressFn, Response};
 use crate::units::hz_to_lambda;
 use crate::{Error, Result};
-use faer::{c64, Mat};
+use faer::{c64, Mat, MatRef};
 use std::time::Instant;
 
 /// The number of elastic eigenfrequencies of the body below `f_hz`, exactly, from the
@@ -192,7 +192,10 @@ fn errors_at(
         false,
         progress,
     )?;
-    Ok(rel_errs(rom, freqs.iter().copied().zip(&h1)))
+    Ok(rel_errs(
+        rom,
+        freqs.iter().copied().zip(h1.iter().map(|h| h.as_ref())),
+    ))
 }
 
 /// A local search for the largest error of a measured ROM near its worst measured point
@@ -634,8 +637,8 @@ impl<'a> Loop<'a> {
             picks
                 .iter()
                 .copied()
-                .zip(&absorbed.h)
-                .chain(self.sampled_h1.iter().map(|(f, h)| (*f, h))),
+                .zip(absorbed.h.iter().map(|h| h.as_ref()))
+                .chain(self.sampled_h1.iter().map(|(f, h)| (*f, h.as_ref()))),
         );
         let max = |e: &[(f64, f64)]| e.iter().map(|e| e.1).fold(0.0, f64::max);
         let true_error = max(&measured[..picks.len()]);
@@ -838,10 +841,13 @@ impl<'a> Loop<'a> {
     /// The current ROM's max true error at the sampled points (their H1 at the outputs is
     /// kept).
     fn sampled_error(&self) -> f64 {
-        rel_errs(&self.rom, self.sampled_h1.iter().map(|(f, h)| (*f, h)))
-            .into_iter()
-            .map(|e| e.1)
-            .fold(0.0, f64::max)
+        rel_errs(
+            &self.rom,
+            self.sampled_h1.iter().map(|(f, h)| (*f, h.as_ref())),
+        )
+        .into_iter()
+        .map(|e| e.1)
+        .fold(0.0, f64::max)
     }
 
     /// The current ROM's true elastic error at every candidate, from the shifted Krylov
@@ -862,13 +868,13 @@ impl<'a> Loop<'a> {
             &self.rom,
             self.candidates
                 .iter()
-                .zip(&h)
-                .filter_map(|(&f, h)| h.as_ref().map(|h| (f, h))),
+                .enumerate()
+                .filter_map(|(k, &f)| h.get(k).map(|h| (f, h))),
         );
         let mut answered = answered.into_iter().map(|e| e.1);
         Ok(Some(
-            h.iter()
-                .map(|h| match h {
+            (0..h.len())
+                .map(|k| match h.get(k) {
                     Some(_) => answered.next().unwrap_or(f64::INFINITY),
                     None => f64::INFINITY,
                 })
@@ -1000,9 +1006,9 @@ impl<'a> Loop<'a> {
 /// ([`Rom::transfers`]).
 fn rel_errs<'h>(
     rom: &Rom,
-    points: impl IntoIterator<Item = (f64, &'h Mat<c64>)>,
+    points: impl IntoIterator<Item = (f64, MatRef<'h, c64>)>,
 ) -> Vec<(f64, f64)> {
-    let (freqs, h1): (Vec<f64>, Vec<&Mat<c64>>) = points.into_iter().unzip();
+    let (freqs, h1): (Vec<f64>, Vec<MatRef<'h, c64>>) = points.into_iter().unzip();
     freqs
         .iter()
         .zip(&h1)
