@@ -54,8 +54,9 @@ fn scaled_sym(a: MatRef<'_, f64>) -> (Mat<f64>, f64) {
 
 /// A diag(d_f) C for each row d_f of D (frequencies × k, complex), for real A (m × k) and
 /// C (k × p), handed to `visit(f, re, im)` as its real and imaginary parts (length mp, entry
-/// (i, c) at i·p + c), frequency by frequency in ascending order. With
-/// E[i·p + c, j] = A[i, j] C[j, c] (mp × k) a block of frequencies takes two real products,
+/// (i, c) at c·m + i, column-major as a faer matrix), frequency by frequency in ascending
+/// order. With E[c·m + i, j] = A[i, j] C[j, c] (mp × k) a block of frequencies takes two real
+/// products,
 /// E (Re Dᵀ) and E (Im Dᵀ), instead of two small ones per frequency. The blocks are sized
 /// so that each product stays within 128 KiB: the same memory serves every
 /// block, in cache, and no large temporary is mapped afresh for each call (on the paper
@@ -66,9 +67,9 @@ pub fn for_each_scaled_product(
     c: MatRef<'_, f64>,
     mut visit: impl FnMut(usize, &[f64], &[f64]),
 ) {
-    let (p, k) = (c.ncols(), a.ncols());
-    let mp = a.nrows() * p;
-    let e = Mat::<f64>::from_fn(mp, k, |ic, j| a[(ic / p, j)] * c[(j, ic % p)]);
+    let (m, p, k) = (a.nrows(), c.ncols(), a.ncols());
+    let mp = m * p;
+    let e = Mat::<f64>::from_fn(mp, k, |ci, j| a[(ci % m, j)] * c[(j, ci / m)]);
     let par = faer::get_global_parallelism();
     let block = (SCALED_BLOCK_BYTES / (8 * mp.max(1))).max(1);
     let (mut re, mut im) = (Mat::<f64>::zeros(mp, 0), Mat::<f64>::zeros(mp, 0));
@@ -114,10 +115,8 @@ impl MatStack {
         let mut data = vec![c64::new(0.0, 0.0); m * p * d.nrows()];
         for_each_scaled_product(a, d, c, |f, re, im| {
             let out = &mut data[f * m * p..(f + 1) * m * p];
-            for col in 0..p {
-                for i in 0..m {
-                    out[col * m + i] = c64::new(re[i * p + col], im[i * p + col]);
-                }
+            for ((z, &r), &i) in out.iter_mut().zip(re).zip(im) {
+                *z = c64::new(r, i);
             }
         });
         MatStack { m, p, data }
@@ -141,9 +140,9 @@ impl MatStack {
 }
 
 /// The complex m × p matrix whose real and imaginary parts are `re` and `im`, entry (i, c)
-/// at i·p + c (the layout of [`for_each_scaled_product`]).
+/// at c·m + i (the layout of [`for_each_scaled_product`]).
 pub fn from_parts(m: usize, p: usize, re: &[f64], im: &[f64]) -> Mat<c64> {
-    Mat::from_fn(m, p, |i, c| c64::new(re[i * p + c], im[i * p + c]))
+    Mat::from_fn(m, p, |i, c| c64::new(re[c * m + i], im[c * m + i]))
 }
 
 #[cfg(test)]

@@ -502,9 +502,8 @@ impl<'a> ShiftedSpace<'a> {
         for_each_scaled_product(left.as_ref(), &d, ritz.c.as_ref(), |f, yr, yi| {
             let mut worst = 0.0f64;
             for (c, &bn) in norms.iter().enumerate().filter(|(_, &bn)| bn > 0.0) {
-                let q: f64 = (0..b)
-                    .map(|i| yr[i * p + c].powi(2) + yi[i * p + c].powi(2))
-                    .sum();
+                let col = c * b..(c + 1) * b;
+                let q: f64 = yr[col.clone()].iter().chain(&yi[col]).map(|y| y * y).sum();
                 worst = worst.max(taus[f].norm() * q.sqrt() / bn);
             }
             out.push(worst);

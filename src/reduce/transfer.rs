@@ -44,7 +44,7 @@ impl Rom {
     /// as many as frequencies): the error of the ROM against responses known at these
     /// frequencies, from the values of [`Rom::transfers`] without a matrix per frequency.
     pub fn transfer_differences(&self, freqs_hz: &[f64], h: &[MatRef<'_, c64>]) -> Vec<f64> {
-        let p = self.br.ncols();
+        let q = self.cr.nrows();
         let mut out = Vec::with_capacity(freqs_hz.len());
         self.for_each_transfer(freqs_hz, |k, hr| {
             let h = h[k];
@@ -52,9 +52,9 @@ impl Rom {
                 Some((re, im)) => {
                     let mut sum = 0.0;
                     for c in 0..h.ncols() {
-                        for i in 0..h.nrows() {
-                            let r = c64::new(re[i * p + c], im[i * p + c]);
-                            sum += (h[(i, c)] - r).norm_sqr();
+                        let col = c * q..(c + 1) * q;
+                        for ((z, r), i) in h.col(c).iter().zip(&re[col.clone()]).zip(&im[col]) {
+                            sum += (z.re - r).powi(2) + (z.im - i).powi(2);
                         }
                     }
                     sum.sqrt()
@@ -66,7 +66,7 @@ impl Rom {
     }
 
     /// Hands each f_k of `freqs_hz`, in order, to `visit(k, hr)`: hr the modal value's
-    /// real and imaginary parts (entry (i, c) at i·p + c) where its bound certifies it to
+    /// real and imaginary parts (entry (i, c) at c·q + i) where its bound certifies it to
     /// [`MODAL_RTOL`], `None` where the LU must answer (module doc).
     fn for_each_transfer(
         &self,
