@@ -101,7 +101,7 @@ const SCALED_BLOCK_BYTES: usize = 128 << 10;
 /// Complex m × p matrices, one per frequency, in one allocation (each column-major): many
 /// frequencies' responses without an allocation per frequency (2000 of them at m = p = 9
 /// took 2.7 ms to allocate as matrices, against 1.7 ms for the products themselves).
-#[derive(Clone, Debug, Default)]
+#[derive(Debug, Default)]
 pub struct MatStack {
     m: usize,
     p: usize,

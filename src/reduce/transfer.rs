@@ -48,6 +48,7 @@ impl Rom {
         let mut out = Vec::with_capacity(freqs_hz.len());
         self.for_each_transfer(freqs_hz, |k, hr| {
             let h = h[k];
+            debug_assert_eq!(h.nrows(), q, "a response with other outputs than the ROM's");
             out.push(match hr {
                 Some((re, im)) => {
                     let mut sum = 0.0;
