@@ -45,7 +45,7 @@
 //! systems by quasi-minimal residual iterations" (1993); the same Galerkin space is the
 //! moment-matching projection about σ (Grimme 1997, rational Krylov with one pole).
 
-use crate::dense::{for_each_scaled_product, sym_eigen, MatStack};
+use crate::dense::{scaled_products_into, sym_eigen, MatStack};
 use crate::eigen::{lanczos_step_and_full_pass, project_once, ShiftInvert};
 use crate::factor::{certify, Certificate, CertifyBuffers};
 use crate::pencil::{Coefficient, Pencil};
@@ -455,9 +455,10 @@ impl<'a> ShiftedSpace<'a> {
 
     /// y(τ) restricted to the rows `rows` of the basis (k × p complex over those rows).
     fn coefficients(ritz: &Ritz, tau: c64, rows: std::ops::Range<usize>) -> Mat<c64> {
-        let d = resolvent(ritz, &[tau], &[c64::new(1.0, 0.0)]);
+        let mut d = vec![c64::new(0.0, 0.0); ritz.theta.len()];
+        resolvent(ritz, tau, c64::new(1.0, 0.0), &mut d);
         let dc = Mat::<c64>::from_fn(ritz.c.nrows(), ritz.c.ncols(), |j, col| {
-            d[(0, j)] * ritz.c[(j, col)]
+            d[j] * ritz.c[(j, col)]
         });
         let z = ritz.z.subrows(rows.start, rows.len());
         let (re, im) = (dc.as_ref().map(|x| x.re), dc.as_ref().map(|x| x.im));
@@ -471,7 +472,7 @@ impl<'a> ShiftedSpace<'a> {
     /// Galerkin response at each of `freqs_hz`, from the Lanczos relation (module doc);
     /// infinite before the space was decomposed by [`Self::grow_for`]. The last block's
     /// coefficients at all of them come from one pair of products
-    /// ([`for_each_scaled_product`]).
+    /// ([`scaled_products_into`]).
     fn estimates(&self, freqs_hz: &[f64]) -> Vec<f64> {
         let Some(ritz) = &self.ritz else {
             return vec![f64::INFINITY; freqs_hz.len()];
@@ -483,7 +484,6 @@ impl<'a> ShiftedSpace<'a> {
             .iter()
             .map(|&f| self.shift(hz_to_omega(f)).0)
             .collect();
-        let d = resolvent(ritz, &taus, &vec![c64::new(1.0, 0.0); taus.len()]);
         let last = ritz.z.subrows(self.last, self.dim() - self.last);
         let p = self.r0.ncols();
         // yᴴGy = ‖G^{1/2} y‖² for the next block's M-Gram matrix G = VΛVᵀ ⪰ 0 (its rounding
@@ -498,16 +498,22 @@ impl<'a> ShiftedSpace<'a> {
         let left = &root * last;
         let b = left.nrows();
         let norms: Vec<f64> = (0..p).map(|c| self.r0.col(c).norm_l2()).collect();
-        let mut out = Vec::with_capacity(taus.len());
-        for_each_scaled_product(left.as_ref(), &d, ritz.c.as_ref(), |f, yr, yi| {
-            let mut worst = 0.0f64;
-            for (c, &bn) in norms.iter().enumerate().filter(|(_, &bn)| bn > 0.0) {
-                let col = c * b..(c + 1) * b;
-                let q: f64 = yr[col.clone()].iter().chain(&yi[col]).map(|y| y * y).sum();
-                worst = worst.max(taus[f].norm() * q.sqrt() / bn);
-            }
-            out.push(worst);
-        });
+        let mut out = vec![0.0f64; taus.len()];
+        let row = |f: usize, d: &mut [c64]| resolvent(ritz, taus[f], c64::new(1.0, 0.0), d);
+        scaled_products_into(
+            left.as_ref(),
+            ritz.c.as_ref(),
+            row,
+            &mut out,
+            1,
+            |f, _, yr, yi, worst| {
+                for (c, &bn) in norms.iter().enumerate().filter(|(_, &bn)| bn > 0.0) {
+                    let col = c * b..(c + 1) * b;
+                    let q: f64 = yr[col.clone()].iter().chain(&yi[col]).map(|y| y * y).sum();
+                    worst[0] = worst[0].max(taus[f].norm() * q.sqrt() / bn);
+                }
+            },
+        );
         out
     }
 
@@ -593,8 +599,8 @@ impl<'a> ShiftedSpace<'a> {
                 (tau, scale.inv())
             })
             .unzip();
-        let d = resolvent(ritz, &taus, &scales);
-        let h = MatStack::scaled_products(qz.as_ref(), &d, ritz.c.as_ref());
+        let row = |f: usize, d: &mut [c64]| resolvent(ritz, taus[f], scales[f], d);
+        let h = MatStack::scaled_products(qz.as_ref(), ritz.c.as_ref(), taus.len(), row);
         let answered = match self.estimated.take() {
             Some((dim, f, e)) if dim == k && f == freqs_hz => e,
             _ => self.estimates(freqs_hz),
@@ -674,11 +680,11 @@ impl<'a> ShiftedSpace<'a> {
     }
 }
 
-/// D[f, j] = s_f / (1 − τ_f θ_j): the Ritz values' resolvent at each shift τ_f, times s_f.
-fn resolvent(ritz: &Ritz, taus: &[c64], s: &[c64]) -> Mat<c64> {
-    Mat::from_fn(taus.len(), ritz.theta.len(), |f, j| {
-        s[f] / (c64::new(1.0, 0.0) - taus[f] * ritz.theta[j])
-    })
+/// d_j = s / (1 − τ θ_j): the Ritz values' resolvent at the shift τ, times s.
+fn resolvent(ritz: &Ritz, tau: c64, s: c64, d: &mut [c64]) {
+    for (d, &theta) in d.iter_mut().zip(&ritz.theta) {
+        *d = s / (c64::new(1.0, 0.0) - tau * theta);
+    }
 }
 
 #[cfg(test)]

@@ -15,7 +15,7 @@
 
 use super::spectrum::rom_modes;
 use super::Rom;
-use crate::dense::{for_each_scaled_product, from_parts};
+use crate::dense::{from_parts, scaled_products_into};
 use crate::units::hz_to_omega;
 use faer::{c64, Mat, MatRef};
 
@@ -30,12 +30,12 @@ impl Rom {
     /// doc).
     pub fn transfers(&self, freqs_hz: &[f64]) -> Vec<Mat<c64>> {
         let (q, p) = (self.cr.nrows(), self.br.ncols());
-        let mut out = Vec::with_capacity(freqs_hz.len());
-        self.for_each_transfer(freqs_hz, |k, h| {
-            out.push(match h {
+        let mut out = vec![Mat::new(); freqs_hz.len()];
+        self.transfers_into(freqs_hz, &mut out, |k, h, slot| {
+            *slot = match h {
                 Some((re, im)) => from_parts(q, p, re, im),
                 None => self.transfer(freqs_hz[k]),
-            });
+            };
         });
         out
     }
@@ -45,11 +45,11 @@ impl Rom {
     /// frequencies, from the values of [`Rom::transfers`] without a matrix per frequency.
     pub fn transfer_differences(&self, freqs_hz: &[f64], h: &[MatRef<'_, c64>]) -> Vec<f64> {
         let q = self.cr.nrows();
-        let mut out = Vec::with_capacity(freqs_hz.len());
-        self.for_each_transfer(freqs_hz, |k, hr| {
+        let mut out = vec![0.0; freqs_hz.len()];
+        self.transfers_into(freqs_hz, &mut out, |k, hr, slot| {
             let h = h[k];
             debug_assert_eq!(h.nrows(), q, "a response with other outputs than the ROM's");
-            out.push(match hr {
+            *slot = match hr {
                 Some((re, im)) => {
                     let mut sum = 0.0;
                     for c in 0..h.ncols() {
@@ -61,32 +61,40 @@ impl Rom {
                     sum.sqrt()
                 }
                 None => (h - self.transfer(freqs_hz[k])).norm_l2(),
-            });
+            };
         });
         out
     }
 
-    /// Hands each f_k of `freqs_hz`, in order, to `visit(k, hr)`: hr the modal value's
-    /// real and imaginary parts (entry (i, c) at c·q + i) where its bound certifies it to
-    /// [`MODAL_RTOL`], `None` where the LU must answer (module doc).
-    fn for_each_transfer(
+    /// Hands each f_k of `freqs_hz` to `visit(k, hr, &mut out[k])`, on rayon's threads: hr
+    /// the modal value's real and imaginary parts (entry (i, c) at c·q + i) where its bound
+    /// certifies it to [`MODAL_RTOL`], `None` where the LU must answer (module doc).
+    fn transfers_into<T: Send>(
         &self,
         freqs_hz: &[f64],
-        mut visit: impl FnMut(usize, Option<(&[f64], &[f64])>),
+        out: &mut [T],
+        visit: impl Fn(usize, Option<(&[f64], &[f64])>, &mut T) + Sync,
     ) {
         let modal = match freqs_hz.len() {
             0 | 1 => None,
             _ => Modal::new(self),
         };
         let Some(modal) = modal else {
-            (0..freqs_hz.len()).for_each(|k| visit(k, None));
+            for (k, slot) in out.iter_mut().enumerate() {
+                visit(k, None, slot);
+            }
             return;
         };
-        modal.for_each_transfer(freqs_hz, |k, re, im, bound| {
-            let norm = re.iter().chain(im).map(|x| x * x).sum::<f64>().sqrt();
-            visit(k, (bound <= MODAL_RTOL * norm).then_some((re, im)));
+        modal.transfers_into(freqs_hz, out, |k, re, im, bound, slot| {
+            let certified = bound <= MODAL_RTOL * norm(re, im);
+            visit(k, certified.then_some((re, im)), slot);
         });
     }
+}
+
+/// The Frobenius norm of the matrix with real and imaginary parts `re` and `im`.
+fn norm(re: &[f64], im: &[f64]) -> f64 {
+    re.iter().chain(im).map(|x| x * x).sum::<f64>().sqrt()
 }
 
 /// The modal form of a ROM with the bounds of its rounding (module doc).
@@ -102,12 +110,18 @@ struct Modal {
     f_norms: Vec<f64>,
     g_delta: Vec<f64>,
     f_delta: Vec<f64>,
-    /// Entrywise bounds of E's mass, stiffness and damping parts: E(ω) is bounded by
-    /// |−ω² + iωα|·e_m + |1 + iωβ|·e_k + ω·e_d.
-    e_m: Mat<f64>,
-    e_k: Mat<f64>,
-    e_d: Mat<f64>,
+    /// E(ω) is bounded entrywise by c_m·e_m + c_k·e_k + c_d·e_d, the bounds of its mass,
+    /// stiffness and damping parts, with c = (|−ω² + iωα|, |1 + iωβ|, ω); these are the
+    /// products e_a ∘ e_b (entrywise) in [`PAIRS`] order, a cross term counted twice.
+    e_pairs: [Mat<f64>; 6],
 }
+
+/// The pairs (a, b) of E's parts (0 mass, 1 stiffness, 2 damping) in
+/// [`Modal::e_pairs`]: η² = Σ over them of c_a c_b vᵀ(e_a ∘ e_b)v.
+const PAIRS: [(usize, usize); 6] = [(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)];
+
+/// Frequencies per block of [`Modal::etas`].
+const ETA_BLOCK: usize = 256;
 
 /// Unit roundoff.
 const U: f64 = f64::EPSILON / 2.0;
@@ -151,7 +165,13 @@ impl Modal {
                 .collect()
         };
         let row_sq = |a: &Mat<f64>| col_sq(&a.transpose().to_owned());
+        let parts = [&e_m, &e_k, &e_d];
+        let e_pairs = PAIRS.map(|(a, b)| {
+            let twice = if a == b { 1.0 } else { 2.0 };
+            Mat::from_fn(n, n, |i, j| twice * parts[a][(i, j)] * parts[b][(i, j)])
+        });
         Some(Modal {
+            e_pairs,
             g_norms: col_sq(&g),
             f_norms: row_sq(&f),
             g_delta: col_sq(&g_err),
@@ -161,70 +181,106 @@ impl Modal {
             beta,
             g,
             f,
-            e_m,
-            e_k,
-            e_d,
         })
     }
 
-    /// Hr(i·2πf) from the modal form at each f_k of `freqs_hz`, by blocks of real products
-    /// ([`for_each_scaled_product`]), handed to `visit(k, re, im, bound)` with the bound of
-    /// its error (module doc).
-    fn for_each_transfer(
-        &self,
-        freqs_hz: &[f64],
-        mut visit: impl FnMut(usize, &[f64], &[f64], f64),
-    ) {
-        let n = self.lambda.len();
-        let d = Mat::<c64>::from_fn(freqs_hz.len(), n, |i, k| {
-            let w = hz_to_omega(freqs_hz[i]);
-            let l = self.lambda[k];
-            c64::new(l - w * w, w * (self.alpha + self.beta * l)).inv()
-        });
-        let mut inv_mag = vec![0.0; n];
-        let bounds: Vec<f64> = freqs_hz
-            .iter()
-            .enumerate()
-            .map(|(i, &f)| {
-                for (m, d) in inv_mag.iter_mut().zip(d.row(i).iter()) {
-                    *m = d.norm();
-                }
-                self.bound(hz_to_omega(f), &inv_mag)
-            })
-            .collect();
-        for_each_scaled_product(self.g.as_ref(), &d, self.f.as_ref(), |k, re, im| {
-            visit(k, re, im, bounds[k]);
-        });
+    /// d_k = 1/(λ_k − ω² + iω(α + βλ_k)): the modal resolvent at ω.
+    fn resolvent(&self, w: f64, d: &mut [c64]) {
+        for (d, &l) in d.iter_mut().zip(&self.lambda) {
+            *d = c64::new(l - w * w, w * (self.alpha + self.beta * l)).inv();
+        }
     }
 
-    /// The bound of ‖H_modal − Hr‖_F at ω (module doc) from the magnitudes 1/|d_k| of the
-    /// modal resolvent; infinite where it does not hold (η ≥ ½ or a non-finite d_k).
-    fn bound(&self, w: f64, inv_mag: &[f64]) -> f64 {
-        if inv_mag.iter().any(|m| !m.is_finite()) {
-            return f64::INFINITY;
-        }
-        let (cm, ck, cd) = (w * w.hypot(self.alpha), (w * self.beta).hypot(1.0), w.abs());
+    /// Hr(i·2πf) from the modal form at each f_k of `freqs_hz`, by blocks of real products
+    /// on rayon's threads ([`scaled_products_into`]), handed to `visit(k, re, im, bound,
+    /// &mut out[k])` with the bound of its error (module doc).
+    fn transfers_into<T: Send>(
+        &self,
+        freqs_hz: &[f64],
+        out: &mut [T],
+        visit: impl Fn(usize, &[f64], &[f64], f64, &mut T) + Sync,
+    ) {
+        let etas = self.etas(freqs_hz);
+        let row = |k: usize, d: &mut [c64]| self.resolvent(hz_to_omega(freqs_hz[k]), d);
+        scaled_products_into(
+            self.g.as_ref(),
+            self.f.as_ref(),
+            row,
+            out,
+            1,
+            |k, d, re, im, slot| visit(k, re, im, self.bound(d, etas[k]), &mut slot[0]),
+        );
+    }
+
+    /// η = ‖|D|^{-1/2} E |D|^{-1/2}‖_F's bound at each f of `freqs_hz` (module doc):
+    /// η² = Σ_ij e_ij² v_i v_j with v = (|d_k|) and e = c_m·e_m + c_k·e_k + c_d·e_d, which is
+    /// Σ_ab c_a c_b vᵀ(e_a ∘ e_b)v over [`PAIRS`]; a block of frequencies takes one real
+    /// product V (e_a ∘ e_b) per pair, the blocks on rayon's threads. Infinite where a d_k is
+    /// not finite.
+    fn etas(&self, freqs_hz: &[f64]) -> Vec<f64> {
+        use rayon::prelude::*;
         let n = self.lambda.len();
-        let mut eta2 = 0.0;
-        for j in 0..n {
-            for i in 0..n {
-                let e = cm * self.e_m[(i, j)] + ck * self.e_k[(i, j)] + cd * self.e_d[(i, j)];
-                eta2 += e * e * inv_mag[i] * inv_mag[j];
-            }
-        }
-        let eta = eta2.sqrt();
+        let mut etas = vec![0.0f64; freqs_hz.len()];
+        etas.par_chunks_mut(ETA_BLOCK)
+            .enumerate()
+            .for_each(|(b, etas)| {
+                let freqs = &freqs_hz[b * ETA_BLOCK..][..etas.len()];
+                let mut d = vec![c64::new(0.0, 0.0); n];
+                let mut v = Mat::<f64>::zeros(freqs.len(), n);
+                for (f, &freq) in freqs.iter().enumerate() {
+                    self.resolvent(hz_to_omega(freq), &mut d);
+                    for (k, d) in d.iter().enumerate() {
+                        v[(f, k)] = d.norm();
+                    }
+                }
+                let scales: Vec<[f64; 3]> = freqs
+                    .iter()
+                    .map(|&f| self.parts_scale(hz_to_omega(f)))
+                    .collect();
+                let mut sums = vec![0.0f64; freqs.len()];
+                for (&(a, b), pair) in PAIRS.iter().zip(&self.e_pairs) {
+                    let vp = v.as_ref() * pair.as_ref();
+                    for (f, (sum, c)) in sums.iter_mut().zip(&scales).enumerate() {
+                        let form: f64 = (0..n).map(|k| vp[(f, k)] * v[(f, k)]).sum();
+                        *sum += c[a] * c[b] * form;
+                    }
+                }
+                for (f, (eta, sum)) in etas.iter_mut().zip(sums).enumerate() {
+                    let finite = (0..n).all(|k| v[(f, k)].is_finite());
+                    *eta = if finite { sum.sqrt() } else { f64::INFINITY };
+                }
+            });
+        etas
+    }
+
+    /// c = (|−ω² + iωα|, |1 + iωβ|, ω): the scales of E's mass, stiffness and damping parts
+    /// at ω.
+    fn parts_scale(&self, w: f64) -> [f64; 3] {
+        [w * w.hypot(self.alpha), (w * self.beta).hypot(1.0), w.abs()]
+    }
+
+    /// The bound of ‖H_modal − Hr‖_F (module doc) from the modal resolvent `d` at ω and η
+    /// there ([`Self::etas`]); infinite where it does not hold (η ≥ ½ or a non-finite d_k).
+    fn bound(&self, d: &[c64], eta: f64) -> f64 {
         if !(eta < 0.5) {
             return f64::INFINITY;
         }
-        let weighted = |v: &[f64]| {
-            v.iter()
-                .zip(inv_mag)
-                .map(|(v, m)| v * m)
-                .sum::<f64>()
-                .sqrt()
-        };
-        let (g, f) = (weighted(&self.g_norms), weighted(&self.f_norms));
-        let (gd, fd) = (weighted(&self.g_delta), weighted(&self.f_delta));
+        let n = self.lambda.len();
+        // g, f, g_δ, f_δ: the squared norms weighted by |d_k|
+        let mut sums = [0.0f64; 4];
+        for (k, d) in d.iter().enumerate() {
+            let m = d.norm();
+            let norms = [
+                self.g_norms[k],
+                self.f_norms[k],
+                self.g_delta[k],
+                self.f_delta[k],
+            ];
+            for (s, x) in sums.iter_mut().zip(norms) {
+                *s += x * m;
+            }
+        }
+        let [g, f, gd, fd] = sums.map(f64::sqrt);
         let sum_rounding = (n as f64 + 8.0) * 4.0 * U * g * f;
         (eta * g * f + gd * f + g * fd + gd * fd) / (1.0 - eta) + sum_rounding
     }
@@ -293,8 +349,8 @@ mod tests {
         let modal = Modal::new(rom).unwrap();
         let lu: Vec<Mat<c64>> = freqs.iter().map(|&f| rom.transfer(f)).collect();
         let p = rom.br.ncols();
-        let mut refused = Vec::new();
-        modal.for_each_transfer(freqs, |k, re, im, bound| {
+        let mut refused = vec![false; freqs.len()];
+        modal.transfers_into(freqs, &mut refused, |k, re, im, bound, refused| {
             let (f, lu) = (freqs[k], &lu[k]);
             let h = from_parts(lu.nrows(), p, re, im);
             let diff = (&h - lu).norm_l2();
@@ -302,10 +358,12 @@ mod tests {
                 diff <= bound + 1e-12 * lu.norm_l2(),
                 "{f} Hz: {diff:e} > {bound:e}"
             );
-            if bound > MODAL_RTOL * h.norm_l2() {
-                refused.push(f);
-            }
+            *refused = bound > MODAL_RTOL * h.norm_l2();
         });
+        let refused: Vec<f64> = (0..freqs.len())
+            .filter(|&k| refused[k])
+            .map(|k| freqs[k])
+            .collect();
         for (h, (&f, lu)) in rom.transfers(freqs).iter().zip(freqs.iter().zip(&lu)) {
             assert!(rel_diff(h, lu) <= MODAL_RTOL + 1e-12, "{f} Hz");
         }
