@@ -86,15 +86,11 @@ impl Rom {
             return;
         };
         modal.transfers_into(freqs_hz, out, |k, re, im, bound, slot| {
-            let certified = bound <= MODAL_RTOL * norm(re, im);
+            let norm = re.iter().chain(im).map(|x| x * x).sum::<f64>().sqrt();
+            let certified = bound <= MODAL_RTOL * norm;
             visit(k, certified.then_some((re, im)), slot);
         });
     }
-}
-
-/// The Frobenius norm of the matrix with real and imaginary parts `re` and `im`.
-fn norm(re: &[f64], im: &[f64]) -> f64 {
-    re.iter().chain(im).map(|x| x * x).sum::<f64>().sqrt()
 }
 
 /// The modal form of a ROM with the bounds of its rounding (module doc).
@@ -215,8 +211,8 @@ impl Modal {
     /// η = ‖|D|^{-1/2} E |D|^{-1/2}‖_F's bound at each f of `freqs_hz` (module doc):
     /// η² = Σ_ij e_ij² v_i v_j with v = (|d_k|) and e = c_m·e_m + c_k·e_k + c_d·e_d, which is
     /// Σ_ab c_a c_b vᵀ(e_a ∘ e_b)v over [`PAIRS`]; a block of frequencies takes one real
-    /// product V (e_a ∘ e_b) per pair, the blocks on rayon's threads. Infinite where a d_k is
-    /// not finite.
+    /// product V (e_a ∘ e_b) per pair, the blocks on rayon's threads (each block's numbers
+    /// the same on any thread count). Infinite where a d_k is not finite.
     fn etas(&self, freqs_hz: &[f64]) -> Vec<f64> {
         use rayon::prelude::*;
         let n = self.lambda.len();
@@ -238,8 +234,16 @@ impl Modal {
                     .map(|&f| self.parts_scale(hz_to_omega(f)))
                     .collect();
                 let mut sums = vec![0.0f64; freqs.len()];
+                let mut vp = Mat::<f64>::zeros(freqs.len(), n);
                 for (&(a, b), pair) in PAIRS.iter().zip(&self.e_pairs) {
-                    let vp = v.as_ref() * pair.as_ref();
+                    faer::linalg::matmul::matmul(
+                        vp.as_mut(),
+                        faer::Accum::Replace,
+                        v.as_ref(),
+                        pair.as_ref(),
+                        1.0,
+                        faer::Par::Seq,
+                    );
                     for (f, (sum, c)) in sums.iter_mut().zip(&scales).enumerate() {
                         let form: f64 = (0..n).map(|k| vp[(f, k)] * v[(f, k)]).sum();
                         *sum += c[a] * c[b] * form;
