@@ -947,7 +947,8 @@ enum SparsemorStatus sparsemor_rom_transfer_error(const struct SparsemorModel *m
 /**
  * The request and result of a tolerance-driven line-fitting ROM: the tolerance asked for
  * (`*tol_out`), the error reached (`*error_out`: the max true elastic ε of eq. 23 at the
- * sampled points and the verified indicator maxima — a lower bound of the max over the band;
+ * sampled points and the last step's points, the verified indicator maxima or every
+ * candidate of a shifted Krylov space's grid — a lower bound of the max over the band;
  * when the tolerance was not met, the best such value of the loop) and the factorizations
  * spent (`*factorizations_out`). Any out pointer may be NULL. `SPARSEMOR_STATUS_NOT_AVAILABLE`
  * for a ROM that did not come from the sampling loop.

@@ -389,7 +389,7 @@ pub fn solve_summary(a: &sparsemor::sweep::SolveAccuracy) -> String {
 }
 
 fn print_steps(steps: &[Step]) {
-    println!("| step | order | new points (Hz) | indicator max | true eps at new | true eps at sampled | full solves | factorizations | time s | action |");
+    println!("| step | order | new points (Hz) | indicator max | true eps at new (or grid) | true eps at sampled | full solves | factorizations | time s | action |");
     println!("|---|---|---|---|---|---|---|---|---|---|");
     // a value the step did not measure (NaN in the library's report: the seed step has no
     // indicator, a growth step refits without new points) is left empty; the action says why

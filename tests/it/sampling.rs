@@ -465,6 +465,57 @@ fn defaults_reach_the_tolerance_on_the_bracket() {
     }
 }
 
+/// A ROM converged on the Krylov space's grid reports the larger of its errors on the grid
+/// and at the sampled points. The bracket over (0, 1500] Hz at tol 1e-2: the grid's maximum
+/// (6.4e-4) lies between the sampled points (2.7e-5 there), and the report used to state
+/// only the latter. The stated error is the ROM's maximum over the 2000 candidates, measured
+/// again by certified full solves.
+#[test]
+fn a_rom_converged_on_the_grid_reports_its_grid_error() {
+    use sparsemor::fe::bracket::{bracket_model, BracketSpec};
+    let (model, mut scene) = bracket_model(&BracketSpec::steel()).unwrap();
+    scene.band_hz = [0.0, 1500.0];
+    let body = Body::new(&model).unwrap();
+    let tol = 1e-2;
+    let o = LineFitOptions::new(
+        Interface::Auto,
+        References::Tolerance(SamplingOptions::new(tol)),
+    );
+    let rom = linefit::reduce(&body, &scene, &o, None, &no_progress).unwrap();
+    let r = report(&rom);
+    assert_eq!(r.outcome, Outcome::Converged);
+    let last = r.steps.last().unwrap();
+    assert!(
+        last.points_hz.is_empty(),
+        "not converged on the grid: {last:?}"
+    );
+    let (grid, sampled) = (last.indicator_max, last.sampled_error_max);
+    assert!(
+        grid > 10.0 * sampled,
+        "grid {grid:.3e}, sampled {sampled:.3e}"
+    );
+    assert_eq!(r.error, grid);
+    let band = sparsemor::scene::positive_band(scene.band_hz);
+    let candidates: Vec<f64> = (0..2000)
+        .map(|k| band[0] + (band[1] - band[0]) * k as f64 / 1999.0)
+        .collect();
+    let reference = Reference::compute(
+        &body,
+        &scene,
+        &candidates,
+        &SweepOptions::default(),
+        &no_progress,
+    )
+    .unwrap();
+    let v = verified_max(&reference, &rom);
+    println!("reported {:.6e}, 2000 certified solves {v:.6e}", r.error);
+    assert!(
+        (v - r.error).abs() <= 1e-6 * v,
+        "{v:.6e} vs {:.6e}",
+        r.error
+    );
+}
+
 /// A 36-DoF bar (1×1×2 elements) has no resonance in [0, 1000] Hz: the indicator peaks next to
 /// the seeds and falls away, so no local maximum lies away from the sampled points. The loop
 /// used to measure nothing, report true error NaN and grow the interface to order 18 around a

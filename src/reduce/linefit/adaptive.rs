@@ -608,7 +608,7 @@ impl<'a> Loop<'a> {
                     order: self.part.order(),
                     points_hz: Vec::new(),
                     indicator_max: grid_max,
-                    true_error_max: f64::NAN,
+                    true_error_max: grid_max,
                     sampled_error_max: sampled_error,
                     solves,
                     factorizations: self.counted + self.engine.accuracy().factorizations(),

@@ -10,8 +10,9 @@ pub struct Step {
     pub points_hz: Vec<f64>,
     /// Max of the indicator Δ over the candidates before picking (NaN for the seed step).
     pub indicator_max: f64,
-    /// Max true elastic ε of the current ROM at the picked points (NaN for the seed step and a
-    /// growth step).
+    /// Max true elastic ε of the current ROM at the picked points, or at every candidate when
+    /// the step measured the whole grid from a shifted Krylov space (NaN for the seed step and
+    /// a growth step).
     pub true_error_max: f64,
     /// Max true elastic ε of the current ROM at the earlier sampled points (NaN when the
     /// step measured none: the seed step, and a growth step, which refits without new points).
@@ -69,7 +70,7 @@ pub struct SamplingReport {
     /// How it ended.
     pub outcome: Outcome,
     /// The error of the returned ROM as the loop measured it: the max true ε at its step's
-    /// new and sampled points ([`Self::ERROR_KIND`]). On convergence the returned ROM is the
+    /// new points (or candidates) and sampled points ([`Self::ERROR_KIND`]). On convergence the returned ROM is the
     /// last one measured; otherwise it is the measured ROM of smallest error (NaN when none
     /// was measured).
     pub error: f64,
@@ -96,7 +97,7 @@ pub struct SamplingReport {
 
 impl SamplingReport {
     /// What kind of number [`Self::error`] is.
-    pub const ERROR_KIND: &'static str = "max true elastic eps (eq. 23) of the loop's ROMs at the sampled points and the verified indicator maxima (a lower bound of the max over the band)";
+    pub const ERROR_KIND: &'static str = "max true elastic eps (eq. 23) of the loop's ROMs at the sampled points and at the last step's points: the verified indicator maxima, or every candidate of the grid a shifted Krylov space answered (a lower bound of the max over the band)";
 
     /// "S full solves, F factorizations".
     pub fn cost(&self) -> String {
