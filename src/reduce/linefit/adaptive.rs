@@ -572,6 +572,7 @@ impl<'a> Loop<'a> {
     fn refine(&mut self) -> Result<Next> {
         // right after a growth, a fit still above tol at the sampled points grows again: the
         // growth was made for them, and the grid's error is not needed to see it fall short
+        let mut known_sampled_error = None;
         if self.grown_at > 0
             && self.steps.len() == self.grown_at + 1
             && self.forced.is_empty()
@@ -583,6 +584,7 @@ impl<'a> Loop<'a> {
                 self.last_sampled_error = sampled_error;
                 return Ok(Next::Stagnated);
             }
+            known_sampled_error = Some(sampled_error);
         }
         self.last_sampled_error = f64::NAN;
         let grid = self.grid_errors()?;
@@ -601,7 +603,7 @@ impl<'a> Loop<'a> {
             // the ROM's error over the whole grid is known: within tol there and at the
             // sampled points, it has converged (the verification pass certifies it)
             let grid_max = delta.iter().copied().fold(0.0, f64::max);
-            let sampled_error = self.sampled_error();
+            let sampled_error = known_sampled_error.unwrap_or_else(|| self.sampled_error());
             if grid_max <= self.sampling.tol && sampled_error <= self.sampling.tol {
                 let solves = self.steps.last().map_or(0, |s| s.solves) + self.verify_spent;
                 self.steps.push(Step {
