@@ -62,6 +62,13 @@ fn sampled_with(
     linefit::reduce(&Body::new(m)?, scene, &o, None, progress)
 }
 
+/// `reduce --tol tol` alone: line-fitting with the default interface and sampling options.
+fn by_default(body: &Body, scene: &Scene, tol: f64) -> Rom {
+    let s = SamplingOptions::new(tol);
+    let o = LineFitOptions::new(Interface::Auto, References::Tolerance(s));
+    linefit::reduce(body, scene, &o, None, &no_progress).unwrap()
+}
+
 fn report(rom: &Rom) -> &SamplingReport {
     rom.sampling().expect("a sampling report")
 }
@@ -440,15 +447,11 @@ fn defaults_reach_the_tolerance_on_the_bracket() {
     let (model, scene) = bracket_model(&BracketSpec::steel()).unwrap();
     let body = Body::new(&model).unwrap();
     let band = sparsemor::scene::positive_band(scene.band_hz);
-    let grid: Vec<f64> = (0..2000)
-        .map(|k| band[0] + (band[1] - band[0]) * k as f64 / 1999.0)
-        .collect();
+    let grid = sparsemor::grid::linspace(band, 2000);
     let reference =
         Reference::compute(&body, &scene, &grid, &SweepOptions::default(), &no_progress).unwrap();
     for tol in [1e-2, 1e-3, 1e-4] {
-        let s = SamplingOptions::new(tol);
-        let o = LineFitOptions::new(Interface::Auto, References::Tolerance(s));
-        let rom = linefit::reduce(&body, &scene, &o, None, &no_progress).unwrap();
+        let rom = by_default(&body, &scene, tol);
         let r = report(&rom);
         let v = verified_max(&reference, &rom);
         let stored = r.verified.unwrap().error;
@@ -477,11 +480,7 @@ fn a_rom_converged_on_the_grid_reports_its_grid_error() {
     scene.band_hz = [0.0, 1500.0];
     let body = Body::new(&model).unwrap();
     let tol = 1e-2;
-    let o = LineFitOptions::new(
-        Interface::Auto,
-        References::Tolerance(SamplingOptions::new(tol)),
-    );
-    let rom = linefit::reduce(&body, &scene, &o, None, &no_progress).unwrap();
+    let rom = by_default(&body, &scene, tol);
     let r = report(&rom);
     assert_eq!(r.outcome, Outcome::Converged);
     let last = r.steps.last().unwrap();
@@ -496,9 +495,7 @@ fn a_rom_converged_on_the_grid_reports_its_grid_error() {
     );
     assert_eq!(r.error, grid);
     let band = sparsemor::scene::positive_band(scene.band_hz);
-    let candidates: Vec<f64> = (0..2000)
-        .map(|k| band[0] + (band[1] - band[0]) * k as f64 / 1999.0)
-        .collect();
+    let candidates = sparsemor::grid::linspace(band, 2000);
     let reference = Reference::compute(
         &body,
         &scene,
@@ -532,11 +529,7 @@ fn a_band_without_resonances_converges_with_measured_errors() {
     assert_eq!(m.n(), 36);
     let body = Body::new(&m).unwrap();
     let tol = 1e-6;
-    let o = LineFitOptions::new(
-        Interface::Auto,
-        References::Tolerance(SamplingOptions::new(tol)),
-    );
-    let rom = linefit::reduce(&body, &scene, &o, None, &no_progress).unwrap();
+    let rom = by_default(&body, &scene, tol);
     let r = report(&rom);
     assert_eq!(r.outcome, Outcome::Converged, "{:?}", r.steps);
     assert!(
