@@ -16,7 +16,8 @@
 //! The default [`BracketSpec::steel`] (legs 200 × 150 mm, 20 mm thick, 50 mm wide, 10 mm
 //! cells) has 330 elements, 612 nodes, N = 1836 DoFs.
 
-use super::Hex8;
+use super::bar::PAPER_RAYLEIGH_BETA;
+use super::hex8::Hex8;
 use crate::model::{Damping, Model};
 use crate::scene::Scene;
 use crate::sparse::Csc;
@@ -173,7 +174,7 @@ pub fn bracket_model(spec: &BracketSpec) -> Result<(Model, Scene)> {
     let name = format!("bracket {nx}x{ny}x{nz} (t = {t} cells)");
     let damping = Damping::Rayleigh {
         alpha: 0.0,
-        beta: super::PAPER_RAYLEIGH_BETA,
+        beta: PAPER_RAYLEIGH_BETA,
     };
     let (model, _) = Model::new(name, mass, stiffness, damping, Some(nodes), 3)?;
     scene.validate(model.n(), "bracket scene")?;

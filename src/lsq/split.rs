@@ -10,7 +10,7 @@
 //! merged (TSQR, [`Split::merge`]). The frequency engine runs this for any caller; what the
 //! rows mean (line-fitting's interface) is the caller's.
 
-use super::StreamedQr;
+use super::qr::StreamedQr;
 use crate::{Error, Result};
 use faer::linalg::matmul::matmul;
 use faer::{c64, Accum, Mat, MatMut, MatRef, Par};
