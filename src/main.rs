@@ -8,10 +8,9 @@ use std::alloc::{GlobalAlloc, Layout, System};
 /// transparent huge pages (`madvise(MADV_HUGEPAGE)`; Linux's default THP mode is `madvise`).
 /// A large block comes from a fresh mapping, so every 4 KiB page of it costs a page fault
 /// on first touch; the responses, bases and projections of a 10⁵–10⁶-DoF body are such
-/// blocks, allocated anew per frequency and per step. Measured (docs/performance.md): on
-/// the 120k-DoF 3 m bar, `reduce --tol 1e-2` took 46.4 s instead of 57.1 s, system time
-/// 6.4 s instead of 13.6 s, peak RSS 1.40 GB against 1.36. Library users get about the
-/// same from the environment, `GLIBC_TUNABLES=glibc.malloc.hugetlb=1`.
+/// blocks, allocated anew per frequency and per step, and huge pages fault 512 times fewer
+/// pages for them (the times are in docs/performance.md). Library users get about the same
+/// from the environment, `GLIBC_TUNABLES=glibc.malloc.hugetlb=1`.
 struct HugePages;
 
 /// Blocks from this size up are advised (two huge pages: at least one lies inside).
@@ -92,8 +91,8 @@ fn main() {
 /// The ranks of the MPI job this process was started in by `mpirun` (cargo feature `mpi`),
 /// or `None`. A panic on any rank then ends every rank (`MPI_Abort`), after its message.
 #[cfg(feature = "mpi")]
-fn cluster() -> sparsemor::Result<Option<std::sync::Arc<dyn sparsemor::distributed::Cluster>>> {
-    use sparsemor::distributed::mpi;
+fn cluster() -> sparsemor::Result<Option<std::sync::Arc<dyn sparsemor::engine::Cluster>>> {
+    use sparsemor::engine::mpi;
     let launched = ["OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK"]
         .iter()
         .any(|v| std::env::var_os(v).is_some());
@@ -110,6 +109,6 @@ fn cluster() -> sparsemor::Result<Option<std::sync::Arc<dyn sparsemor::distribut
 }
 
 #[cfg(not(feature = "mpi"))]
-fn cluster() -> sparsemor::Result<Option<std::sync::Arc<dyn sparsemor::distributed::Cluster>>> {
+fn cluster() -> sparsemor::Result<Option<std::sync::Arc<dyn sparsemor::engine::Cluster>>> {
     Ok(None)
 }

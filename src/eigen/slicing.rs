@@ -82,7 +82,7 @@ pub(super) struct Slicer<'b> {
 
 impl<'b> Slicer<'b> {
     pub(super) fn new(body: &'b Body, opts: &'b EigenOptions) -> Result<Self> {
-        let threads = crate::sweep::resolve_threads(opts.threads);
+        let threads = crate::pool::resolve_threads(opts.threads);
         let budget = opts
             .memory_budget
             .unwrap_or_else(|| crate::memory::default_budget(2));
@@ -163,8 +163,8 @@ impl<'b> Slicer<'b> {
         let total = upper.1.saturating_sub(nu_lo);
         // a multiple of the workers' count of slices: a slice left over for a second round
         // would keep one worker busy while the others idle; a band of more than a quarter
-        // slice is shared among the workers too (106 modes of the 10³ cube, 2 threads: 0.56 s
-        // in two slices after the probe, 0.75 s in one)
+        // slice is shared among the workers too, as one slice would leave a worker idle
+        // (docs/performance.md)
         let mut parts = total.div_ceil(self.size).max(1);
         if parts > 1 || 4 * total > self.size {
             parts = parts.next_multiple_of(self.threads.max(1));
@@ -222,8 +222,9 @@ impl<'b> Slicer<'b> {
     /// cond(K − σM) ≈ λ_max/|σ| stays near 10⁸ or below. Without it a band end far below the spectrum (1 Hz, the
     /// library's default) gave cond ~ 10¹⁴ on a 6³ cube: solves with relative errors of 10⁻²,
     /// an estimate of the wanted modes from noise, and a slice that never converged. With a
-    /// band end (the CLI's scene) the floor is not applied: on the 10⁶-DoF bar it would put σ
-    /// at a fifth of the 20th mode's λ, and its lowest 20 took 248 solves instead of 148.
+    /// band end (the CLI's scene) the floor is not applied: on a large body it can lie above
+    /// the lowest wanted modes and place σ among them, where the slice needs far more solves
+    /// (docs/performance.md).
     fn conditioning_floor(&self) -> f64 {
         let p = self.body.pencil();
         let (k, m) = (
