@@ -1,6 +1,12 @@
 #!/usr/bin/env python3
-"""The import graph between files of src/ (docs/design.md §5): fails on a cycle or on an
-import from a lower layer to a higher one.
+"""The import graph of src/ (docs/design.md §5), between files and between modules: fails on
+a cycle or on an import from a lower layer to a higher one.
+
+Between modules: the files of a module's subtree count as the module. Two sibling modules
+(children of one parent, the crate's top-level modules included) that import each other,
+directly or around a cycle of siblings, are a cycle, and so is a file that imports the
+`mod.rs` (or the root file) of a module it lies in: the parent declares the child, so the
+child importing its parent is a loop a reader sees, though no file imports itself.
 
 An edge A -> B is drawn when code in file A names an item that lives in file B: `use` lists
 and inline paths starting with `crate::`, `super::`, `self::`, a child module of A's module,
@@ -10,7 +16,7 @@ re-export itself is no edge). Comments, string literals and `#[cfg(test)]` items
 read: unit tests may use anything.
 
     python3 .ci/imports.py           # check; exit 1 on a cycle or a layer violation
-    python3 .ci/imports.py --edges   # print every edge as well
+    python3 .ci/imports.py --edges   # print every edge (files, then modules) as well
 """
 import re
 import sys
@@ -22,13 +28,13 @@ SRC = Path(__file__).resolve().parent.parent / "src"
 # ones. The first matching prefix (module path as `a::b`) decides a file's layer.
 LAYERS = [
     ("support", ["error", "units", "memory", "sparse", "dense", "pool", "lsq", "snapshots",
-                 "distributed::cluster", "grid", "random"]),
+                 "engine::cluster", "grid", "random"]),
     ("model", ["model", "scene", "io::atomic", "io::binary", "io::matrix_market", "io::npz",
                "io::import", "io::text", "io"]),
     ("pencil", ["pencil", "rigid", "fe"]),
     ("factor", ["factor"]),
     ("body", ["body", "io::model_dir"]),
-    ("engine", ["sweep", "distributed", "frf", "eigen", "multishift"]),
+    ("engine", ["sweep", "engine", "frf", "eigen", "shifted_space"]),
     ("reduce", ["reduce"]),
     ("metrics", ["metrics"]),
     ("output", ["io::rom_dir", "io::exudyn", "io::op4", "io::dmig", "io::mbdyn", "io::sid",
@@ -189,6 +195,60 @@ def expand(tree, prefix=()):
         yield segs, alias or segs[-1]
 
 
+def strongly_connected(nodes, edges):
+    """The strongly connected components of more than one node (Tarjan)."""
+    index, low, on, stack, sccs, counter = {}, {}, set(), [], [], [0]
+
+    def visit(v):
+        index[v] = low[v] = counter[0]
+        counter[0] += 1
+        stack.append(v)
+        on.add(v)
+        for w in edges.get(v, ()):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                sccs.append(comp)
+
+    for v in nodes:
+        if v not in index:
+            visit(v)
+    return sccs
+
+
+def module_edges(file_edges, path_of):
+    """Edges between sibling modules, and the imports of an enclosing module's own file.
+
+    `path_of(file)` is the module path of a file (a `mod.rs` or root file: its module's).
+    An edge A -> B between files whose paths first differ at depth d, both deeper than d,
+    is an edge between the siblings path_a[:d+1] -> path_b[:d+1]; when B's path is a prefix
+    of A's, A imports the file of a module it lies in (returned apart)."""
+    siblings, upward = {}, []
+    for a, outs in file_edges.items():
+        pa = path_of(a)
+        for b in outs:
+            pb = path_of(b)
+            d = 0
+            while d < min(len(pa), len(pb)) and pa[d] == pb[d]:
+                d += 1
+            if d < len(pa) and d < len(pb):
+                siblings.setdefault(tuple(pa[:d + 1]), set()).add(tuple(pb[:d + 1]))
+            elif d == len(pb) and d < len(pa):
+                upward.append((a, b))
+    return siblings, upward
+
+
 def main():
     modules = module_files()
     lib_root = modules[()]
@@ -294,36 +354,8 @@ def main():
             for t in sorted(edges[f], key=rel):
                 print(f"{rel(f)} -> {rel(t)}")
 
-    # cycles: strongly connected components (Tarjan)
-    index, low, on, stack, sccs, counter = {}, {}, set(), [], [], [0]
     sys.setrecursionlimit(10000)
-
-    def visit(v):
-        index[v] = low[v] = counter[0]
-        counter[0] += 1
-        stack.append(v)
-        on.add(v)
-        for w in edges.get(v, ()):
-            if w not in index:
-                visit(w)
-                low[v] = min(low[v], low[w])
-            elif w in on:
-                low[v] = min(low[v], index[w])
-        if low[v] == index[v]:
-            comp = []
-            while True:
-                w = stack.pop()
-                on.discard(w)
-                comp.append(w)
-                if w == v:
-                    break
-            if len(comp) > 1:
-                sccs.append(comp)
-
-    for v in list(edges):
-        if v not in index:
-            visit(v)
-
+    sccs = strongly_connected(list(edges), edges)
     failed = False
     for comp in sccs:
         failed = True
@@ -343,9 +375,32 @@ def main():
             if lt is not None and lt > lf:
                 print(f"layer violation: {rel(f)} ({LAYERS[lf][0]}) imports {rel(t)} ({LAYERS[lt][0]})")
                 failed = True
+
+    # modules: the main binary's modules are the crate root's children like the library's
+    path_of = {m.file: (m.path[1:] if m.path[:1] == ["main"] else m.path) for m in modules.values()}
+    siblings, upward = module_edges(edges, path_of.get)
+    name = lambda path: "::".join(path) or "crate"
+    if "--edges" in sys.argv:
+        for a in sorted(siblings):
+            for b in sorted(siblings[a]):
+                print(f"{name(a)} => {name(b)}")
+    module_sccs = strongly_connected(sorted(siblings), siblings)
+    for comp in module_sccs:
+        failed = True
+        members = set(comp)
+        print("module cycle among: " + ", ".join(sorted(name(m) for m in comp)))
+        for a in sorted(comp):
+            for b in sorted(siblings[a] & members):
+                print(f"    {name(a)} => {name(b)}")
+    for a, b in sorted(upward, key=lambda e: (rel(e[0]), rel(e[1]))):
+        failed = True
+        print(f"module cycle: {rel(a)} imports {rel(b)}, the file of a module it lies in")
     n_edges = sum(len(v) for v in edges.values())
-    print(f"imports: {len(edges)} files, {n_edges} edges, {len(sccs)} cycles"
-          + (", layer rules broken" if failed and not sccs else ""))
+    n_module_edges = sum(len(v) for v in siblings.values())
+    print(f"imports: {len(edges)} files, {n_edges} edges, {len(sccs)} cycles; "
+          f"{n_module_edges} edges between sibling modules, "
+          f"{len(module_sccs) + len(upward)} module cycles"
+          + (", layer rules broken" if failed and not sccs and not module_sccs and not upward else ""))
     return 1 if failed else 0
 
 
