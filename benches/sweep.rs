@@ -85,8 +85,8 @@ fn bench(c: &mut Criterion) {
                         &scene,
                         &[150.0, 350.0, 550.0, 750.0],
                         Part::Elastic,
-                        false,
                         &opts,
+                        None,
                         &no_progress,
                     )
                     .unwrap()

@@ -1,15 +1,15 @@
 //! Transfer functions on a frequency list (docs/design.md §3.1–3.2): H(iω) = C A(iω)⁻¹ B,
 //! its elastic part H1 = C Pᵀ A⁻¹ P B (eq. 17) or its rigid part H0 (eq. 16), solved by the
-//! frequency engine ([`crate::distributed`]: this process or the ranks of a cluster).
+//! frequency engine ([`crate::engine`]: this process or the ranks of a cluster).
 
 use crate::body::Body;
+use crate::engine::{Cluster, Engine};
 use crate::factor::SymbolicStats;
 use crate::scene::Scene;
-use crate::sweep::{
-    rows_of, zero_hz_total, FreqStats, ProgressFn, Response, Schedule, SweepOptions,
-};
+use crate::sweep::{zero_hz_total, FreqStats, ProgressFn, Response, Schedule, SweepOptions};
 use crate::{Error, Result};
 use faer::{c64, Mat};
+use std::sync::Arc;
 use std::time::Instant;
 
 /// Which part of the transfer function [`transfer_function`] returns.
@@ -44,8 +44,6 @@ pub struct Frf {
     pub freqs_hz: Vec<f64>,
     /// H(iω_k): outputs × inputs, one per frequency.
     pub h: Vec<Mat<c64>>,
-    /// Full-state responses X_k (N × inputs) when requested.
-    pub snapshots: Option<Vec<Mat<c64>>>,
     /// Symbolic analysis (None for the rigid part, which needs no factorization).
     pub symbolic: Option<SymbolicStats>,
     /// Schedule used.
@@ -57,7 +55,8 @@ pub struct Frf {
 }
 
 /// H(iω) (or H1, H0) = C X at `freqs_hz` for the scene's inputs and outputs (its band is not
-/// used: the frequencies are given).
+/// used: the frequencies are given), solved in this process or, with a `cluster` of more
+/// than one rank, spread over its ranks.
 ///
 /// # Errors
 /// As [`crate::sweep::Solver::new`] and [`crate::sweep::Solver::run`]; `Part::Rigid` on a model without rigid part.
@@ -66,8 +65,8 @@ pub fn transfer_function(
     scene: &Scene,
     freqs_hz: &[f64],
     part: Part,
-    keep_snapshots: bool,
     opts: &SweepOptions,
+    cluster: Option<Arc<dyn Cluster>>,
     progress: ProgressFn<'_>,
 ) -> Result<Frf> {
     let start = Instant::now();
@@ -87,7 +86,6 @@ pub fn transfer_function(
         return Ok(Frf {
             freqs_hz: freqs_hz.to_vec(),
             h,
-            snapshots: None,
             symbolic: None,
             schedule: None,
             freq_stats: Vec::new(),
@@ -98,10 +96,8 @@ pub fn transfer_function(
     // elastic parts (docs/design.md §3.2), so its total H is computed as H0 + H1: a direct
     // solve of A(iω) returns the rigid part, which the probe does not check, inaccurately at
     // low frequency (relative error 1.9 at 1e-6·f1 on a coarse bar, tests/it/extremes.rs).
-    let split = part == Part::Total
-        && !keep_snapshots
-        && !body.pencil().has_damping_matrix()
-        && body.rigid().is_some();
+    let split =
+        part == Part::Total && !body.pencil().has_damping_matrix() && body.rigid().is_some();
     if split && freqs_hz.contains(&0.0) {
         return Err(zero_hz_total());
     }
@@ -110,25 +106,13 @@ pub fn transfer_function(
     } else {
         Response::Total
     };
-    let mut engine = crate::distributed::Engine::new(body, opts);
-    let (xs, freq_stats) = engine.respond(
-        response,
-        inputs,
-        outputs,
-        freqs_hz,
-        keep_snapshots,
-        progress,
-    )?;
+    let mut engine = Engine::new(body, opts, cluster);
+    let (xs, freq_stats) = engine.respond(response, inputs, outputs, freqs_hz, progress)?;
     let h0 = |f: f64| match (split, body.rigid()) {
         (true, Some(rb)) => Some(rb.h0(2.0 * std::f64::consts::PI * f, inputs, outputs)),
         _ => None,
     };
-    let (mut h, snapshots) = if keep_snapshots {
-        let h = xs.iter().map(|x| rows_of(outputs, x.as_ref())).collect();
-        (h, Some(xs))
-    } else {
-        (xs, None)
-    };
+    let mut h = xs;
     for (h, &f) in h.iter_mut().zip(freqs_hz) {
         if let Some(h0) = h0(f) {
             *h += h0;
@@ -138,7 +122,6 @@ pub fn transfer_function(
     Ok(Frf {
         freqs_hz: freqs_hz.to_vec(),
         h,
-        snapshots,
         symbolic,
         schedule,
         freq_stats,

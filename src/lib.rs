@@ -46,7 +46,7 @@
 //! assert!(report.error <= 1e-2);
 //! // check it independently on 200 points: eq. 23 against full solves
 //! let grid: Vec<f64> = (0..200).map(|k| 1.0 + 999.0 * k as f64 / 199.0).collect();
-//! let reference = Reference::compute(&body, &scene, &grid, &SweepOptions::default(), &no_progress)?;
+//! let reference = Reference::compute(&body, &scene, &grid, &SweepOptions::default(), None, &no_progress)?;
 //! let (max_eps, _) = ErrorCurve::max_mean(&reference.error(&rom)?.eps_elastic);
 //! assert!(max_eps <= 1e-2, "order {}: {max_eps:.2e}", rom.order());
 //! # Ok::<(), sparsemor::Error>(())
@@ -59,8 +59,8 @@
 
 pub mod body;
 pub mod dense;
-pub mod distributed;
 pub mod eigen;
+pub mod engine;
 pub mod error;
 pub mod factor;
 pub mod fe;
@@ -71,7 +71,6 @@ pub mod lsq;
 pub mod memory;
 pub mod metrics;
 pub mod model;
-pub(crate) mod multishift;
 pub mod pencil;
 pub mod pool;
 pub(crate) mod random;
@@ -79,6 +78,7 @@ pub mod reduce;
 pub mod report;
 pub mod rigid;
 pub mod scene;
+pub(crate) mod shifted_space;
 pub(crate) mod snapshots;
 pub mod sparse;
 pub mod sweep;

@@ -12,6 +12,7 @@
 
 use crate::body::Body;
 use crate::eigen::{Modes, RIGID_RTOL};
+use crate::engine::Cluster;
 use crate::frf::{transfer_function, Part};
 use crate::reduce::spectrum::rigid_tol;
 pub use crate::reduce::spectrum::{rom_eigenfrequencies, rom_modes, rom_spectrum, RomSpectrum};
@@ -21,6 +22,7 @@ use crate::sweep::{ProgressFn, SweepOptions};
 use crate::units::lambda_to_hz;
 use crate::{Error, Result};
 use faer::{c64, Mat, MatRef};
+use std::sync::Arc;
 
 /// ε(f) on a frequency grid.
 #[derive(Clone, Debug)]
@@ -60,7 +62,8 @@ pub struct Reference {
 }
 
 impl Reference {
-    /// Sweeps the full model at `freqs_hz` (see the module doc for H = H0 + H1).
+    /// Sweeps the full model at `freqs_hz` (see the module doc for H = H0 + H1), in this
+    /// process or over the ranks of `cluster`.
     ///
     /// # Errors
     /// The sweep's errors (e.g. f = 0 on a free body).
@@ -69,13 +72,22 @@ impl Reference {
         scene: &Scene,
         freqs_hz: &[f64],
         opts: &SweepOptions,
+        cluster: Option<Arc<dyn Cluster>>,
         progress: ProgressFn<'_>,
     ) -> Result<Self> {
         if freqs_hz.is_empty() {
             return Err(Error::InvalidSetting("error curve: no frequencies".into()));
         }
         let (inputs, outputs) = (&scene.inputs[..], &scene.outputs[..]);
-        let frf = transfer_function(body, scene, freqs_hz, Part::Elastic, false, opts, progress)?;
+        let frf = transfer_function(
+            body,
+            scene,
+            freqs_hz,
+            Part::Elastic,
+            opts,
+            cluster,
+            progress,
+        )?;
         let h = frf
             .h
             .iter()

@@ -10,6 +10,24 @@
 use crate::{Error, Result};
 use std::sync::Mutex;
 
+/// The one thread-count policy: `requested` when > 0; for 0, the size of the rayon pool the
+/// caller runs in, or — outside any pool — what rayon's global pool would use
+/// (`RAYON_NUM_THREADS` when set to a positive number, else the available cores), found
+/// without starting that pool (a C caller's process must not keep its threads).
+pub fn resolve_threads(requested: usize) -> usize {
+    if requested > 0 {
+        return requested;
+    }
+    if rayon::current_thread_index().is_some() {
+        return rayon::current_num_threads().max(1);
+    }
+    std::env::var("RAYON_NUM_THREADS")
+        .ok()
+        .and_then(|v| v.parse::<usize>().ok())
+        .filter(|&t| t > 0)
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+}
+
 /// Runs `f` with `threads` rayon workers (see the module doc): in the caller's pool when it
 /// has that size, else in a pool of `threads` threads built for this call and joined before
 /// returning. A panic in `f` is resumed after the join.

@@ -39,7 +39,7 @@
 //! Cost: one real Cholesky factorization (a quarter of a complex one's flops) and one block
 //! solve per block of the basis; per frequency a k × p solve, the product Q y (O(N k p)) and
 //! the certificate (one pass over the pattern). Memory: Q and MQ, 16 N k bytes, and per worker
-//! the blocks of one response ([`ResponseBuffers`], kept from one frequency to the next).
+//! the blocks of one response ([`SolutionBuffers`], kept from one frequency to the next).
 //!
 //! The shift-invariant Krylov space for shifted systems: Freund, "Solution of shifted linear
 //! systems by quasi-minimal residual iterations" (1993); the same Galerkin space is the
@@ -83,9 +83,9 @@ struct Ritz {
     c: Mat<f64>,
 }
 
-/// A response and how it was certified; X itself is in the [`ResponseBuffers`] it was
-/// computed in.
-pub(crate) struct Response {
+/// A solution at one frequency and how it was certified; X itself is in the
+/// [`SolutionBuffers`] it was computed in.
+pub(crate) struct Solution {
     /// X in the space's basis: X = Q c (k × p, k the basis's dimension when answered;
     /// [`ShiftedSpace::basis`]). The basis only grows, so c stays valid as it does.
     pub coefficients: Mat<c64>,
@@ -97,7 +97,7 @@ pub(crate) struct Response {
     pub amplification: f64,
 }
 
-impl Response {
+impl Solution {
     /// The response passes ([`CERTIFIED_BACKWARD_ERROR`] or [`CERTIFIED_RELATIVE_RESIDUAL`] per column).
     pub fn certified(&self) -> bool {
         self.certificate
@@ -119,9 +119,9 @@ impl Response {
     }
 }
 
-/// The N-sized blocks of [`ShiftedSpace::response`], kept by a worker from one frequency to
+/// The N-sized blocks of [`ShiftedSpace::solve`], kept by a worker from one frequency to
 /// the next: allocated anew, their pages are faulted in and zeroed on every call.
-pub(crate) struct ResponseBuffers {
+pub(crate) struct SolutionBuffers {
     /// Q [Re c, Im c] (N × 2p).
     parts: Mat<f64>,
     /// X = Pᵀ A(iω)⁻¹ P B (N × p) of the last response.
@@ -129,9 +129,9 @@ pub(crate) struct ResponseBuffers {
     certify: CertifyBuffers,
 }
 
-impl Default for ResponseBuffers {
+impl Default for SolutionBuffers {
     fn default() -> Self {
-        ResponseBuffers {
+        SolutionBuffers {
             parts: Mat::zeros(0, 0),
             x: Mat::zeros(0, 0),
             certify: CertifyBuffers::default(),
@@ -139,8 +139,8 @@ impl Default for ResponseBuffers {
     }
 }
 
-impl ResponseBuffers {
-    /// X of the last [`ShiftedSpace::response`] (N × p).
+impl SolutionBuffers {
+    /// X of the last [`ShiftedSpace::solve`] (N × p).
     pub fn x(&self) -> MatRef<'_, c64> {
         self.x.as_ref()
     }
@@ -286,7 +286,7 @@ impl<'a> ShiftedSpace<'a> {
     }
 
     /// The M-orthonormal basis Q (N × k). It only grows: a response's
-    /// [`Response::coefficients`] index its first columns for the space's whole life.
+    /// [`Solution::coefficients`] index its first columns for the space's whole life.
     pub fn basis(&self) -> MatRef<'_, f64> {
         self.q.as_ref()
     }
@@ -544,16 +544,11 @@ impl<'a> ShiftedSpace<'a> {
     }
 
     /// X = Pᵀ A(iω)⁻¹ P B at `freq_hz` from the space, with its certificate (module doc);
-    /// after [`Self::grow_for`]. X is left in `buffers` ([`ResponseBuffers::x`]).
+    /// after [`Self::grow_for`]. X is left in `buffers` ([`SolutionBuffers::x`]).
     ///
     /// # Errors
     /// [`Error::NotConverged`] when the space was not decomposed by [`Self::grow_for`].
-    pub fn response(
-        &self,
-        freq_hz: f64,
-        par: Par,
-        buffers: &mut ResponseBuffers,
-    ) -> Result<Response> {
+    pub fn solve(&self, freq_hz: f64, par: Par, buffers: &mut SolutionBuffers) -> Result<Solution> {
         let omega = hz_to_omega(freq_hz);
         let (tau, scale) = self.shift(omega);
         let ritz = self.ritz.as_ref().ok_or_else(|| {
@@ -570,7 +565,7 @@ impl<'a> ShiftedSpace<'a> {
         let inv = scale.inv();
         let coefficients = Mat::from_fn(y.nrows(), y.ncols(), |i, c| y[(i, c)] * inv);
         let certificate = self.lift(omega, coefficients.as_ref(), par, buffers);
-        Ok(Response {
+        Ok(Solution {
             coefficients,
             certificate,
             amplification,
@@ -634,7 +629,7 @@ impl<'a> ShiftedSpace<'a> {
         omega: f64,
         c: MatRef<'_, c64>,
         par: Par,
-        buffers: &mut ResponseBuffers,
+        buffers: &mut SolutionBuffers,
     ) -> Certificate {
         let (n, p) = (self.q.nrows(), c.ncols());
         let parts = Mat::<f64>::from_fn(c.nrows(), 2 * p, |i, j| {
@@ -744,8 +739,8 @@ mod tests {
         let (x, stats) = responses(&body, &inputs, freqs, SolveMethod::Auto);
         let (x0, _) = responses(&body, &inputs, freqs, SolveMethod::Factored);
         for s in &stats {
-            assert!(s.from_krylov(), "{} Hz was factored", s.freq_hz);
-            assert!(s.krylov_dim < body.n() / 2, "dimension {}", s.krylov_dim);
+            assert!(s.from_space(), "{} Hz was factored", s.freq_hz);
+            assert!(s.space_dim < body.n() / 2, "dimension {}", s.space_dim);
             assert!(
                 s.backward_error <= CERTIFIED_BACKWARD_ERROR
                     || s.relative_residual <= CERTIFIED_RELATIVE_RESIDUAL
@@ -809,7 +804,7 @@ mod tests {
         let mut space = ShiftedSpace::new(&body, load, sigma, body.n(), Par::Seq).unwrap();
         let rows = [0, 7, body.n() - 1];
         // one set of buffers for every frequency, as a sweep worker keeps them
-        let mut buffers = ResponseBuffers::default();
+        let mut buffers = SolutionBuffers::default();
         let mut dims = Vec::new();
         for target in [GROW_TO, 1e-6 * GROW_TO] {
             space.grow_for(&freqs, target).unwrap();
@@ -821,7 +816,7 @@ mod tests {
             let answer = space.rows_at(&freqs, &rows);
             assert_eq!(answer.len(), freqs.len());
             for (k, f) in freqs.iter().enumerate() {
-                space.response(*f, Par::Seq, &mut buffers).unwrap();
+                space.solve(*f, Par::Seq, &mut buffers).unwrap();
                 let x = buffers.x();
                 let h = answer
                     .get(k)
@@ -859,7 +854,7 @@ mod tests {
         assert_eq!(space.dim(), 18);
         assert!(!space.can_grow());
         assert!(space.estimates(&[900.0])[0] > GROW_TO);
-        let r = space.response(900.0, Par::Seq, &mut ResponseBuffers::default());
+        let r = space.solve(900.0, Par::Seq, &mut SolutionBuffers::default());
         assert!(!r.unwrap().certified());
     }
 }

@@ -30,10 +30,10 @@
 
 use crate::body::Body;
 use crate::factor::{Analysis, Backend, Numeric, Storage, SymbolicStats};
-use crate::multishift::{ResponseBuffers, Rows, ShiftedSpace, GROW_TO};
-pub use crate::multishift::{CERTIFIED_BACKWARD_ERROR, CERTIFIED_RELATIVE_RESIDUAL};
 use crate::random::Xorshift;
 use crate::rigid::RigidBody;
+use crate::shifted_space::{Rows, ShiftedSpace, SolutionBuffers, GROW_TO};
+pub use crate::shifted_space::{CERTIFIED_BACKWARD_ERROR, CERTIFIED_RELATIVE_RESIDUAL};
 use crate::{Error, Result};
 use faer::{c64, Mat, MatRef, Par};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -59,10 +59,6 @@ pub struct SweepOptions {
     pub probe_tol: f64,
     /// How a frequency's response is computed ([`SolveMethod`]).
     pub method: SolveMethod,
-    /// The ranks of a distributed run ([`crate::distributed`], docs/design.md §9): with more
-    /// than one, the frequencies of line-fitting and of the transfer functions are spread over
-    /// them. `None` = this process alone.
-    pub cluster: Option<std::sync::Arc<dyn crate::distributed::Cluster>>,
     /// A directory for the factors (backend `mumps`): each factorization is written there
     /// and read back by its solves, so it need not fit in memory; every frequency is then
     /// factored (the shifted Krylov space keeps its factor in memory). `None` = in core.
@@ -72,26 +68,8 @@ pub struct SweepOptions {
 impl SweepOptions {
     /// The thread count these options run with: [`Self::threads`], or all cores for 0.
     pub fn resolved_threads(&self) -> usize {
-        resolve_threads(self.threads)
+        crate::pool::resolve_threads(self.threads)
     }
-}
-
-/// The one thread-count policy: `requested` when > 0; for 0, the size of the rayon pool the
-/// caller runs in, or — outside any pool — what rayon's global pool would use
-/// (`RAYON_NUM_THREADS` when set to a positive number, else the available cores), found
-/// without starting that pool (a C caller's process must not keep its threads).
-pub fn resolve_threads(requested: usize) -> usize {
-    if requested > 0 {
-        return requested;
-    }
-    if rayon::current_thread_index().is_some() {
-        return rayon::current_num_threads().max(1);
-    }
-    std::env::var("RAYON_NUM_THREADS")
-        .ok()
-        .and_then(|v| v.parse::<usize>().ok())
-        .filter(|&t| t > 0)
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
 }
 
 impl Default for SweepOptions {
@@ -102,7 +80,6 @@ impl Default for SweepOptions {
             memory_budget: None,
             probe_tol: DEFAULT_PROBE_TOL,
             method: SolveMethod::Auto,
-            cluster: None,
             out_of_core: None,
         }
     }
@@ -112,7 +89,7 @@ impl Default for SweepOptions {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum SolveMethod {
     /// From one shifted Krylov space when the damping is proportional (D = 0 or αM + βK,
-    /// [`crate::multishift`], docs/design.md §3.10): one real factorization serves every
+    /// [`crate::shifted_space`], docs/design.md §3.10): one real factorization serves every
     /// frequency, each response certified by its residual; a frequency whose response does
     /// not pass is factored. Factored otherwise.
     #[default]
@@ -185,7 +162,7 @@ pub struct FreqStats {
     /// 0 when A(iω) was factored; else the dimension of the shifted Krylov space the response
     /// came from (no factorization, no probe: `probe_error`, `pivot_ratio` are NaN and
     /// `backward_error` is the worst column's of the loads).
-    pub krylov_dim: usize,
+    pub space_dim: usize,
     /// The worst load column's ‖b − A x‖₂/‖b‖₂ of a response from the Krylov space (NaN when
     /// factored: the probe measures those).
     pub relative_residual: f64,
@@ -197,8 +174,8 @@ pub struct FreqStats {
 
 impl FreqStats {
     /// The response came from the shifted Krylov space, not a factorization.
-    pub fn from_krylov(&self) -> bool {
-        self.krylov_dim > 0
+    pub fn from_space(&self) -> bool {
+        self.space_dim > 0
     }
 }
 
@@ -217,16 +194,16 @@ pub struct SolveAccuracy {
     pub frequencies: usize,
     /// Of them, responses from the shifted Krylov space (docs/design.md §3.10).
     #[serde(default)]
-    pub from_krylov: usize,
+    pub from_space: usize,
     /// Real factorizations of K − σM made for the shifted Krylov space.
     #[serde(default)]
-    pub shift_factorizations: usize,
+    pub space_factorizations: usize,
     /// Block solves with those factorizations.
     #[serde(default)]
-    pub krylov_block_solves: usize,
+    pub space_block_solves: usize,
     /// Largest dimension of the shifted Krylov space.
     #[serde(default)]
-    pub krylov_dim: usize,
+    pub space_dim: usize,
     /// Largest relative residual of a response from it (its certificate).
     #[serde(default)]
     pub relative_residual_max: f64,
@@ -246,20 +223,20 @@ pub struct SolveAccuracy {
 impl SolveAccuracy {
     /// Factorizations in all: one per factored frequency and one per shifted Krylov space.
     pub fn factorizations(&self) -> usize {
-        self.frequencies - self.from_krylov + self.shift_factorizations
+        self.frequencies - self.from_space + self.space_factorizations
     }
 
     /// Adds (factorizations, block solves) spent on a shifted Krylov space.
     pub(crate) fn add_space_cost(&mut self, (factorizations, block_solves): (usize, usize)) {
-        self.shift_factorizations += factorizations;
-        self.krylov_block_solves += block_solves;
+        self.space_factorizations += factorizations;
+        self.space_block_solves += block_solves;
     }
 
     pub(crate) fn add(&mut self, s: &FreqStats) {
         self.frequencies += 1;
-        if s.from_krylov() {
-            self.from_krylov += 1;
-            self.krylov_dim = self.krylov_dim.max(s.krylov_dim);
+        if s.from_space() {
+            self.from_space += 1;
+            self.space_dim = self.space_dim.max(s.space_dim);
             self.relative_residual_max = self.relative_residual_max.max(s.relative_residual);
         }
         self.add_space_cost(s.space_cost);
@@ -448,7 +425,7 @@ impl<'a> Solver<'a> {
                 .rigid()
                 .map(|rb| (rb.supports(), body.pencil().stiffness_diagonal_max())),
             accuracy: Mutex::new(SolveAccuracy::default()),
-            space: krylov_applies(body, response, opts).then(|| Mutex::new(Space::Unmade)),
+            space: space_applies(body, response, opts).then(|| Mutex::new(Space::Unmade)),
         })
     }
 
@@ -654,7 +631,7 @@ impl<'a> Solver<'a> {
                 .take()
                 .unwrap_or_else(run.init);
             let mut factored = None;
-            let mut spaced = ResponseBuffers::default();
+            let mut spaced = SolutionBuffers::default();
             let mut mine = items.iter().skip(w).step_by(workers);
             while !run.stop.load(Ordering::Relaxed) {
                 let Some(&k) = mine.next() else {
@@ -814,7 +791,7 @@ impl<'a> Solver<'a> {
             refinement_steps,
             pivot_ratio: numeric.pivot_ratio(),
             pivoted: numeric.pivoted(),
-            krylov_dim: 0,
+            space_dim: 0,
             relative_residual: f64::NAN,
             space_cost: (0, 0),
         })
@@ -920,15 +897,13 @@ impl<'a> Solver<'a> {
         space: &ShiftedSpace<'_>,
         f: f64,
         par: Par,
-        buffers: &mut ResponseBuffers,
-    ) -> std::result::Result<(crate::multishift::Response, FreqStats), Fallback> {
+        buffers: &mut SolutionBuffers,
+    ) -> std::result::Result<(crate::shifted_space::Solution, FreqStats), Fallback> {
         if !(f > 0.0) {
             return Err(Fallback::Factor);
         }
         let t = Instant::now();
-        let r = space
-            .response(f, par, buffers)
-            .map_err(|_| Fallback::Factor)?;
+        let r = space.solve(f, par, buffers).map_err(|_| Fallback::Factor)?;
         if !r.certified() {
             return Err(Fallback::Grow);
         }
@@ -945,7 +920,7 @@ impl<'a> Solver<'a> {
             refinement_steps: 0,
             pivot_ratio: f64::NAN,
             pivoted: false,
-            krylov_dim: space.dim(),
+            space_dim: space.dim(),
             relative_residual: worst(&r.certificate.relative_residual),
             space_cost: (0, 0),
         };
@@ -1032,7 +1007,7 @@ impl<'a> Solver<'a> {
 /// proportional, and the response is elastic or the body
 /// constrained (a free body's total response keeps its rigid part, which the space leaves
 /// out).
-pub(crate) fn krylov_applies(body: &Body, response: Response, opts: &SweepOptions) -> bool {
+pub(crate) fn space_applies(body: &Body, response: Response, opts: &SweepOptions) -> bool {
     opts.method == SolveMethod::Auto
         && opts.out_of_core.is_none()
         && crate::factor::held_whole(opts.backend)

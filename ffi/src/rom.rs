@@ -8,12 +8,13 @@ use crate::util::{check_ptr, copy_string, copy_to_buffer, obj, slice_in, write_o
 use faer::MatRef;
 use sparsemor::eigen::EigenOptions;
 use sparsemor::metrics::Reference;
+use sparsemor::pool::resolve_threads;
 use sparsemor::reduce::craig_bampton::CraigBamptonOptions;
 use sparsemor::reduce::interface::Interface;
 use sparsemor::reduce::serep::{ModeChoice, SerepOptions};
 use sparsemor::reduce::{reduce, Context, Method, Reductor, Rom};
 use sparsemor::scene::Scene;
-use sparsemor::sweep::{no_progress, resolve_threads, Progress, SweepOptions};
+use sparsemor::sweep::{no_progress, Progress, SweepOptions};
 use std::ffi::{c_char, c_void};
 use std::sync::Mutex;
 
@@ -812,6 +813,7 @@ pub unsafe extern "C" fn sparsemor_rom_transfer_error(
                     threads,
                     ..Default::default()
                 },
+                None,
                 &no_progress,
             )?
             .error(&r.rom)

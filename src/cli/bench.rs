@@ -311,8 +311,8 @@ fn measure(model: &Model, scene: &Scene, backend: Backend) -> Result<Row> {
             scene,
             freqs,
             Part::Elastic,
-            false,
             &opts,
+            None,
             &no_progress,
         )?;
         Ok(t.elapsed().as_secs_f64())

@@ -120,7 +120,7 @@ pub fn demo(threads: usize) -> Result<()> {
     println!("| ROM | order | reduce s | max eps | mean eps | max eigfreq err | min MAC | largest ROM freq Hz | Mr, Kr |");
     println!("|---|---|---|---|---|---|---|---|---|");
     let t = Instant::now();
-    let reference = Reference::compute(&body, &scene, &grid, &sweep, &no_progress)?;
+    let reference = Reference::compute(&body, &scene, &grid, &sweep, None, &no_progress)?;
     for (name, rom, secs) in [
         ("line-fitting", &lf, lf_s),
         ("SEREP 9 modes / 9 DoFs", &s9, s9_s),

@@ -3,8 +3,8 @@
 
 use super::args::{hz, hz_list, parse_band};
 use super::progress::{rank0_share, with_progress, with_slice_progress};
-use sparsemor::distributed::Cluster;
 use sparsemor::eigen::{eigenpairs_with_progress, EigenOptions, Request};
+use sparsemor::engine::Cluster;
 use sparsemor::factor::count_eigenvalues_below_with;
 use sparsemor::grid::linspace;
 use sparsemor::io::{atomic, model_dir, rom_dir};
@@ -88,12 +88,9 @@ pub fn evaluate(a: &EvaluateArgs, cluster: Option<Arc<dyn Cluster>>) -> Result<(
     }
     let freqs = linspace(band, a.points);
     let share = rank0_share(freqs.len(), cluster.as_ref());
-    let opts = SweepOptions {
-        cluster,
-        ..a.sweep_setup().1
-    };
+    let opts = a.sweep_setup().1;
     let curve = with_progress(share, "evaluate", |cb| {
-        Reference::compute(&body, &rom_scene, &freqs, &opts, cb)?.error(&rom)
+        Reference::compute(&body, &rom_scene, &freqs, &opts, cluster, cb)?.error(&rom)
     })?;
     print_errors(&rom, &curve)?;
     if band[1] > scene.band_hz[1] * (1.0 + 1e-12) {

@@ -114,7 +114,7 @@ pub fn export(a: &ExportArgs) -> Result<()> {
                 ..Default::default()
             };
             let reference = with_progress(freqs.len(), "export check", |cb| {
-                Reference::compute(&body, &rom_scene, &freqs, &opts, cb)
+                Reference::compute(&body, &rom_scene, &freqs, &opts, None, cb)
             })?;
             let max_mean = |r| -> Result<[f64; 2]> {
                 let (max, mean) = ErrorCurve::max_mean(&reference.error(r)?.eps_elastic);

@@ -20,7 +20,7 @@ mod tradeoff;
 
 use clap::{Parser, Subcommand};
 use done::Done;
-use sparsemor::distributed::Cluster;
+use sparsemor::engine::Cluster;
 use std::path::PathBuf;
 use std::sync::Arc;
 
@@ -152,7 +152,7 @@ fn on_ranks(cli: Cli, c: Arc<dyn Cluster>) -> sparsemor::Result<Done> {
     }
     if c.rank() == 0 {
         let done = setup.and_then(|_| command(cli, Some(c.clone())));
-        return lead(done, |code| sparsemor::distributed::stop(&*c, code));
+        return lead(done, |code| sparsemor::engine::stop(&*c, code));
     }
     // the model is dropped once its body is built: the body holds the matrices
     let (body, opts) = match &setup {
@@ -168,7 +168,7 @@ fn on_ranks(cli: Cli, c: Arc<dyn Cluster>) -> sparsemor::Result<Done> {
             sparsemor::sweep::SweepOptions::default(),
         ),
     };
-    let code = sparsemor::distributed::serve(&*c, body.as_ref().map_err(|e| e.as_str()), &opts)?;
+    let code = sparsemor::engine::serve(&*c, body.as_ref().map_err(|e| e.as_str()), &opts)?;
     Ok(Done::from_exit_code(code))
 }
 

@@ -6,8 +6,8 @@
 //! outside such a computation ends the process at once, as usual.
 
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
-use sparsemor::distributed::Cluster;
 use sparsemor::eigen::EigenProgress;
+use sparsemor::engine::Cluster;
 use sparsemor::sweep::{Progress, ProgressFn};
 use sparsemor::Result;
 use std::io::IsTerminal;

@@ -6,8 +6,8 @@ use super::args::{hz_list, parse_list};
 use super::done::Done;
 use super::progress::{rank0_share, with_progress};
 use sparsemor::body::Body;
-use sparsemor::distributed::Cluster;
 use sparsemor::eigen::EigenOptions;
+use sparsemor::engine::Cluster;
 use sparsemor::io::model_dir::{self, DofNames};
 use sparsemor::io::rom_dir;
 use sparsemor::metrics::Stability;
@@ -126,7 +126,6 @@ impl ReduceArgs {
                 Error::InvalidSetting(m) => Error::InvalidSetting(format!("--solve: {m}")),
                 e => e,
             })?,
-            ..Default::default()
         };
         Ok((&self.model, opts))
     }
@@ -238,10 +237,8 @@ fn reductor(
             };
             let mut opts = LineFitOptions::new(interface, references);
             opts.keep_basis = a.keep_basis;
-            opts.sweep = SweepOptions {
-                cluster,
-                ..a.sweep_setup()?.1
-            };
+            opts.sweep = a.sweep_setup()?.1;
+            opts.cluster = cluster;
             Reductor::LineFit(opts)
         }
         "serep" => {
@@ -362,16 +359,16 @@ fn parse_growth(s: &str) -> Result<Growth> {
 
 /// How the full solves behind a ROM were made and how accurate they were.
 pub fn solve_summary(a: &sparsemor::sweep::SolveAccuracy) -> String {
-    let factored = a.frequencies - a.from_krylov;
+    let factored = a.frequencies - a.from_space;
     let mut parts = vec![format!(
         "{} full solves, {} factorizations",
         a.frequencies,
         a.factorizations()
     )];
-    if a.from_krylov > 0 {
+    if a.from_space > 0 {
         parts.push(format!(
             "{} from a shifted Krylov space (dimension {}, {} block solves, worst relative residual {:.1e})",
-            a.from_krylov, a.krylov_dim, a.krylov_block_solves, a.relative_residual_max
+            a.from_space, a.space_dim, a.space_block_solves, a.relative_residual_max
         ));
     }
     if factored > 0 {

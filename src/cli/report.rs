@@ -114,7 +114,7 @@ pub fn report(a: &ReportArgs) -> Result<()> {
         ..Default::default()
     };
     let reference = with_progress(freqs.len(), "full-model sweep", |cb| {
-        Reference::compute(&body, &rom_scene, &freqs, &opts, cb)
+        Reference::compute(&body, &rom_scene, &freqs, &opts, None, cb)
     })?;
     let full = eigenpairs(&body, Request::UpTo(band[1]), &EigenOptions::default())?;
     let evaluated: Vec<Evaluated> = roms

@@ -2,7 +2,7 @@
 
 use super::args::{human_bytes, parse_band, parse_list};
 use super::progress::{rank0_share, with_progress};
-use sparsemor::distributed::Cluster;
+use sparsemor::engine::Cluster;
 use sparsemor::frf::{transfer_function, Part};
 use sparsemor::grid::linspace;
 use sparsemor::io::{atomic, model_dir};
@@ -80,7 +80,6 @@ impl SweepArgs {
             memory_budget: self.memory_gb.map(|g| (g * 1e9) as usize),
             probe_tol: self.probe_tol,
             method: self.solve.parse().map_err(|e| flag("solve", e))?,
-            cluster: None,
             out_of_core: self.out_of_core.clone(),
         };
         Ok((&self.model, opts))
@@ -106,12 +105,9 @@ pub fn sweep(a: &SweepArgs, verbose: bool, cluster: Option<Arc<dyn Cluster>>) ->
     }
     let part: Part = a.part.parse().map_err(|e| flag("part", e))?;
     let share = rank0_share(freqs.len(), cluster.as_ref());
-    let opts = SweepOptions {
-        cluster,
-        ..a.sweep_setup()?.1
-    };
+    let opts = a.sweep_setup()?.1;
     let frf = with_progress(share, "sweep", |cb| {
-        transfer_function(&body, &scene, &freqs, part, false, &opts, cb)
+        transfer_function(&body, &scene, &freqs, part, &opts, cluster, cb)
     })?;
     write_frf_csv(&a.out, &frf.freqs_hz, &frf.h, &scene.outputs, &scene.inputs)?;
     if let Some(path) = &a.stats {
@@ -187,7 +183,7 @@ fn write_stats_csv(path: &Path, stats: &[FreqStats]) -> Result<()> {
                 s.refinement_steps,
                 s.pivot_ratio,
                 u8::from(s.pivoted),
-                s.krylov_dim,
+                s.space_dim,
                 s.relative_residual
             )?;
         }

@@ -77,7 +77,7 @@ pub fn tradeoff(a: &TradeoffArgs) -> Result<()> {
     let grid = linspace(positive_band(scene.band_hz), a.points.max(2));
     let t = Instant::now();
     let reference = with_progress(grid.len(), "verification grid", |cb| {
-        Reference::compute(&body, &scene, &grid, &sweep, cb)
+        Reference::compute(&body, &scene, &grid, &sweep, None, cb)
     })?;
     eprintln!(
         "verification grid: {} full solves in {:.1} s",

@@ -101,7 +101,7 @@ pub fn eigenpairs_with_progress(
         }
     }
     // every worker runs in a pool that lives for this call (`crate::pool`)
-    let threads = crate::sweep::resolve_threads(opts.threads);
+    let threads = crate::pool::resolve_threads(opts.threads);
     crate::pool::with_pool(threads, || solve_request(body, req, opts, progress))?
 }
 

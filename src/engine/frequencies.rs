@@ -9,7 +9,7 @@ use super::protocol::{gather, Command, Keep, Reply};
 use crate::body::Body;
 use crate::factor::SymbolicStats;
 use crate::lsq::{Split, SplitState, StreamedQr};
-use crate::multishift::Rows;
+use crate::shifted_space::Rows;
 use crate::snapshots::{GrowBy, SnapshotStore};
 use crate::sweep::{
     rows_of, FreqStats, ProgressFn, Response, Schedule, SolveAccuracy, Solver, SweepOptions,
@@ -23,6 +23,8 @@ use std::sync::Arc;
 pub(crate) struct Engine<'a> {
     body: &'a Body,
     opts: SweepOptions,
+    /// The ranks of a distributed run, when there is more than one.
+    cluster: Option<Arc<dyn Cluster>>,
     /// This rank's solvers, one per (response, inputs), built on first use.
     solvers: Vec<(Response, Vec<usize>, Solver<'a>)>,
     /// This rank's kept responses (for absorbing them again into another split), and the
@@ -53,23 +55,26 @@ pub(crate) struct Absorbed {
 }
 
 impl<'a> Engine<'a> {
-    /// An engine for `body` with the sweep options of the run (and their cluster, if any). On
-    /// a cluster the ranks of a machine share its cores and memory: the default thread count
-    /// and memory budget are divided by their number.
-    pub fn new(body: &'a Body, opts: &SweepOptions) -> Self {
+    /// An engine for `body` with the sweep options of the run, in this process (`cluster`
+    /// `None` or of one rank) or over the ranks of `cluster`. On a cluster the ranks of a
+    /// machine share its cores and memory: the default thread count and memory budget are
+    /// divided by their number.
+    pub fn new(body: &'a Body, opts: &SweepOptions, cluster: Option<Arc<dyn Cluster>>) -> Self {
         let mut opts = opts.clone();
-        if let Some(c) = opts.cluster.clone().filter(|c| c.size() > 1) {
+        let cluster = cluster.filter(|c| c.size() > 1);
+        if let Some(c) = &cluster {
             let node = c.node_size().max(1);
             if opts.memory_budget.is_none() {
                 opts.memory_budget = Some(crate::memory::default_budget(2) / node);
             }
             if opts.threads == 0 {
-                opts.threads = (crate::sweep::resolve_threads(0) / node).max(1);
+                opts.threads = (crate::pool::resolve_threads(0) / node).max(1);
             }
         }
         Engine {
             body,
             opts,
+            cluster,
             solvers: Vec::new(),
             store: None,
             accuracy: SolveAccuracy::default(),
@@ -79,7 +84,7 @@ impl<'a> Engine<'a> {
 
     /// The cluster, when there is more than one rank.
     fn cluster(&self) -> Option<Arc<dyn Cluster>> {
-        self.opts.cluster.clone().filter(|c| c.size() > 1)
+        self.cluster.clone()
     }
 
     /// Number of ranks the frequencies are spread over.
@@ -100,8 +105,8 @@ impl<'a> Engine<'a> {
 
     /// Whether `response` is answered from a shifted Krylov space (one factorization for
     /// every frequency, docs/design.md §3.10) rather than a factorization per frequency.
-    pub fn krylov(&self, response: Response) -> bool {
-        crate::sweep::krylov_applies(self.body, response, &self.opts)
+    pub fn by_space(&self, response: Response) -> bool {
+        crate::sweep::space_applies(self.body, response, &self.opts)
     }
 
     /// `response` at the rows `outputs` at each of `freqs` from this process's shifted Krylov
@@ -117,7 +122,7 @@ impl<'a> Engine<'a> {
         outputs: &[usize],
         freqs: &[f64],
     ) -> Result<Option<Arc<Rows>>> {
-        if self.ranks() > 1 || !self.krylov(response) {
+        if self.ranks() > 1 || !self.by_space(response) {
             return Ok(None);
         }
         let (rows, cost) = self
@@ -270,7 +275,7 @@ impl<'a> Engine<'a> {
         Ok(())
     }
 
-    /// X at `outputs` (all of X when `full`) for `response` at `freqs`, in their order, with
+    /// X at `outputs` for `response` at `freqs`, in their order, with
     /// the per-frequency measurements.
     pub fn respond(
         &mut self,
@@ -278,7 +283,6 @@ impl<'a> Engine<'a> {
         inputs: &[usize],
         outputs: &[usize],
         freqs: &[f64],
-        full: bool,
         progress: ProgressFn<'_>,
     ) -> Result<(Vec<Mat<c64>>, Vec<FreqStats>)> {
         let cmd = Command::Respond {
@@ -286,7 +290,6 @@ impl<'a> Engine<'a> {
             inputs: inputs.to_vec(),
             outputs: outputs.to_vec(),
             freqs: freqs.to_vec(),
-            full,
         };
         let r = self.execute(cmd, progress)?;
         Ok((
@@ -395,7 +398,6 @@ impl<'a> Engine<'a> {
                 inputs,
                 outputs,
                 freqs,
-                full,
             } => {
                 let (index, mine) = share(freqs);
                 if mine.is_empty() {
@@ -407,12 +409,7 @@ impl<'a> Engine<'a> {
                     &mine,
                     Acc::new,
                     |acc: &mut Acc, snap| {
-                        let x = if *full {
-                            snap.x.to_owned()
-                        } else {
-                            rows_of(outputs, snap.x)
-                        };
-                        acc.push((index[snap.index], x));
+                        acc.push((index[snap.index], rows_of(outputs, snap.x)));
                         Ok(())
                     },
                     progress,

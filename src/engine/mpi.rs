@@ -6,7 +6,7 @@
 //! library call communicates). Messages longer than 1 GiB are sent in pieces (MPI counts are
 //! 32-bit).
 
-use super::Cluster;
+use super::cluster::Cluster;
 use crate::{Error, Result};
 use mpi::environment::Universe;
 use mpi::topology::{Communicator, SimpleCommunicator};

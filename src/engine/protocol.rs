@@ -37,13 +37,12 @@ pub(crate) enum Command {
         inputs: usize,
         interface: Vec<usize>,
     },
-    /// Solve at `freqs`, answer X at `outputs` (or all of X when `full`).
+    /// Solve at `freqs`, answer X at `outputs`.
     Respond {
         response: Response,
         inputs: Vec<usize>,
         outputs: Vec<usize>,
         freqs: Vec<f64>,
-        full: bool,
     },
     /// The run is over; exit with `code`.
     Stop { code: i32 },
@@ -123,14 +122,12 @@ impl Command {
                 inputs,
                 outputs,
                 freqs,
-                full,
             } => {
                 w.u64(RESPOND)
                     .u64(u64::from(*response == Response::Total))
                     .usizes(inputs)
                     .usizes(outputs)
-                    .f64s(freqs)
-                    .u64(u64::from(*full));
+                    .f64s(freqs);
             }
             Command::Stop { code } => {
                 w.u64(STOP).u64(*code as u32 as u64);
@@ -166,7 +163,6 @@ impl Command {
                 inputs: r.usizes()?,
                 outputs: r.usizes()?,
                 freqs: r.f64s()?,
-                full: r.u64()? == 1,
             },
             STOP => Command::Stop {
                 code: r.u64()? as u32 as i32,
@@ -225,7 +221,7 @@ fn encode(rank: usize, reply: &Result<Reply>) -> Vec<u8> {
             .usize(s.refinement_steps)
             .f64(s.pivot_ratio)
             .u64(u64::from(s.pivoted))
-            .usize(s.krylov_dim)
+            .usize(s.space_dim)
             .f64(s.relative_residual)
             .usize(s.space_cost.0)
             .usize(s.space_cost.1);
@@ -274,7 +270,7 @@ fn decode(bytes: &[u8]) -> Result<Result<Reply>> {
                 refinement_steps: r.usize()?,
                 pivot_ratio: r.f64()?,
                 pivoted: r.u64()? == 1,
-                krylov_dim: r.usize()?,
+                space_dim: r.usize()?,
                 relative_residual: r.f64()?,
                 space_cost: (r.usize()?, r.usize()?),
             },

@@ -18,7 +18,7 @@
 //!
 //! **Threads inside one factorization** (the sweep's factor-parallel schedule): the supernodes
 //! are in postorder, so every subtree of the elimination tree is a contiguous range of
-//! supernodes and of L's values. [`Split`] finds two groups of independent subtrees of
+//! supernodes and of L's values. [`SubtreeGroups`] finds two groups of independent subtrees of
 //! comparable work; each group is factored on its own thread, then the supernodes above them
 //! with the threads inside the large dense products (≥ 2²¹ multiply-adds) and in the scatter
 //! of large updates (two halves of the target columns, which write disjoint columns). Each
@@ -98,14 +98,14 @@ pub(super) struct Symbolic {
     max_cols: usize,
     max_rhs: usize,
     /// Independent subtrees of the elimination tree for two threads, if it has any worth it.
-    split: Option<Split>,
+    split: Option<SubtreeGroups>,
 }
 
 /// Two groups of independent subtrees of the supernodal elimination tree (each subtree a
 /// contiguous range of supernodes, faer's order being a postorder) and the supernodes above
 /// them: with two threads, each group is factored on its own thread, then the top with the
 /// threads inside the dense products.
-struct Split {
+struct SubtreeGroups {
     /// Supernode ranges [first, last + 1) of each group's subtrees.
     groups: [Vec<(usize, usize)>; 2],
     /// The supernodes in no subtree of a group, increasing.
@@ -117,7 +117,7 @@ struct Split {
     top_rows: Vec<usize>,
 }
 
-impl Split {
+impl SubtreeGroups {
     /// Every subtree of the groups as (first supernode, last + 1, group), in order.
     fn subtrees(&self) -> Vec<(usize, usize, usize)> {
         let mut ranges: Vec<(usize, usize, usize)> = self
@@ -139,7 +139,10 @@ impl Split {
     /// with the least estimated time (the top's work plus the heavier group's) is kept: on a
     /// bisected bar the two halves are chains, and descending them to the end would put all
     /// in the top.
-    fn new(s: &SymbolicSupernodalCholesky<usize>, parent: &[Option<usize>]) -> Option<Split> {
+    fn new(
+        s: &SymbolicSupernodalCholesky<usize>,
+        parent: &[Option<usize>],
+    ) -> Option<SubtreeGroups> {
         let ns = s.n_supernodes();
         let (begin, end) = (s.supernode_begin(), s.supernode_end());
         let mut first: Vec<usize> = (0..ns).collect();
@@ -213,7 +216,7 @@ impl Split {
         for (p, &r) in top_rows.iter().enumerate() {
             top_pos[r] = p;
         }
-        Some(Split {
+        Some(SubtreeGroups {
             groups,
             top,
             top_pos,
@@ -330,7 +333,7 @@ impl Symbolic {
             desc.extend(l);
             desc_ptr.push(desc.len());
         }
-        let split = Split::new(s, &parent);
+        let split = SubtreeGroups::new(s, &parent);
         let factor_nnz = s.len_val();
         let scratch = 16 * (max_update + max_cols * max_cols / 2) + 8 * n;
         let bytes = 16 * (factor_nnz + n)
@@ -405,7 +408,7 @@ pub(super) struct Numeric<'a> {
     second: Option<Scratch>,
     /// The permuted right-hand sides of a solve.
     x: Mat<c64>,
-    /// The solve's buffers for each of the two groups of a [`Split`] (the first alone
+    /// The solve's buffers for each of the two groups of a [`SubtreeGroups`] (the first alone
     /// without one).
     solve: [SolveScratch; 2],
     pivot_ratio: f64,
@@ -432,7 +435,7 @@ struct Scratch {
 
 impl Numeric<'_> {
     /// One left-looking factorization of `a` with the static pivot threshold `tau`: with
-    /// more than one thread and a [`Split`], its two groups of subtrees in parallel first.
+    /// more than one thread and a [`SubtreeGroups`], its two groups of subtrees in parallel first.
     fn factor_with(&mut self, a: &Values<'_>, tau: f64, par: Par) -> Result<Pivots> {
         let sy = self.symbolic;
         let s = supernodal(&sy.sym);
@@ -662,7 +665,7 @@ impl Factorization for Numeric<'_> {
 
 impl Numeric<'_> {
     /// Solves A X = B in place for at most `x.ncols()` columns: P, L, D, Lᵀ, Pᵀ. With a
-    /// [`Split`] the two groups of subtrees are solved independently (on two threads when
+    /// [`SubtreeGroups`] the two groups of subtrees are solved independently (on two threads when
     /// `par` has them): forward, each group keeps its contributions to the top's rows in its
     /// own buffer, added to the top before the top is solved; backward, the top first, then
     /// the groups read its solution from a copy. The groups run the same way on one thread,
@@ -808,7 +811,7 @@ impl Sweep<'_> {
     /// them.
     fn groups(
         &self,
-        split: &Split,
+        split: &SubtreeGroups,
         x: MatMut<'_, c64>,
         scratch: [&mut SolveScratch; 2],
         par: Par,

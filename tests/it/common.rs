@@ -121,11 +121,11 @@ pub fn assert_sweep_matches_dense(
     use sparsemor::sweep::no_progress;
     let body = sparsemor::body::Body::new(model).unwrap();
     let frf =
-        transfer_function(&body, scene, freqs, Part::Total, false, opts, &no_progress).unwrap();
+        transfer_function(&body, scene, freqs, Part::Total, opts, None, &no_progress).unwrap();
     for (k, &f) in freqs.iter().enumerate() {
         let st = &frf.freq_stats[k];
         let berr = st.backward_error;
-        let accepted = if st.from_krylov() {
+        let accepted = if st.from_space() {
             berr <= sparsemor::sweep::CERTIFIED_BACKWARD_ERROR
                 || st.relative_residual <= sparsemor::sweep::CERTIFIED_RELATIVE_RESIDUAL
         } else {
@@ -136,7 +136,7 @@ pub fn assert_sweep_matches_dense(
             "{} ({:?}) at {f} Hz: backward error {berr:.1e} (Krylov dimension {})",
             model.name,
             opts.backend,
-            st.krylov_dim
+            st.space_dim
         );
         let e = rel_err(&frf.h[k], &dense_h(model, f, &scene.inputs, &scene.outputs));
         assert!(

@@ -8,7 +8,7 @@
 use crate::common::*;
 use proptest::prelude::*;
 use sparsemor::body::Body;
-use sparsemor::distributed::{serve, stop, Cluster};
+use sparsemor::engine::{serve, stop, Cluster};
 use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
 use sparsemor::frf::{transfer_function, Part};
 use sparsemor::model::{Damping, Model};
@@ -96,7 +96,7 @@ impl Cluster for Threads {
     }
 }
 
-/// Runs `work` on rank 0 of `size` thread ranks (with the cluster in its sweep options) while
+/// Runs `work` on rank 0 of `size` thread ranks (given the sweep options and the cluster) while
 /// the others serve; returns its result and the exit codes the others were stopped with.
 /// `readable(r)`: whether rank r can "read" the model (else it serves with an error).
 fn on_ranks<T: Send>(
@@ -104,7 +104,7 @@ fn on_ranks<T: Send>(
     size: usize,
     opts: &SweepOptions,
     readable: impl Fn(usize) -> bool + Sync,
-    work: impl FnOnce(&Body, SweepOptions) -> sparsemor::Result<T> + Send,
+    work: impl FnOnce(&Body, SweepOptions, Option<Arc<dyn Cluster>>) -> sparsemor::Result<T> + Send,
 ) -> (sparsemor::Result<T>, Vec<i32>) {
     let mut world = Threads::world(size).into_iter();
     let c0: Arc<dyn Cluster> = Arc::new(world.next().unwrap());
@@ -124,13 +124,7 @@ fn on_ranks<T: Send>(
             })
             .collect();
         let body = Body::new(model).unwrap();
-        let r = work(
-            &body,
-            SweepOptions {
-                cluster: Some(c0.clone()),
-                ..opts.clone()
-            },
-        );
+        let r = work(&body, opts.clone(), Some(c0.clone()));
         stop(&*c0, if r.is_ok() { 0 } else { 1 });
         let codes = others.into_iter().map(|h| h.join().unwrap()).collect();
         (r, codes)
@@ -141,7 +135,7 @@ fn on_ranks<T: Send>(
 fn on_all<T: Send>(
     model: &Model,
     size: usize,
-    work: impl FnOnce(&Body, SweepOptions) -> sparsemor::Result<T> + Send,
+    work: impl FnOnce(&Body, SweepOptions, Option<Arc<dyn Cluster>>) -> sparsemor::Result<T> + Send,
 ) -> (sparsemor::Result<T>, Vec<i32>) {
     on_ranks(model, size, &SweepOptions::default(), |_| true, work)
 }
@@ -151,12 +145,17 @@ fn paper_bar() -> (Model, Scene) {
     (bar_model(&spec).unwrap(), paper_scene(&spec))
 }
 
-fn fixed_opts(freqs: &[f64], sweep: SweepOptions) -> LineFitOptions {
+fn fixed_opts(
+    freqs: &[f64],
+    sweep: SweepOptions,
+    cluster: Option<Arc<dyn Cluster>>,
+) -> LineFitOptions {
     let mut o = LineFitOptions::new(
         Interface::OutputsPlus(5),
         References::Explicit(freqs.to_vec()),
     );
     o.sweep = sweep;
+    o.cluster = cluster;
     o
 }
 
@@ -186,7 +185,7 @@ fn linefit_over_ranks_equals_the_one_process_rom() {
         let reference = linefit::reduce(
             &body,
             &scene,
-            &fixed_opts(&freqs, one.clone()),
+            &fixed_opts(&freqs, one.clone(), None),
             None,
             &no_progress,
         )
@@ -197,8 +196,14 @@ fn linefit_over_ranks_equals_the_one_process_rom() {
                 size,
                 &one,
                 |_| true,
-                |body, sweep| {
-                    linefit::reduce(body, &scene, &fixed_opts(&freqs, sweep), None, &no_progress)
+                |body, sweep, cluster| {
+                    linefit::reduce(
+                        body,
+                        &scene,
+                        &fixed_opts(&freqs, sweep, cluster),
+                        None,
+                        &no_progress,
+                    )
                 },
             );
             let rom = rom.unwrap();
@@ -228,12 +233,13 @@ fn sampling_loop_over_ranks_meets_its_tolerance() {
         2,
         &one,
         |_| true,
-        |body, sweep| {
+        |body, sweep, cluster| {
             let mut o = LineFitOptions::new(
                 Interface::OutputsPlus(5),
                 References::Tolerance(SamplingOptions::new(tol)),
             );
             o.sweep = sweep;
+            o.cluster = cluster;
             linefit::reduce(body, &scene, &o, None, &no_progress)
         },
     );
@@ -268,11 +274,12 @@ fn sampling_loop_over_ranks_meets_its_tolerance() {
 #[test]
 fn qdeim_growth_over_ranks_is_refused_up_front() {
     let (model, scene) = paper_bar();
-    let (r, _) = on_all(&model, 2, |body, sweep| {
+    let (r, _) = on_all(&model, 2, |body, sweep, cluster| {
         let mut s = SamplingOptions::new(1e-3);
         s.growth = Growth::QDeim;
         let mut o = LineFitOptions::new(Interface::OutputsPlus(5), References::Tolerance(s));
         o.sweep = sweep;
+        o.cluster = cluster;
         linefit::reduce(body, &scene, &o, None, &no_progress)
     });
     match r {
@@ -315,14 +322,14 @@ fn singular_at_1_hz() -> (Model, Scene) {
 fn a_failing_rank_fails_the_run_with_its_error() {
     let (model, scene) = singular_at_1_hz();
     // frequency k goes to rank k mod ranks: 1 Hz (index 1) to rank 1
-    let (r, codes) = on_all(&model, 2, |body, sweep| {
+    let (r, codes) = on_all(&model, 2, |body, sweep, cluster| {
         transfer_function(
             body,
             &scene,
             &[0.5, 1.0],
             Part::Total,
-            false,
             &sweep,
+            cluster,
             &no_progress,
         )
     });
@@ -346,14 +353,14 @@ fn a_failing_rank_fails_the_run_with_its_error() {
         "the serving rank exits with rank 0's status"
     );
     // rank 0's own failure is its own error; rank 1 and 2 took the other frequencies
-    let (r, codes) = on_all(&model, 3, |body, sweep| {
+    let (r, codes) = on_all(&model, 3, |body, sweep, cluster| {
         transfer_function(
             body,
             &scene,
             &[1.0, 0.5, 0.7],
             Part::Total,
-            false,
             &sweep,
+            cluster,
             &no_progress,
         )
     });
@@ -369,14 +376,14 @@ fn a_rank_that_cannot_read_the_model_is_named() {
         3,
         &SweepOptions::default(),
         |r| r != 2,
-        |body, sweep| {
+        |body, sweep, cluster| {
             transfer_function(
                 body,
                 &scene,
                 &[10.0, 20.0, 30.0],
                 Part::Elastic,
-                false,
                 &sweep,
+                cluster,
                 &no_progress,
             )
         },
@@ -412,9 +419,9 @@ proptest! {
         let freqs = random_freqs(z, 1.0, 500.0, seed);
         let opts = SweepOptions { threads: 1, method: SolveMethod::Factored, ..Default::default() };
         let body = Body::new(&model).unwrap();
-        let one = transfer_function(&body, &scene, &freqs, Part::Total, false, &opts, &no_progress);
-        let (many, _) = on_ranks(&model, size, &opts, |_| true, |body, sweep| {
-            transfer_function(body, &scene, &freqs, Part::Total, false, &sweep, &no_progress)
+        let one = transfer_function(&body, &scene, &freqs, Part::Total, &opts, None, &no_progress);
+        let (many, _) = on_ranks(&model, size, &opts, |_| true, |body, sweep, cluster| {
+            transfer_function(body, &scene, &freqs, Part::Total, &sweep, cluster, &no_progress)
         });
         match (one, many) {
             (Ok(a), Ok(b)) => {

@@ -208,8 +208,15 @@ fn elastic_basis_of_a_linefit_rom_is_rigid_free_and_keeps_its_accuracy() {
     );
     check_against_dense(&model, rom.basis.as_ref().unwrap(), &eb);
     let grid: Vec<f64> = (0..50).map(|k| 1.0 + 999.0 * k as f64 / 49.0).collect();
-    let reference =
-        Reference::compute(&body, &scene, &grid, &SweepOptions::default(), &no_progress).unwrap();
+    let reference = Reference::compute(
+        &body,
+        &scene,
+        &grid,
+        &SweepOptions::default(),
+        None,
+        &no_progress,
+    )
+    .unwrap();
     let eps = |r: &Rom| ErrorCurve::max_mean(&reference.error(r).unwrap().eps_elastic);
     let (before, after) = (eps(&rom), eps(&eb.rom));
     println!(
@@ -306,6 +313,7 @@ fn exudyn_check(label: &str, model: &Model, scene: &Scene, rom: &Rom, freq_hz: f
         scene,
         &[freq_hz],
         &SweepOptions::default(),
+        None,
         &no_progress,
     )
     .unwrap();

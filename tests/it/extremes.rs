@@ -65,7 +65,7 @@ fn sweep_with(
         ..Default::default()
     };
     let body = Body::new(model)?;
-    Ok(transfer_function(&body, scene, freqs, part, false, &opts, &no_progress)?.h)
+    Ok(transfer_function(&body, scene, freqs, part, &opts, None, &no_progress)?.h)
 }
 
 /// The dense elastic reference of a free body (Rayleigh or no damping) at `f`.

@@ -40,7 +40,15 @@ fn paper_bar() -> (Model, Scene) {
 /// A reference transfer function on a frequency grid.
 fn reference(model: &Model, scene: &Scene, freqs: &[f64]) -> Reference {
     let body = Body::new(model).unwrap();
-    Reference::compute(&body, scene, freqs, &SweepOptions::default(), &no_progress).unwrap()
+    Reference::compute(
+        &body,
+        scene,
+        freqs,
+        &SweepOptions::default(),
+        None,
+        &no_progress,
+    )
+    .unwrap()
 }
 
 /// Dense X_k = Pᵀ A(iω)⁻¹ P B (P = I on a constrained body).
@@ -108,7 +116,7 @@ fn check_against_dense(model: &Model, scene: &Scene, interface: Vec<usize>, freq
     // from one shifted Krylov space (one factorization) and carries its certificate
     let solves = rom.fit().unwrap().solves;
     assert_eq!(solves.frequencies, freqs.len());
-    assert_eq!(solves.from_krylov, freqs.len(), "{solves:?}");
+    assert_eq!(solves.from_space, freqs.len(), "{solves:?}");
     assert_eq!(solves.factorizations(), 1, "{solves:?}");
     assert!(
         solves.relative_residual_max > 0.0

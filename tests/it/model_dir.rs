@@ -277,8 +277,8 @@ band_hz = [0.0, 12207.14]
         &scene,
         &freqs,
         Part::Total,
-        false,
         &opts,
+        None,
         &no_progress,
     )
     .expect("sweep");

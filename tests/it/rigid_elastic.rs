@@ -20,7 +20,7 @@ fn tf(
     opts: &SweepOptions,
 ) -> sparsemor::Result<Frf> {
     let body = Body::new(model)?;
-    transfer_function(&body, scene, freqs, part, false, opts, &no_progress)
+    transfer_function(&body, scene, freqs, part, opts, None, &no_progress)
 }
 
 fn h(model: &Model, scene: &Scene, freqs: &[f64], part: Part, threads: usize) -> Vec<Mat<c64>> {

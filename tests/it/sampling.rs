@@ -26,8 +26,15 @@ fn bar() -> &'static (Model, Scene, Reference) {
         let (m, scene) = (bar_model(&spec).unwrap(), paper_scene(&spec));
         let grid: Vec<f64> = (0..2000).map(|k| 1.0 + 999.0 * k as f64 / 1999.0).collect();
         let body = Body::new(&m).unwrap();
-        let r = Reference::compute(&body, &scene, &grid, &SweepOptions::default(), &no_progress)
-            .unwrap();
+        let r = Reference::compute(
+            &body,
+            &scene,
+            &grid,
+            &SweepOptions::default(),
+            None,
+            &no_progress,
+        )
+        .unwrap();
         (m, scene, r)
     })
 }
@@ -243,6 +250,7 @@ fn an_unmet_tolerance_returns_the_rom_whose_error_is_reported() {
         scene,
         rom.ref_freqs_hz(),
         &SweepOptions::default(),
+        None,
         &no_progress,
     )
     .unwrap();
@@ -448,8 +456,15 @@ fn defaults_reach_the_tolerance_on_the_bracket() {
     let body = Body::new(&model).unwrap();
     let band = sparsemor::scene::positive_band(scene.band_hz);
     let grid = sparsemor::grid::linspace(band, 2000);
-    let reference =
-        Reference::compute(&body, &scene, &grid, &SweepOptions::default(), &no_progress).unwrap();
+    let reference = Reference::compute(
+        &body,
+        &scene,
+        &grid,
+        &SweepOptions::default(),
+        None,
+        &no_progress,
+    )
+    .unwrap();
     for tol in [1e-2, 1e-3, 1e-4] {
         let rom = by_default(&body, &scene, tol);
         let r = report(&rom);
@@ -501,6 +516,7 @@ fn a_rom_converged_on_the_grid_reports_its_grid_error() {
         &scene,
         &candidates,
         &SweepOptions::default(),
+        None,
         &no_progress,
     )
     .unwrap();
@@ -549,8 +565,15 @@ fn a_band_without_resonances_converges_with_measured_errors() {
         );
     }
     let grid: Vec<f64> = (0..400).map(|k| 1.0 + 999.0 * k as f64 / 399.0).collect();
-    let reference =
-        Reference::compute(&body, &scene, &grid, &SweepOptions::default(), &no_progress).unwrap();
+    let reference = Reference::compute(
+        &body,
+        &scene,
+        &grid,
+        &SweepOptions::default(),
+        None,
+        &no_progress,
+    )
+    .unwrap();
     let v = verified_max(&reference, &rom);
     assert!(v <= tol, "400-point max {v:.3e}");
 }

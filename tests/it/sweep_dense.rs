@@ -164,7 +164,7 @@ fn mumps_over_the_memory_budget_goes_out_of_core() {
             ..Default::default()
         };
         let progress = &sparsemor::sweep::no_progress;
-        transfer_function(&body, &scene, &freqs, Part::Total, false, &opts, progress).unwrap()
+        transfer_function(&body, &scene, &freqs, Part::Total, &opts, None, progress).unwrap()
     };
     let (in_core, on_disk) = (run(None), run(Some(1)));
     assert!(!in_core.symbolic.as_ref().unwrap().out_of_core);
@@ -207,8 +207,8 @@ fn out_of_core_with_another_backend_or_no_directory_is_refused() {
             &scene,
             &[10.0],
             sparsemor::frf::Part::Total,
-            false,
             &opts,
+            None,
             &sparsemor::sweep::no_progress,
         ) else {
             panic!("{backend}: an out-of-core directory was not refused");
@@ -247,8 +247,8 @@ fn an_idle_worker_lending_its_thread_changes_no_number() {
             &scene,
             &freqs,
             Part::Elastic,
-            false,
             &opts,
+            None,
             &no_progress,
         )
         .unwrap()

@@ -262,6 +262,7 @@ fn run_case(tag: &str, spec: BoxSpec, s: Settings, valgrind: bool) {
         &scene,
         &s.eval,
         &SweepOptions::default(),
+        None,
         &no_progress,
     )
     .unwrap();

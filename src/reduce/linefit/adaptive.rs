@@ -54,7 +54,7 @@ use super::options::{Growth, LineFitOptions, SamplingOptions};
 use super::report::{Outcome, SamplingReport, Step, Verified};
 use super::Interface;
 use crate::body::Body;
-use crate::distributed::{Engine, Keep};
+use crate::engine::{Engine, Keep};
 use crate::factor::count_eigenvalues_below_with;
 use crate::grid::linspace;
 use crate::lsq::StreamedQr;
@@ -193,7 +193,6 @@ fn errors_at(
         &scene.inputs,
         &scene.outputs,
         freqs,
-        false,
         progress,
     )?;
     Ok(rel_errs(
@@ -424,7 +423,7 @@ impl<'a> Loop<'a> {
         };
         let part = Partition::new(body, scene, &interface)?;
         let p = scene.inputs.len();
-        let mut engine = Engine::new(body, &opts.sweep);
+        let mut engine = Engine::new(body, &opts.sweep, opts.cluster.clone());
         let growth = match sampling.growth {
             Growth::Auto if engine.ranks() > 1 => Growth::Residual,
             Growth::Auto => Growth::QDeim,
@@ -434,7 +433,7 @@ impl<'a> Loop<'a> {
             // refused before any work: the snapshots of a distributed run stay on their ranks
             engine.check_qdeim()?;
         }
-        let krylov = engine.krylov(Response::Elastic);
+        let krylov = engine.by_space(Response::Elastic);
         // responses from a Krylov space cost little beside the refit a step needs: more
         // points per step, fewer steps
         let threads = if krylov {

@@ -31,8 +31,8 @@ pub use placement::{place_reference_frequencies, RESONANCE_OFFSET};
 pub use report::{Outcome, SamplingReport, Step, Verified};
 
 use crate::body::Body;
-use crate::distributed::{Engine, Keep};
 use crate::eigen::{eigenpairs, EigenOptions, Modes, Request};
+use crate::engine::{Engine, Keep};
 use crate::reduce::rom::{Rom, Timing};
 use crate::scene::{check_dofs, Scene};
 use crate::sweep::{ProgressFn, Response};
@@ -104,7 +104,7 @@ fn fixed(
     check_rows(p, freqs.len(), part.order())?;
 
     let t_sweep = Instant::now();
-    let mut engine = Engine::new(body, &opts.sweep);
+    let mut engine = Engine::new(body, &opts.sweep, opts.cluster.clone());
     let absorbed = engine.absorb(
         &part.split,
         &scene.inputs,

@@ -2,9 +2,11 @@
 //! (explicit, a count placed beside the resonances, or a tolerance for the adaptive loop of
 //! docs/design.md §3.5) and how the loop may grow the interface.
 
+use crate::engine::Cluster;
 use crate::lsq::LsqOptions;
 use crate::reduce::interface::Interface;
 use crate::sweep::SweepOptions;
+use std::sync::Arc;
 
 /// How the reference frequencies are chosen.
 #[derive(Clone, Debug)]
@@ -29,6 +31,9 @@ pub struct LineFitOptions {
     pub keep_basis: bool,
     /// Sweep settings (threads, backend, memory).
     pub sweep: SweepOptions,
+    /// The ranks the reference frequencies are spread over (docs/design.md §9); `None` = this
+    /// process alone.
+    pub cluster: Option<Arc<dyn Cluster>>,
     /// Least-squares settings (rank truncation).
     pub lsq: LsqOptions,
 }
@@ -42,6 +47,7 @@ impl LineFitOptions {
             references,
             keep_basis: false,
             sweep: SweepOptions::default(),
+            cluster: None,
             lsq: LsqOptions::default(),
         }
     }
