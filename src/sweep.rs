@@ -187,22 +187,24 @@ struct Checked {
 }
 
 /// The accuracy a [`Solver`]'s factorizations showed over all its runs: reported with a ROM
-/// so the user sees how accurate the full-model solves behind it were.
+/// so the user sees how accurate the full-model solves behind it were. In `rom.toml` the
+/// shifted space's fields keep the keys the format has always had (`from_krylov`,
+/// `shift_factorizations`, `krylov_block_solves`, `krylov_dim`): ROM files stay readable.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SolveAccuracy {
     /// Frequencies solved (factored or from the shifted Krylov space).
     pub frequencies: usize,
     /// Of them, responses from the shifted Krylov space (docs/design.md §3.10).
-    #[serde(default)]
+    #[serde(default, rename = "from_krylov")]
     pub from_space: usize,
     /// Real factorizations of K − σM made for the shifted Krylov space.
-    #[serde(default)]
+    #[serde(default, rename = "shift_factorizations")]
     pub space_factorizations: usize,
     /// Block solves with those factorizations.
-    #[serde(default)]
+    #[serde(default, rename = "krylov_block_solves")]
     pub space_block_solves: usize,
     /// Largest dimension of the shifted Krylov space.
-    #[serde(default)]
+    #[serde(default, rename = "krylov_dim")]
     pub space_dim: usize,
     /// Largest relative residual of a response from it (its certificate).
     #[serde(default)]
