@@ -29,7 +29,7 @@ SRC = Path(__file__).resolve().parent.parent / "src"
 LAYERS = [
     ("support", ["error", "units", "memory", "sparse", "dense", "pool", "lsq", "snapshots",
                  "engine::cluster", "grid", "random"]),
-    ("model", ["model", "scene", "io::atomic", "io::binary", "io::matrix_market", "io::npz",
+    ("model", ["model", "scene", "coupling", "io::atomic", "io::binary", "io::matrix_market", "io::npz",
                "io::import", "io::text", "io"]),
     ("pencil", ["pencil", "rigid", "fe"]),
     ("factor", ["factor"]),
