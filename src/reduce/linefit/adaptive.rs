@@ -51,7 +51,6 @@
 use super::fit::{check_rows, Partition};
 use super::indicator::Indicator;
 use super::options::{Growth, LineFitOptions, SamplingOptions};
-use super::report::{Outcome, SamplingReport, Step, Verified};
 use super::Interface;
 use crate::body::Body;
 use crate::distributed::{Engine, Keep};
@@ -59,6 +58,7 @@ use crate::factor::count_eigenvalues_below_with;
 use crate::grid::linspace;
 use crate::lsq::StreamedQr;
 use crate::reduce::rom::{Provenance, Rom, Timing};
+use crate::reduce::sampling_report::{Outcome, SamplingReport, Step, Verified};
 use crate::reduce::spectrum::rom_spectrum;
 use crate::scene::{positive_band, Scene};
 use crate::snapshots::GrowBy;

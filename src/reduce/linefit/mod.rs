@@ -22,13 +22,12 @@ pub(crate) mod fit;
 pub mod indicator;
 mod options;
 mod placement;
-pub(crate) mod report;
 
 pub use crate::reduce::interface::{spread_dofs, Interface};
+pub use crate::reduce::sampling_report::{Outcome, SamplingReport, Step, Verified};
 pub use indicator::Indicator;
 pub use options::{Growth, LineFitOptions, References, SamplingOptions};
 pub use placement::{place_reference_frequencies, RESONANCE_OFFSET};
-pub use report::{Outcome, SamplingReport, Step, Verified};
 
 use crate::body::Body;
 use crate::distributed::{Engine, Keep};
