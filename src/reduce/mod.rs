@@ -1,6 +1,6 @@
 //! Reduced models (docs/design.md §3.4): the [`Rom`] type with its [`Provenance`]
-//! (`rom.rs`), the shared Galerkin projection with its definiteness check ([`project`],
-//! [`Definiteness`]),
+//! (`rom.rs`; the sampling loop's report in `sampling_report.rs`), the shared Galerkin
+//! projection with its definiteness check ([`project`], [`Definiteness`]),
 //! and the methods that build V: [`linefit`] (§3.3, §3.5), [`serep`] (§3.6) and
 //! [`craig_bampton`] (§3.8), behind one entry, [`reduce`] with a [`Reductor`]. Every
 //! reductor takes a prepared [`crate::body::Body`] and a [`crate::scene::Scene`] and ends in
@@ -14,6 +14,7 @@ pub mod linefit;
 pub(crate) mod projection;
 mod reductor;
 pub(crate) mod rom;
+pub(crate) mod sampling_report;
 pub mod serep;
 pub(crate) mod spectrum;
 mod transfer;

@@ -2,8 +2,8 @@
 //! it came from: method, reference frequencies and fit numerics, sampling history, SEREP
 //! modes — everything a front end reports and writes to `rom.toml`.
 
-use super::linefit::report::SamplingReport;
 use super::projection::{Definiteness, Projected};
+use super::sampling_report::SamplingReport;
 use crate::scene::Scene;
 use crate::{Error, Result};
 use faer::linalg::solvers::Solve;

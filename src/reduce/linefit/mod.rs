@@ -14,21 +14,28 @@
 //! One entry point, [`reduce`], for every way of choosing the reference frequencies
 //! ([`References`]): given explicitly, a count placed beside the resonances in the band
 //! ([`place_reference_frequencies`]), or a tolerance reached by the adaptive sampling loop
-//! (`adaptive.rs`, docs/design.md §3.5; its error indicator in [`indicator`], the snapshots kept
-//! for interface growth in `snapshots.rs`).
+//! (docs/design.md §3.5): its driver `adaptive.rs`, and its rooms — where a step solves
+//! (`picks.rs`), when it stops or grows (`stop.rs`), by how much and which DoFs
+//! (`growth.rs`), the true error ε at known responses (`true_error.rs`), the verification
+//! pass (`verification.rs`); its error indicator in [`indicator`], the snapshots kept for
+//! interface growth in `snapshots.rs`, its report in `reduce/sampling_report.rs`.
 
 mod adaptive;
 pub(crate) mod fit;
+mod growth;
 pub mod indicator;
 mod options;
+mod picks;
 mod placement;
-pub(crate) mod report;
+mod stop;
+mod true_error;
+mod verification;
 
 pub use crate::reduce::interface::{spread_dofs, Interface};
+pub use crate::reduce::sampling_report::{Outcome, SamplingReport, Step, Verified};
 pub use indicator::Indicator;
 pub use options::{Growth, LineFitOptions, References, SamplingOptions};
 pub use placement::{place_reference_frequencies, RESONANCE_OFFSET};
-pub use report::{Outcome, SamplingReport, Step, Verified};
 
 use crate::body::Body;
 use crate::eigen::{eigenpairs, EigenOptions, Modes, Request};

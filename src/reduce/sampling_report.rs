@@ -1,5 +1,9 @@
-//! What the adaptive sampling loop did (docs/design.md §3.5): its steps, why it stopped,
-//! the error reached. Attached to the ROM it returns ([`crate::reduce::Rom::sampling`]).
+//! What line-fitting's adaptive sampling loop did (docs/design.md §3.5): its steps, why it
+//! stopped, the error reached. Attached to the ROM it returns ([`crate::reduce::Rom::sampling`]).
+//!
+//! A room of `reduce` beside `rom.rs`, not of `linefit`: the ROM's provenance holds the
+//! report and the loop (`linefit::adaptive`) writes it, so both import it and it imports
+//! neither.
 
 /// One step of the loop.
 #[derive(Clone, Debug)]
@@ -37,10 +41,10 @@ pub enum Outcome {
     /// one step's picked and sampled points, and the verification pass over the band
     /// confirmed it (≤ tol again): two measurements within tol, as for [`Self::Converged`].
     Confirmed,
-    /// The factorization budget ([`super::SamplingOptions::max_points`]) is spent.
+    /// The factorization budget ([`crate::reduce::linefit::SamplingOptions::max_points`]) is spent.
     Budget,
     /// More frequencies stopped helping and the order may not grow further
-    /// ([`super::SamplingOptions::max_order`]).
+    /// ([`crate::reduce::linefit::SamplingOptions::max_order`]).
     Stagnated,
 }
 
@@ -78,7 +82,7 @@ pub struct SamplingReport {
     /// that would help).
     pub suggested_dof: usize,
     /// The verification pass: max ε of the returned ROM over full solves at points spread
-    /// evenly over the band ([`super::SamplingOptions::verify_points`]).
+    /// evenly over the band ([`crate::reduce::linefit::SamplingOptions::verify_points`]).
     pub verified: Option<Verified>,
     /// Full solves of the loop (frequencies solved; the verification's come on top).
     pub solves: usize,
