@@ -4,9 +4,10 @@
 //! Frequencies are independent and streamed-QR states merge as a TSQR tree (§3.3), so a run
 //! spreads its frequencies over the ranks. Rank 0 runs the library call (line-fitting's fit,
 //! its sampling loop's decisions, the projection, the output); the other ranks
-//! [`serve`]: each frequency call of rank 0's engine (`Engine`, `frequencies.rs`) is one command (`protocol.rs`)
-//! that every rank carries out on its share — rank r takes the frequencies k ≡ r (mod ranks) —
-//! and the answers combine up a binary tree to rank 0 (`gather`):
+//! [`serve`]: each frequency call of rank 0's engine (`Engine`, `frequencies.rs`) is one
+//! command (`protocol.rs`) that every rank carries out on its share — rank r takes the
+//! frequencies k ≡ r (mod ranks) — and the answers combine up a binary tree to rank 0
+//! (`gather`):
 //!
 //! ```text
 //! line-fitting   each rank: its frequencies → its streamed QR (R n×n, Y n×(N−n), e N−n)

@@ -12,9 +12,9 @@ use crate::{Error, Result};
 /// share of the frequencies until rank 0 stops the run, and returns the exit code rank 0 gave.
 /// Errors of a command go to rank 0, not out of here.
 ///
-/// `body` is this rank's model, or the error (as text) that kept it from reading or preparing it: every
-/// command is then answered with that error, so rank 0 reports it (naming this rank) and stops
-/// the run. `opts` are the sweep options of the run (threads, backend, memory, probe
+/// `body` is this rank's model, or the error (as text) that kept it from reading or preparing
+/// it: every command is then answered with that error, so rank 0 reports it (naming this
+/// rank) and stops the run. `opts` are the sweep options of the run (threads, backend, memory, probe
 /// tolerance), the same on every rank.
 ///
 /// # Errors
