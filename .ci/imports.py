@@ -23,8 +23,8 @@ SRC = Path(__file__).resolve().parent.parent / "src"
 LAYERS = [
     ("support", ["error", "units", "memory", "sparse", "dense", "pool", "lsq", "snapshots",
                  "distributed::cluster", "grid", "random"]),
-    ("model", ["model", "scene", "io::atomic", "io::binary", "io::matrix_market", "io::npz",
-               "io::import", "io::text", "io"]),
+    ("model", ["model", "scene", "io::atomic", "io::binary", "io::file", "io::matrix_market",
+               "io::npz", "io::import", "io::text", "io"]),
     ("pencil", ["pencil", "rigid", "fe"]),
     ("factor", ["factor"]),
     ("body", ["body", "io::model_dir"]),

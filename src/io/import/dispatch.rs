@@ -4,6 +4,7 @@
 
 use super::types::{role_from_name, Imported, Role};
 use super::{abaqus, ansys, harwell_boeing, nastran, node_table};
+use crate::io::file::head;
 use crate::{Error, Result};
 use std::path::{Path, PathBuf};
 
@@ -217,7 +218,7 @@ const SNIFFERS: [(LooksLike, Kind); 9] = [
 
 /// Tells what a file is from its first 4 KiB ([`SNIFFERS`]).
 fn sniff(path: &Path) -> Result<Kind> {
-    let head = crate::io::head(path)?;
+    let head = head(path)?;
     SNIFFERS
         .iter()
         .find(|(looks_like, _)| looks_like(&head))

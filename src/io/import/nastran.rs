@@ -55,7 +55,7 @@
 
 use super::types::{role_from_name, uniform_nodes, Direction, Dof, Format, Imported, Role};
 use crate::io::binary::BinaryFile;
-use crate::io::head;
+use crate::io::file::head;
 use crate::io::text::{fields, for_each_line, parse_u64, show};
 use crate::sparse::Triplets;
 use crate::{Error, Result};
