@@ -17,6 +17,7 @@ use sparsemor::reduce::craig_bampton::{self, CraigBamptonOptions};
 use sparsemor::reduce::flexible::elastic_basis;
 use sparsemor::reduce::linefit::{self, Interface, LineFitOptions, References};
 use sparsemor::reduce::Rom;
+use sparsemor::rigid;
 use sparsemor::scene::Scene;
 use sparsemor::sweep::no_progress;
 use std::collections::HashMap;
@@ -431,7 +432,7 @@ fn mbdyn_export_rigid_body_and_modal_matrices() {
     let rom = linefit_rom(&model, &scene);
     let body = Body::new(&model).unwrap();
     let flex = elastic_basis(&body, &scene, &rom).unwrap();
-    let rb = mbdyn::rigid_body(&model).unwrap();
+    let rb = rigid::inertia(&model).unwrap();
     let (mass, c, j) = dense_rigid_body(&model);
     let em = (rb.mass - mass).abs() / mass;
     let nodes = model.nodes.as_ref().unwrap();
