@@ -24,15 +24,15 @@ LAYERS = [
     ("support", ["error", "units", "memory", "sparse", "dense", "pool", "lsq", "snapshots",
                  "distributed::cluster", "grid", "random"]),
     ("model", ["model", "scene", "io::atomic", "io::binary", "io::file", "io::matrix_market",
-               "io::npz", "io::import", "io::text", "io"]),
+               "io::npz", "io::import", "io::op4", "io::text", "io"]),
     ("pencil", ["pencil", "rigid", "fe"]),
     ("factor", ["factor"]),
     ("body", ["body", "io::model_dir"]),
     ("engine", ["sweep", "distributed", "frf", "eigen", "multishift"]),
     ("reduce", ["reduce"]),
     ("metrics", ["metrics"]),
-    ("output", ["io::rom_dir", "io::exudyn", "io::op4", "io::dmig", "io::mbdyn", "io::sid",
-                "report"]),
+    ("output", ["io::rom_dir", "io::exudyn", "io::op4::rom", "io::dmig", "io::mbdyn",
+                "io::sid", "report"]),
     ("cli", ["cli", "main", "lib"]),
 ]
 

@@ -10,7 +10,7 @@ use crate::common::dense;
 use faer::Mat;
 use sparsemor::body::Body;
 use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
-use sparsemor::io::import::nastran::{read_op4, Encoding};
+use sparsemor::io::op4::{read_op4, Encoding};
 use sparsemor::io::{dmig, mbdyn, op4};
 use sparsemor::model::Model;
 use sparsemor::reduce::craig_bampton::{self, CraigBamptonOptions};
