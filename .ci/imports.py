@@ -29,16 +29,16 @@ SRC = Path(__file__).resolve().parent.parent / "src"
 LAYERS = [
     ("support", ["error", "units", "memory", "sparse", "dense", "pool", "lsq", "snapshots",
                  "engine::cluster", "grid", "random"]),
-    ("model", ["model", "scene", "coupling", "io::atomic", "io::binary", "io::matrix_market", "io::npz",
-               "io::import", "io::text", "io"]),
+    ("model", ["model", "scene", "coupling", "io::atomic", "io::binary", "io::file",
+               "io::matrix_market", "io::npz", "io::import", "io::op4", "io::text", "io"]),
     ("pencil", ["pencil", "rigid", "fe"]),
     ("factor", ["factor"]),
     ("body", ["body", "io::model_dir"]),
     ("engine", ["sweep", "engine", "frf", "eigen", "shifted_space"]),
     ("reduce", ["reduce"]),
     ("metrics", ["metrics"]),
-    ("output", ["io::rom_dir", "io::exudyn", "io::op4", "io::dmig", "io::mbdyn", "io::sid",
-                "report"]),
+    ("output", ["io::rom_dir", "io::exudyn", "io::op4::rom", "io::dmig", "io::mbdyn",
+                "io::sid", "report"]),
     ("cli", ["cli", "main", "lib"]),
 ]
 

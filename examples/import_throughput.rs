@@ -14,7 +14,8 @@ use std::path::Path;
 use std::time::Instant;
 
 use sparsemor::fe::{bar_model, BoxSpec};
-use sparsemor::io::import::{self, abaqus, harwell_boeing, nastran};
+use sparsemor::io::import::{self, abaqus, harwell_boeing};
+use sparsemor::io::op4;
 use sparsemor::sparse::Csc;
 
 /// Writes `a` (full storage) with 1-based indices, one entry per line, through `line`.
@@ -207,8 +208,8 @@ fn main() {
         + write_op4_ascii(&p("maa.op4"), "MAA", &model.mass);
     let (mm, s) = timed(|| {
         (
-            nastran::read_op4(&p("kaa.op4")).unwrap(),
-            nastran::read_op4(&p("maa.op4")).unwrap(),
+            op4::read_op4(&p("kaa.op4")).unwrap(),
+            op4::read_op4(&p("maa.op4")).unwrap(),
         )
     });
     assert_eq!(mm.0.len(), 1);

@@ -1,4 +1,5 @@
-//! The rigid-body part of a free body (docs/design.md §3.2, eq. 15–17).
+//! The rigid-body part of a free body (docs/design.md §3.2, eq. 15–17), and the rigid-body
+//! inertia of a model that the multibody exports write (§3.9).
 //!
 //! V0 (N×6) holds the rigid modes built from node coordinates r_k, centered at their
 //! centroid c for conditioning: translations `I₃` and rotations `−skew(r_k − c)` per node
@@ -19,9 +20,14 @@
 //! M-orthogonal split rigid ⊕ elastic, so H = H0 + C X exactly; X is computed without forming
 //! H − H0, which loses all digits at low frequency (H and H0 grow like 1/s²).
 //!
-//! Entry points: [`RigidBody::from_nodes`], [`RigidBody::detect`].
+//! The inertia ([`inertia`]: total mass, centre of mass, inertia tensor about it) is read off
+//! the 6 × 6 rigid-body mass matrix RᵀMR with R the rigid modes about the origin (not V0:
+//! those are centred at the centroid), which needs neither K nor a free body.
+//!
+//! Entry points: [`RigidBody::from_nodes`], [`RigidBody::detect`]; [`inertia`].
 
 use crate::dense::sym;
+use crate::model::Model;
 use crate::pencil::{Coefficient, Pencil};
 use crate::{Error, Result};
 use faer::linalg::solvers::{DenseSolveCore, Solve};
@@ -222,6 +228,119 @@ where
             x[(i, c)] -= acc;
         }
     }
+}
+
+/// The rigid-body inertia of a model ([`inertia`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Inertia {
+    /// Total mass.
+    pub mass: f64,
+    /// Centre of mass.
+    pub center: [f64; 3],
+    /// Inertia tensor about the centre of mass (positive off-diagonal products as
+    /// ∫ρ(|r|²δ − r rᵀ), the matrix MBDyn uses).
+    pub inertia: [[f64; 3]; 3],
+    /// The 6 × 6 rigid-body mass matrix Rᵀ M R about the origin (translations x, y, z, then
+    /// rotations about x, y, z).
+    pub mrb: [[f64; 6]; 6],
+}
+
+/// Row `i` of the rigid modes R about the origin for DoF direction `a` (0–2 translations,
+/// 3–5 rotations) of a node at `p`.
+fn rigid_row(a: usize, p: [f64; 3]) -> [f64; 6] {
+    let mut r = [0.0; 6];
+    if a < 3 {
+        r[a] = 1.0;
+        // rotation about e_q moves p by e_q × p; its component a
+        for q in 0..3 {
+            let (b, c) = ((q + 1) % 3, (q + 2) % 3);
+            r[3 + q] = if a == b {
+                -p[c]
+            } else if a == c {
+                p[b]
+            } else {
+                0.0
+            };
+        }
+    } else {
+        r[a] = 1.0;
+    }
+    r
+}
+
+/// The model's rigid-body inertia from M and the node coordinates, in one pass over M's
+/// entries (Mrb = Rᵀ(MR) with R the N × 6 rigid modes about the origin: O(nnz), never a dense
+/// N × N product): mass = the mean of Mrb's three translational diagonal entries; the first
+/// moments m·c from the antisymmetric translation–rotation block; the inertia about the
+/// origin from the rotational block, moved to the centre of mass.
+///
+/// # Errors
+/// [`Error::InvalidSetting`] when the model has no node coordinates, a DoF count that is not
+/// nodes × dofs_per_node, or a total mass that is not positive.
+pub fn inertia(model: &Model) -> Result<Inertia> {
+    let nodes = model.nodes.as_ref().ok_or_else(|| {
+        Error::InvalidSetting(format!(
+            "model '{}' has no node coordinates (nodes.csv): rigid-body inertia needs them",
+            model.name
+        ))
+    })?;
+    let dpn = model.dofs_per_node;
+    let n = model.n();
+    if !(dpn == 3 || dpn == 6) || nodes.len() * dpn != n {
+        return Err(Error::InvalidSetting(format!(
+            "model '{}': {} nodes × {dpn} DoFs per node is not N = {n}",
+            model.name,
+            nodes.len()
+        )));
+    }
+    let row = |i: usize| rigid_row(i % dpn, nodes[i / dpn]);
+    let m = &model.mass;
+    let mut mrb = [[0.0; 6]; 6];
+    // Σ_ij R_ia M_ij R_jb, column by column of M (full storage)
+    for j in 0..m.ncols() {
+        let rj = row(j);
+        let mut mr = [0.0; 6];
+        for (&i, &v) in m.row_idx_of_col_raw(j).iter().zip(m.val_of_col(j)) {
+            let ri = row(i);
+            for a in 0..6 {
+                mr[a] += ri[a] * v;
+            }
+        }
+        for a in 0..6 {
+            for b in 0..6 {
+                mrb[a][b] += mr[a] * rj[b];
+            }
+        }
+    }
+    let mass = (mrb[0][0] + mrb[1][1] + mrb[2][2]) / 3.0;
+    if !(mass > 0.0 && mass.is_finite()) {
+        return Err(Error::InvalidSetting(format!(
+            "model '{}': the mass matrix gives a total mass of {mass:e}",
+            model.name
+        )));
+    }
+    // Mrb[0..3][3..6] = −skew(m c)
+    let c = |a: usize, b: usize| mrb[a][3 + b];
+    let s = [
+        (c(1, 2) - c(2, 1)) / 2.0,
+        (c(2, 0) - c(0, 2)) / 2.0,
+        (c(0, 1) - c(1, 0)) / 2.0,
+    ];
+    let center = s.map(|x| x / mass);
+    let r2: f64 = center.iter().map(|x| x * x).sum();
+    let mut tensor = [[0.0; 3]; 3];
+    for a in 0..3 {
+        for b in 0..3 {
+            let parallel = mass * (if a == b { r2 } else { 0.0 } - center[a] * center[b]);
+            tensor[a][b] = (mrb[3 + a][3 + b] + mrb[3 + b][3 + a]) / 2.0 - parallel;
+        }
+    }
+    Ok(Inertia {
+        mass,
+        center,
+        inertia: tensor,
+        mrb,
+    })
 }
 
 #[cfg(test)]

@@ -11,6 +11,7 @@ use sparsemor::io::exudyn::{self, TransferCheck, NO_SURFACE};
 use sparsemor::io::{atomic, dmig, mbdyn, model_dir, op4, rom_dir, sid};
 use sparsemor::metrics::{ErrorCurve, Reference};
 use sparsemor::reduce::flexible::{elastic_basis, DEPENDENT_RTOL};
+use sparsemor::rigid;
 use sparsemor::scene::Scene;
 use sparsemor::sweep::SweepOptions;
 use sparsemor::{Error, Result};
@@ -131,7 +132,7 @@ pub fn export(a: &ExportArgs) -> Result<()> {
     match a.format {
         Format::Mbdyn => {
             mbdyn::write(&a.out, &model, &flex, dof_map.as_deref())?;
-            let rb = mbdyn::rigid_body(&model)?;
+            let rb = rigid::inertia(&model)?;
             println!(
                 "mbdyn            {}: total mass {:.6e}, centre of mass [{:.6e}, {:.6e}, {:.6e}]",
                 mbdyn::FEM_FILE,
@@ -143,7 +144,7 @@ pub fn export(a: &ExportArgs) -> Result<()> {
         }
         Format::Sid => {
             sid::write(&a.out, &model, &flex, dof_map.as_deref())?;
-            let rb = mbdyn::rigid_body(&model)?;
+            let rb = rigid::inertia(&model)?;
             println!(
                 "sid              {}: total mass {:.6e}, centre of mass [{:.6e}, {:.6e}, {:.6e}], \
                  {} nodes; inertia invariants only (no geometric stiffening)",

@@ -8,6 +8,18 @@ use std::fs::File;
 use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
+/// The 32-bit word of the first four bytes of `b` in the byte order `big_endian` says (also
+/// for a file's head, before it is opened as a [`BinaryFile`]). The caller guarantees
+/// `b.len() >= 4`.
+pub(crate) fn word(b: &[u8], big_endian: bool) -> u32 {
+    let w = [b[0], b[1], b[2], b[3]];
+    if big_endian {
+        u32::from_be_bytes(w)
+    } else {
+        u32::from_le_bytes(w)
+    }
+}
+
 pub(crate) struct BinaryFile {
     file: BufReader<File>,
     path: PathBuf,
@@ -39,7 +51,7 @@ impl BinaryFile {
 
     /// The 32-bit word of the first four bytes of `b` in the file's byte order.
     pub(crate) fn word(&self, b: &[u8]) -> u32 {
-        super::word(b, self.big_endian)
+        word(b, self.big_endian)
     }
 
     /// Fills `buf` from the current file position; an early end is an error at `at` naming

@@ -15,9 +15,8 @@
 //! | 13 | generalized damping ΦᵀDΦ, when not zero |
 //!
 //! Φ is the rigid-free elastic basis of [`crate::reduce::flexible`]: the modal node carries
-//! the rigid motion. The rigid-body properties ([`rigid_body`]) come from M and the node
-//! coordinates in one pass over M's entries (Mrb = Rᵀ(MR) with R the N × 6 rigid modes about
-//! the origin: O(nnz), never a dense N × N product). Record group 11 (lumped nodal masses,
+//! the rigid motion. The rigid-body properties come from M and the node coordinates
+//! ([`crate::rigid::inertia`]: one pass over M's entries). Record group 11 (lumped nodal masses,
 //! from which MBDyn builds the coupling invariants) is not written: the models carry
 //! consistent masses, and a lumped diagonal would be a different body.
 
@@ -26,6 +25,7 @@ use crate::io::dmig::grids;
 use crate::io::import::Dof;
 use crate::model::Model;
 use crate::reduce::flexible::ElasticBasis;
+use crate::rigid::inertia;
 use crate::{Error, Result};
 use faer::MatRef;
 use std::fmt::Write as _;
@@ -33,118 +33,6 @@ use std::path::Path;
 
 /// The file [`write`] writes.
 pub const FEM_FILE: &str = "body.fem";
-
-/// Rigid-body inertia of a model.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RigidBody {
-    /// Total mass.
-    pub mass: f64,
-    /// Centre of mass.
-    pub center: [f64; 3],
-    /// Inertia tensor about the centre of mass (positive off-diagonal products as
-    /// ∫ρ(|r|²δ − r rᵀ), the matrix MBDyn uses).
-    pub inertia: [[f64; 3]; 3],
-    /// The 6 × 6 rigid-body mass matrix Rᵀ M R about the origin (translations x, y, z, then
-    /// rotations about x, y, z).
-    pub mrb: [[f64; 6]; 6],
-}
-
-/// Row `i` of the rigid modes R about the origin for DoF direction `a` (0–2 translations,
-/// 3–5 rotations) of a node at `p`.
-fn rigid_row(a: usize, p: [f64; 3]) -> [f64; 6] {
-    let mut r = [0.0; 6];
-    if a < 3 {
-        r[a] = 1.0;
-        // rotation about e_q moves p by e_q × p; its component a
-        for q in 0..3 {
-            let (b, c) = ((q + 1) % 3, (q + 2) % 3);
-            r[3 + q] = if a == b {
-                -p[c]
-            } else if a == c {
-                p[b]
-            } else {
-                0.0
-            };
-        }
-    } else {
-        r[a] = 1.0;
-    }
-    r
-}
-
-/// The model's rigid-body properties from M and the node coordinates (see the module doc):
-/// Mrb = RᵀMR; mass = the mean of Mrb's three translational diagonal entries; the first
-/// moments m·c from the antisymmetric translation–rotation block; the inertia about the
-/// origin from the rotational block, moved to the centre of mass.
-///
-/// # Errors
-/// [`Error::InvalidSetting`] when the model has no node coordinates, a DoF count that is not
-/// nodes × dofs_per_node, or a total mass that is not positive.
-pub fn rigid_body(model: &Model) -> Result<RigidBody> {
-    let nodes = model.nodes.as_ref().ok_or_else(|| {
-        Error::InvalidSetting(format!(
-            "model '{}' has no node coordinates (nodes.csv): rigid-body inertia needs them",
-            model.name
-        ))
-    })?;
-    let dpn = model.dofs_per_node;
-    let n = model.n();
-    if !(dpn == 3 || dpn == 6) || nodes.len() * dpn != n {
-        return Err(Error::InvalidSetting(format!(
-            "model '{}': {} nodes × {dpn} DoFs per node is not N = {n}",
-            model.name,
-            nodes.len()
-        )));
-    }
-    let row = |i: usize| rigid_row(i % dpn, nodes[i / dpn]);
-    let m = &model.mass;
-    let mut mrb = [[0.0; 6]; 6];
-    // Σ_ij R_ia M_ij R_jb, column by column of M (full storage)
-    for j in 0..m.ncols() {
-        let rj = row(j);
-        let mut mr = [0.0; 6];
-        for (&i, &v) in m.row_idx_of_col_raw(j).iter().zip(m.val_of_col(j)) {
-            let ri = row(i);
-            for a in 0..6 {
-                mr[a] += ri[a] * v;
-            }
-        }
-        for a in 0..6 {
-            for b in 0..6 {
-                mrb[a][b] += mr[a] * rj[b];
-            }
-        }
-    }
-    let mass = (mrb[0][0] + mrb[1][1] + mrb[2][2]) / 3.0;
-    if !(mass > 0.0 && mass.is_finite()) {
-        return Err(Error::InvalidSetting(format!(
-            "model '{}': the mass matrix gives a total mass of {mass:e}",
-            model.name
-        )));
-    }
-    // Mrb[0..3][3..6] = −skew(m c)
-    let c = |a: usize, b: usize| mrb[a][3 + b];
-    let s = [
-        (c(1, 2) - c(2, 1)) / 2.0,
-        (c(2, 0) - c(0, 2)) / 2.0,
-        (c(0, 1) - c(1, 0)) / 2.0,
-    ];
-    let center = s.map(|x| x / mass);
-    let r2: f64 = center.iter().map(|x| x * x).sum();
-    let mut inertia = [[0.0; 3]; 3];
-    for a in 0..3 {
-        for b in 0..3 {
-            let parallel = mass * (if a == b { r2 } else { 0.0 } - center[a] * center[b]);
-            inertia[a][b] = (mrb[3 + a][3 + b] + mrb[3 + b][3 + a]) / 2.0 - parallel;
-        }
-    }
-    Ok(RigidBody {
-        mass,
-        center,
-        inertia,
-        mrb,
-    })
-}
 
 fn matrix(s: &mut String, a: MatRef<'_, f64>) {
     for i in 0..a.nrows() {
@@ -159,7 +47,7 @@ fn matrix(s: &mut String, a: MatRef<'_, f64>) {
 /// into the new directory `dir`.
 ///
 /// # Errors
-/// [`Error::InvalidSetting`] if `dir` exists and is not empty (naming it), as [`rigid_body`]
+/// [`Error::InvalidSetting`] if `dir` exists and is not empty (naming it), as [`inertia`]
 /// and [`grids`], or when Φ does not have the model's N rows; I/O errors.
 pub fn write(
     dir: &Path,
@@ -167,7 +55,7 @@ pub fn write(
     flex: &ElasticBasis,
     dof_map: Option<&[Dof]>,
 ) -> Result<()> {
-    let rb = rigid_body(model)?;
+    let rb = inertia(model)?;
     let labels = grids(model, dof_map)?;
     let nodes = model.nodes.as_deref().unwrap_or_default();
     let dpn = model.dofs_per_node;

@@ -50,6 +50,7 @@
 //! interrupted write never leaves a directory that looks complete.
 
 use crate::body::Body;
+use crate::io::file::read_regular_text;
 use crate::io::import::{self, Direction, Dof};
 use crate::io::{atomic, matrix_market};
 use crate::model::{Damping, Model, ValidationReport};
@@ -291,7 +292,7 @@ pub fn read_dof_map(dir: &Path) -> Result<Option<Vec<Dof>>> {
 }
 
 fn read_dofs(path: &Path) -> Result<Vec<Dof>> {
-    let text = super::read_regular_text(path)?;
+    let text = read_regular_text(path)?;
     text.lines()
         .enumerate()
         .skip(1)
@@ -510,7 +511,7 @@ fn in_dir(dir: &Path, file: &str) -> std::path::PathBuf {
 /// # Errors
 /// [`Error::Parse`] naming the line for a bad header, a wrong column count or a bad number.
 pub fn read_nodes(path: &Path) -> Result<Vec<[f64; 3]>> {
-    let text = super::read_regular_text(path)?;
+    let text = read_regular_text(path)?;
     let mut lines = text.lines().enumerate();
     match lines.next() {
         Some((_, h)) if h.split(',').map(str::trim).eq(["x", "y", "z"]) => {}

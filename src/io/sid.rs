@@ -47,7 +47,7 @@
 //! With S_b Φ_k the nodal field e_b × φ_{k,p} and R_b = R_b(0), the coefficients of T are
 //!
 //! ```text
-//! mass     = T_aᵀ M T_a                       m·c = mdCM0,  J0_ab = R_aᵀ M R_b  (mbdyn::rigid_body)
+//! mass     = T_aᵀ M T_a                       m·c = mdCM0,  J0_ab = R_aᵀ M R_b  (rigid::inertia)
 //! mdCM1_k  = ∫Φ_k dm        = (Ct0_k)ᵀ        Ct0_ka  = Φ_kᵀ M T_a
 //! Cr0_kb   = Φ_kᵀ M R_b     = (∫ r̃ Φ_k dm)_b   Cr1_klb = Φ_kᵀ M S_b Φ_l   (∂Cr_kb/∂q_l)
 //! A_k,ab   = R_aᵀ M S_b Φ_k = −(∫ x̃ Φ̃_k dm)_ab
@@ -84,9 +84,9 @@
 use crate::io::atomic;
 use crate::io::dmig::grids;
 use crate::io::import::Dof;
-use crate::io::mbdyn::{rigid_body, RigidBody};
 use crate::model::Model;
 use crate::reduce::flexible::ElasticBasis;
+use crate::rigid::{inertia, Inertia};
 use crate::{Error, Result};
 use faer::{Mat, MatRef};
 use std::fmt::Write as _;
@@ -136,8 +136,8 @@ impl Taylor {
 /// The body invariants of the SID (see the module doc), one Taylor block each.
 #[derive(Clone, Debug)]
 pub struct Invariants {
-    /// Total mass, centre of mass and inertia ([`rigid_body`]).
-    pub rigid: RigidBody,
+    /// Total mass, centre of mass and inertia ([`inertia`]).
+    pub rigid: Inertia,
     /// m·c (3 × 1), order 1.
     pub md_cm: Taylor,
     /// Inertia tensor about the origin as (xx, yy, zz, xy, xz, yz) (6 × 1), order 1.
@@ -230,7 +230,7 @@ fn check(model: &Model, phi: MatRef<'_, f64>) -> Result<()> {
 pub fn invariants(model: &Model, flex: &ElasticBasis) -> Result<Invariants> {
     let phi = flex.phi.as_ref();
     check(model, phi)?;
-    let rigid = rigid_body(model)?;
+    let rigid = inertia(model)?;
     let nodes = model.nodes.as_deref().unwrap_or_default();
     let (n, r) = (model.n(), phi.ncols());
     // X = [Φ (r), S_bΦ_l (col r + 3·... b-major: r + b·r + l), T_a (4r + a), R_b (4r + 3 + b)]

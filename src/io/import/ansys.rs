@@ -57,8 +57,9 @@
 use super::harwell_boeing;
 use super::node_table::read_node_table;
 use super::types::{uniform_nodes, Direction, Dof, Format, Imported};
-use crate::io::binary::BinaryFile;
-use crate::io::{head, matrix_market, word};
+use crate::io::binary::{word, BinaryFile};
+use crate::io::file::head;
+use crate::io::matrix_market;
 use crate::sparse::Triplets;
 use crate::{Error, Result};
 use std::path::Path;

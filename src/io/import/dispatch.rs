@@ -4,6 +4,8 @@
 
 use super::types::{role_from_name, Imported, Role};
 use super::{abaqus, ansys, harwell_boeing, nastran, node_table};
+use crate::io::file::head;
+use crate::io::op4;
 use crate::{Error, Result};
 use std::path::{Path, PathBuf};
 
@@ -33,7 +35,7 @@ enum Kind {
 /// * the 32-bit word 24 at bytes 0 and 28, in either byte order (a 24-byte Fortran record: the
 ///   OUTPUT4 matrix header), or a first line `NCOL NROW NF NTYPE` in 4 fields of 8, an 8-column
 ///   name and a Fortran format such as `1P,3E23.16`: a Nastran OP4 file
-///   (`nastran::looks_like_op4`);
+///   (`io::op4::looks_like_op4`);
 /// * `%%MatrixMarket`: a Matrix Market file — `array integer` is the DoF mapping vector
 ///   (`ansys::looks_like_mapping`), anything else a matrix
 ///   (`ansys::looks_like_matrix_market`);
@@ -205,7 +207,7 @@ type LooksLike = fn(&[u8]) -> bool;
 /// recognizes a file's first bytes decides its kind.
 const SNIFFERS: [(LooksLike, Kind); 9] = [
     (ansys::looks_like_full, Kind::AnsysBinary),
-    (nastran::looks_like_op4, Kind::NastranOp4),
+    (op4::looks_like_op4, Kind::NastranOp4),
     (ansys::looks_like_mapping, Kind::MatrixMarketMapping),
     (ansys::looks_like_matrix_market, Kind::MatrixMarketMatrix),
     (harwell_boeing::looks_like, Kind::HarwellBoeing),
@@ -217,7 +219,7 @@ const SNIFFERS: [(LooksLike, Kind); 9] = [
 
 /// Tells what a file is from its first 4 KiB ([`SNIFFERS`]).
 fn sniff(path: &Path) -> Result<Kind> {
-    let head = crate::io::head(path)?;
+    let head = head(path)?;
     SNIFFERS
         .iter()
         .find(|(looks_like, _)| looks_like(&head))

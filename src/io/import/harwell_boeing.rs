@@ -40,6 +40,7 @@
 //! against the file's size before anything is allocated, so a header declaring 10¹² entries in
 //! a small file is an error, not an allocation. Errors name the file and the line.
 
+use crate::io::file::check_regular;
 use crate::io::text::{for_each_line, show};
 use crate::sparse::{from_parts, Csc, Triplets};
 use crate::{Error, Result};
@@ -101,7 +102,7 @@ pub fn read(path: &Path) -> Result<Csc> {
 /// # Errors
 /// As [`read`].
 pub fn read_with_header(path: &Path) -> Result<(Header, Csc)> {
-    crate::io::check_regular(path)?;
+    check_regular(path)?;
     let size = std::fs::metadata(path)
         .map_err(|e| Error::io(path, e))?
         .len();

@@ -7,7 +7,7 @@
 //! | ANSYS binary full file | `Jobname.full` (+ optional node table) | [`ansys::read_full`] |
 //! | ANSYS APDL Math export | K, M (`*EXPORT,…,MMF` or `HBMAT`, [`harwell_boeing`]), the DoF mapping vector, a node table | [`ansys::read_apdl_math`] |
 //! | Abaqus `*MATRIX OUTPUT` | `*_STIF*.mtx`, `*_MASS*.mtx` (+ the `.inp` deck) | [`abaqus::read`] |
-//! | Nastran OUTPUT4 (OP4), ASCII or binary | one or more `.op4` files holding `KAA`/`MAA` (or `KGG`, `KLL`, `KHH` / `MGG`, `MLL`, `MHH`) (+ a DoF map) | [`nastran`] |
+//! | Nastran OUTPUT4 (OP4), ASCII or binary | one or more `.op4` files holding `KAA`/`MAA` (or `KGG`, `KLL`, `KHH` / `MGG`, `MLL`, `MHH`) (+ a DoF map) | [`nastran`], on [`crate::io::op4::read_op4`] |
 //! | node coordinate table | rows `node x y z`, any separator, decimal point or comma | [`read_node_table`] |
 //!
 //! Layout: `types` holds the vocabulary every reader shares ([`Dof`], [`Imported`],

@@ -89,6 +89,7 @@ use faer::sparse::{SparseColMat, SparseColMatRef, SymbolicSparseColMat};
 use faer::{Mat, MatRef};
 
 use crate::error::{Error, Result};
+use crate::io::file::read_regular;
 use array::{dense_fits, parse_array_body};
 use coordinate::{build_csc, parse_coordinate_body, Entry};
 use header::{parse_header, Format, Header};
@@ -134,7 +135,7 @@ impl MtxMatrix {
 /// Symmetric files are expanded to full storage; see the [module documentation](self) for the
 /// accepted formats and the conventions.
 pub fn read(path: &Path) -> Result<MtxMatrix> {
-    let bytes = super::read_regular(path)?;
+    let bytes = read_regular(path)?;
     // Each buffer is dropped as soon as the next stage no longer needs it, so the peak memory
     // is max(file + entries, entries + matrix), not their sum.
     let parsed = if bytes.starts_with(&GZIP_MAGIC) {

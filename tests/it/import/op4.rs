@@ -1,13 +1,15 @@
-//! Nastran OP4 (io::import::nastran): round trips through the library writer `io::op4` (ASCII and
-//! binary, both byte orders, dense, string-sparse and BIGMAT records), the pyNastran
-//! cross-check, one test per bad-file class, and `sparsemor import` end to end.
+//! Nastran OP4 (the reader `io::op4::read_op4`, the import `io::import::nastran`): round trips
+//! through the library writer `io::op4` (ASCII and binary, both byte orders, dense,
+//! string-sparse and BIGMAT records), the pyNastran cross-check, one test per bad-file class,
+//! and `sparsemor import` end to end.
 
 use crate::common::dense;
 use proptest::prelude::*;
 use sparsemor::fe::{bar_model, BoxSpec};
-use sparsemor::io::import::nastran::{read_op4, Encoding as Enc};
 use sparsemor::io::import::{self, Direction, Format};
-use sparsemor::io::op4::{self, columns_of_csc as columns, Layout as Lay, Matrix as Mat4};
+use sparsemor::io::op4::{
+    self, columns_of_csc as columns, read_op4, Encoding as Enc, Layout as Lay, Matrix as Mat4,
+};
 use sparsemor::sparse::Csc;
 use sparsemor::Error;
 use std::path::{Path, PathBuf};

@@ -1,18 +1,14 @@
-//! Nastran OUTPUT4 (OP4) writer (docs/design.md §3.9, §4): the layout [`read_op4`] reads
-//! (described there), written by [`append`] in any of its encodings (ASCII, binary of either
-//! byte order) and column layouts (dense, string-sparse, BIGMAT), and the ROM export
-//! [`write_rom`]: `rom.op4` holding Mr, Dr, Kr (form 6, symmetric, both triangles as NASTRAN
-//! stores them) and Br, Cr (form 2, rectangular), ASCII, real double precision (type 2),
-//! dense column records, `1P,3E23.16` — the layout NASTRAN's `OUTPUT4` writes by default. 17
-//! significant digits read back bit for bit; a value whose decimal exponent has three digits
+//! The OP4 writer: the layout [`read_op4`] reads (the format: [`crate::io::op4`]), written by
+//! [`append`] in any of its encodings (ASCII, binary of either byte order) and column layouts
+//! (dense, string-sparse, BIGMAT). ASCII values in real double precision carry 17 significant
+//! digits and read back bit for bit; a value whose decimal exponent has three digits
 //! (|v| < 1e-99 or ≥ 1e100) keeps 16, so that it still fits the 23-character field (pyNastran
 //! and [`read_op4`] both read fields by width and neither reads Fortran's `E`-less form).
 //!
-//! [`read_op4`]: crate::io::import::nastran::read_op4
+//! [`read_op4`]: super::reader::read_op4
 
+use super::format::{string_header, Encoding, MAX_STRING_ROW};
 use crate::io::atomic;
-pub use crate::io::import::nastran::Encoding;
-use crate::reduce::Rom;
 use crate::sparse::Csc;
 use crate::{Error, Result};
 use faer::MatRef;
@@ -135,9 +131,9 @@ fn check(m: &Matrix, lay: Layout) -> Result<()> {
             m.cols.len()
         ));
     }
-    if lay == Layout::Sparse && m.rows > 65535 {
+    if lay == Layout::Sparse && m.rows > MAX_STRING_ROW {
         return bad(format!(
-            "{} rows do not fit the string-sparse header (at most 65535): use the BIGMAT layout",
+            "{} rows do not fit the string-sparse header (at most {MAX_STRING_ROW}): use the BIGMAT layout",
             m.rows
         ));
     }
@@ -206,7 +202,7 @@ pub fn append(out: &mut Vec<u8>, m: &Matrix, enc: Encoding, lay: Layout) -> Resu
                         items.push(Item::Int(row));
                         words += 2;
                     } else {
-                        items.push(Item::Int(row + 65536 * (l + 1)));
+                        items.push(Item::Int(string_header(row, l)));
                         words += 1;
                     }
                     items.extend(r.iter().map(|e| Item::Value(e.1)));
@@ -338,34 +334,4 @@ pub fn write(path: &Path, mats: &[Matrix], enc: Encoding, lay: Layout) -> Result
         append(&mut bytes, m, enc, lay)?;
     }
     atomic::write_bytes(path, bytes)
-}
-
-/// The file [`write_rom`] writes.
-pub const ROM_FILE: &str = "rom.op4";
-
-/// The OP4 names of the ROM's matrices, in the order they are written, with their forms.
-pub const ROM_MATRICES: [(&str, i32); 5] = [("MR", 6), ("DR", 6), ("KR", 6), ("BR", 2), ("CR", 2)];
-
-/// Writes the ROM's Mr, Dr, Kr, Br, Cr as `MR DR KR BR CR` into `dir/rom.op4` (see the
-/// module doc; a zero matrix is a header and the end record). `dir` is created atomically.
-///
-/// # Errors
-/// [`Error::InvalidSetting`] if `dir` exists and is not empty (naming it), or a matrix holds
-/// a value that is not finite; I/O errors.
-pub fn write_rom(dir: &Path, rom: &Rom) -> Result<()> {
-    let mats: Vec<Matrix> = rom
-        .matrices()
-        .iter()
-        .zip(ROM_MATRICES)
-        .map(|((_, a), (name, form))| Matrix {
-            name,
-            rows: a.nrows(),
-            cols: columns_of_dense(a.as_ref()),
-            form,
-            precision: 2,
-        })
-        .collect();
-    atomic::write_dir(dir, |tmp| {
-        write(&tmp.join(ROM_FILE), &mats, Encoding::Ascii, Layout::Dense)
-    })
 }
