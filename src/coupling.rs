@@ -440,9 +440,11 @@ pub fn congruence(a: &Csc, t: &Csc) -> Result<Csc> {
             .map_err(|e| Error::Factor(format!("coupled model: {e:?}")))
     };
     let at = product(a.as_ref(), t.as_ref())?;
-    let tt = t.as_ref().transpose().to_col_major().map_err(|e| {
-        Error::Factor(format!("coupled model: {e:?}"))
-    })?;
+    let tt = t
+        .as_ref()
+        .transpose()
+        .to_col_major()
+        .map_err(|e| Error::Factor(format!("coupled model: {e:?}")))?;
     let tat = product(tt.as_ref(), at.as_ref())?;
     let n = tat.ncols();
     let mut lower = Triplets::default();
@@ -481,7 +483,10 @@ mod tests {
     /// A(s) = K + sD + s²M dense, complex, at s = iω.
     fn pencil(k: &Mat<f64>, m: &Mat<f64>, omega: f64, beta: f64) -> Mat<c64> {
         Mat::from_fn(k.nrows(), k.ncols(), |i, j| {
-            c64::new(k[(i, j)] - omega * omega * m[(i, j)], omega * beta * k[(i, j)])
+            c64::new(
+                k[(i, j)] - omega * omega * m[(i, j)],
+                omega * beta * k[(i, j)],
+            )
         })
     }
 
@@ -563,13 +568,10 @@ mod tests {
         let model = small_bar();
         let nodes = model.nodes.as_ref().unwrap();
         let n = model.n();
-        let mut rows: Vec<SparseRow> = distributing_rows(
-            &bore(&model, 0.2, Kind::Distributing, "tip"),
-            nodes,
-            3,
-        )
-        .unwrap()
-        .into();
+        let mut rows: Vec<SparseRow> =
+            distributing_rows(&bore(&model, 0.2, Kind::Distributing, "tip"), nodes, 3)
+                .unwrap()
+                .into();
         rows.push(SparseRow {
             idx: vec![4, 10, 31, 40],
             val: vec![0.5, -1.0, 2.0, 0.25],
@@ -600,9 +602,8 @@ mod tests {
                 c64::new(f64::from(change.coordinates[j] == i), 0.0)
             });
             let x = solve(&pencil(&k2, &m2, omega, 1e-5), &e);
-            let h2 = Mat::<c64>::from_fn(rows.len(), rows.len(), |i, j| {
-                x[(change.coordinates[i], j)]
-            });
+            let h2 =
+                Mat::<c64>::from_fn(rows.len(), rows.len(), |i, j| x[(change.coordinates[i], j)]);
             let err = (&h2 - &h).norm_l2() / h.norm_l2();
             assert!(err <= 1e-10, "ω = {omega}: {err:e}");
         }
@@ -694,13 +695,19 @@ mod tests {
             position: [0.01, 0.01, 0.0],
             ..p.clone()
         };
-        assert!(message(&collinear).contains("lie on one line"), "{}", message(&collinear));
+        assert!(
+            message(&collinear).contains("lie on one line"),
+            "{}",
+            message(&collinear)
+        );
         p.position = nodes[p.nodes[2]];
         assert!(message(&p).contains("coincides with coupled node"));
         let a = bore(&model, 0.0, Kind::Rigid, "A");
         let mut b = bore(&model, 0.0, Kind::Rigid, "B");
         b.nodes.truncate(2);
-        let err = rigid_elimination(&[a, b], nodes, 3).unwrap_err().to_string();
+        let err = rigid_elimination(&[a, b], nodes, 3)
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("A and B: both rigidly couple node"), "{err}");
         let rows = vec![
             SparseRow {
@@ -715,6 +722,9 @@ mod tests {
         let err = functionals_as_coordinates(&rows, 10, "outputs")
             .unwrap_err()
             .to_string();
-        assert!(err.contains("outputs: the 2 functionals are linearly dependent"), "{err}");
+        assert!(
+            err.contains("outputs: the 2 functionals are linearly dependent"),
+            "{err}"
+        );
     }
 }

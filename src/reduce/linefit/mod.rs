@@ -23,10 +23,12 @@
 mod adaptive;
 pub(crate) mod fit;
 mod growth;
+mod history;
 pub mod indicator;
 mod options;
 mod picks;
 mod placement;
+mod plan;
 mod stop;
 mod true_error;
 mod verification;

@@ -9,6 +9,7 @@
 //! per frequency), which the loop gives from its frequency engine; [`verify`] decides where
 //! to measure, the loop only solves.
 
+use super::picks::pick_maxima;
 use super::true_error::max_error;
 use crate::grid::linspace;
 use crate::reduce::sampling_report::Verified;
@@ -28,6 +29,31 @@ pub(super) struct Suspects {
     pub(super) points: Vec<f64>,
     /// The measured point of largest error, and that error ([`peak_search`] starts there).
     pub(super) worst: (f64, f64),
+}
+
+impl Suspects {
+    /// The suspects of a ROM of max error `error` measured at `measured` (f, ε each): the
+    /// largest maxima of its `delta` on `candidates` away from the measured points, as many
+    /// as a step solves (`threads`, [`pick_maxima`]), and its measured point of largest ε
+    /// ((NaN, `error`) when there is none).
+    pub(super) fn of(
+        candidates: &[f64],
+        delta: &[f64],
+        measured: &[(f64, f64)],
+        error: f64,
+        threads: usize,
+    ) -> Self {
+        let points: Vec<f64> = measured.iter().map(|e| e.0).collect();
+        Suspects {
+            unmeasured: pick_maxima(candidates, delta, &points, threads),
+            worst: measured
+                .iter()
+                .copied()
+                .max_by(|a, b| a.1.total_cmp(&b.1))
+                .unwrap_or((f64::NAN, error)),
+            points,
+        }
+    }
 }
 
 /// Points of the verification pass after `solves` full solves of the loop: `verify_points`
@@ -236,5 +262,25 @@ mod tests {
         assert_eq!(asked[4..6], [875.5, 950.5]);
         assert_eq!(v.points, 7);
         assert!((v.error - 1e-4).abs() < 1e-15, "{v:?}");
+    }
+
+    /// Candidates every 100 Hz with maxima at 300 (0.5), 600 (0.9, within a grid step of the
+    /// measured 650 Hz) and 800 (0.7): the suspects are the maxima away from the measured
+    /// points, largest first, at most `threads` of them, and the worst measured point.
+    #[test]
+    fn the_suspects_are_the_next_maxima_and_the_worst_measured_point() {
+        let candidates: Vec<f64> = (0..11).map(|k| 100.0 * k as f64).collect();
+        let delta = [0.1, 0.2, 0.3, 0.5, 0.2, 0.3, 0.9, 0.4, 0.7, 0.2, 0.1];
+        let measured = [(0.0, 2e-3), (650.0, 7e-3), (1000.0, 4e-3)];
+        let s = Suspects::of(&candidates, &delta, &measured, 7e-3, 4);
+        assert_eq!(s.unmeasured, vec![800.0, 300.0]);
+        assert_eq!(s.points, vec![0.0, 650.0, 1000.0]);
+        assert_eq!(s.worst, (650.0, 7e-3));
+        let s = Suspects::of(&candidates, &delta, &measured, 7e-3, 1);
+        assert_eq!(s.unmeasured, vec![800.0]);
+        let none = Suspects::of(&candidates, &delta, &[], 3e-3, 4);
+        assert_eq!(none.unmeasured, vec![600.0, 800.0, 300.0]);
+        assert!(none.worst.0.is_nan());
+        assert_eq!(none.worst.1, 3e-3);
     }
 }
