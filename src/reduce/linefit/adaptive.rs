@@ -16,41 +16,32 @@
 //!    current ROM's TRUE error there and at the sampled points ([`super::true_error`]; the
 //!    snapshots give H1 at the outputs), absorbs them — no frequency is ever solved twice —
 //!    and asks the stop rules ([`super::stop`]) what comes next ([`Next`]).
-//! 3. On stagnation [`Loop::grow`] adds interface DoFs ([`super::growth`], [`Growth`]) and
+//! 3. On stagnation [`Loop::grow`] adds interface DoFs ([`super::growth`]) and
 //!    refits from the kept snapshots, while `max_order` allows.
 //! 4. A converged ROM must pass the verification pass ([`super::verification`]), else the
 //!    loop goes on from the verification's points above tol; [`Loop::report`] verifies the
 //!    ROM it returns and attaches its [`SamplingReport`]. Why the loop stopped is returned as
 //!    data ([`Outcome`]); front ends word the hints.
 
+use super::best::{self, Best};
 use super::fit::Fitted;
 use super::growth;
 use super::history::{self, History};
 use super::indicator::Indicator;
-use super::options::{Growth, LineFitOptions, SamplingOptions};
+use super::options::{LineFitOptions, SamplingOptions};
 use super::picks;
 use super::plan::{self, Plan};
 use super::stop;
 use super::true_error::{errors_at, grid_errors, max_error, rel_errs, Sampled};
-use super::verification::{self, Suspects};
+use super::verification::{self, Suspects, Verdict};
 use crate::body::Body;
 use crate::engine::{Engine, Keep};
 use crate::reduce::rom::{Provenance, Rom, Timing};
 use crate::reduce::sampling_report::{Outcome, SamplingReport, Step, Verified};
 use crate::scene::Scene;
-use crate::snapshots::GrowBy;
 use crate::sweep::ProgressFn;
 use crate::{Error, Result};
 use std::time::Instant;
-
-/// A ROM the loop measured, kept as the one to return if the tolerance is not reached.
-struct Best {
-    /// Its max true ε at its step's new and sampled points.
-    error: f64,
-    rom: Rom,
-    /// Where its verification measures beside the evenly spread points.
-    suspects: Suspects,
-}
 
 /// What [`Loop::refine`] decided.
 enum Next {
@@ -288,33 +279,23 @@ impl<'a> Loop<'a> {
                     tol,
                 );
         }
-        let points = if self.forced.is_empty() {
-            picks::pick_maxima(candidates, &delta, &self.sampled.freqs, self.plan.threads)
-        } else {
-            std::mem::take(&mut self.forced)
-        };
         self.history.delta_max = delta_max;
         self.history.used = self.history.solves();
         self.history.verify_spent = 0;
         if fit_limited {
             return Ok(Next::Stagnated);
         }
-        let points = if points.is_empty() {
-            let measured = self.best.is_some();
-            match picks::largest_away(
-                &self.plan.candidates,
-                &delta,
-                &self.sampled.freqs,
-                measured,
-                self.history.streak,
-            ) {
-                Some(f) => vec![f],
-                // no new indicator maximum away from the sampled points: more frequencies
-                // cannot help
-                None => return Ok(Next::Stagnated),
-            }
-        } else {
-            points
+        let Some(points) = picks::step_points(
+            std::mem::take(&mut self.forced),
+            candidates,
+            &delta,
+            &self.sampled.freqs,
+            self.plan.threads,
+            self.best.is_some(),
+            self.history.streak,
+        ) else {
+            // no new maximum away from the sampled points: more frequencies cannot help
+            return Ok(Next::Stagnated);
         };
         // the largest maxima first, as many as the budget has left
         match self.plan.max_points.saturating_sub(self.history.used) {
@@ -376,25 +357,23 @@ impl<'a> Loop<'a> {
     /// Keeps the current ROM as the [`Best`] when its `error` (max ε at the step's new and
     /// sampled points, `measured`) is the smallest so far, with its [`Suspects`].
     fn keep_if_best(&mut self, error: f64, measured: &[(f64, f64)], delta: &[f64]) {
-        if !self.best.as_ref().is_none_or(|b| error < b.error) {
+        if !best::improves(self.best.as_ref().map(|b| b.error), error) {
             return;
         }
-        let rom = self.fit.rom_copy(self.opts.keep_basis);
-        let suspects = Suspects::of(
-            &self.plan.candidates,
-            delta,
-            measured,
-            error,
-            self.plan.threads,
-        );
         self.best = Some(Best {
             error,
-            rom,
-            suspects,
+            rom: self.fit.rom_copy(self.opts.keep_basis),
+            suspects: Suspects::of(
+                &self.plan.candidates,
+                delta,
+                measured,
+                error,
+                self.plan.threads,
+            ),
         });
     }
 
-    /// Grows the interface ([`Growth`], by [`growth::dofs_to_add`]) and refits the QR state
+    /// Grows the interface ([`super::options::Growth`], by [`growth::dofs_to_add`]) and refits the QR state
     /// from the kept snapshots.
     fn grow(&mut self) -> Result<()> {
         if self.plan.keep == Keep::No {
@@ -407,17 +386,14 @@ impl<'a> Loop<'a> {
         let missing =
             growth::missing_modes(self.plan.modes_in_band, &self.fit.rom, self.plan.band[1]);
         let g = growth::dofs_to_add(order, missing, room);
-        let d: Vec<usize> = match self.plan.growth {
-            Growth::Residual | Growth::Auto => growth::largest_residuals(self.fit.rom.fit(), g),
-            Growth::QDeim => {
-                let by = GrowBy {
-                    at_least: g,
-                    at_most: room,
-                    rank_tol: self.sampling.tol,
-                };
-                self.engine.qdeim_next(&self.fit.part.split.interface, by)?
-            }
-        };
+        let d = growth::dofs(
+            self.plan.growth,
+            &mut self.engine,
+            &self.fit.part.split.interface,
+            &self.fit.rom,
+            [g, room],
+            self.sampling.tol,
+        )?;
         self.fit.part = self.fit.part.grown(self.body, self.scene, &d)?;
         self.fit.qr = self
             .engine
@@ -445,23 +421,19 @@ impl<'a> Loop<'a> {
         else {
             return Ok(true);
         };
-        if v.error <= self.sampling.tol {
-            self.verified = Some(v);
-            return Ok(true);
+        let (tol, threads) = (self.sampling.tol, self.plan.threads);
+        match verification::verdict(v, errors, tol, &self.sampled.freqs, threads) {
+            Verdict::Passed(v) => {
+                self.verified = Some(v);
+                Ok(true)
+            }
+            Verdict::Failed { forced, spent } => {
+                self.forced = forced;
+                self.history.verify_spent += spent;
+                self.history.streak = 0;
+                Ok(false)
+            }
         }
-        self.forced = picks::above_tol(
-            errors,
-            self.sampling.tol,
-            &self.sampled.freqs,
-            self.plan.threads,
-        );
-        if self.forced.is_empty() {
-            self.verified = Some(v);
-            return Ok(true);
-        }
-        self.history.verify_spent += v.points;
-        self.history.streak = 0;
-        Ok(false)
     }
 
     /// The ROM to return — on convergence the current one (verified at the last step's
@@ -477,19 +449,11 @@ impl<'a> Loop<'a> {
             .last()
             .map_or((0, 0), |s| (s.solves, s.factorizations));
         let points = verification::points_after(self.sampling.verify_points, solves);
-        let (error, mut rom, suspects) = match (outcome == Outcome::Converged, self.best) {
-            (true, _) => {
-                let last = steps
-                    .last()
-                    .map(|s| s.true_error_max.max(s.sampled_error_max));
-                (last.unwrap_or(f64::NAN), self.fit.rom, None)
-            }
-            (false, Some(best)) => (best.error, best.rom, Some(best.suspects)),
-            // stopped before any ROM was measured: the current one, error unknown
-            (false, None) => (f64::NAN, self.fit.rom, None),
-        };
+        let converged = outcome == Outcome::Converged;
+        let (error, mut rom, suspects) =
+            best::returned(converged, self.best, self.fit.rom, steps.last());
         let verified = match self.verified {
-            Some(v) if outcome == Outcome::Converged => Some(v),
+            Some(v) if converged => Some(v),
             _ => verification::verify(self.plan.band, points, suspects.as_ref(), |freqs| {
                 errors_at(&mut self.engine, self.scene, &rom, freqs, self.progress)
             })?

@@ -21,6 +21,7 @@
 //! interface growth in `snapshots.rs`, its report in `reduce/sampling_report.rs`.
 
 mod adaptive;
+mod best;
 pub(crate) mod fit;
 mod growth;
 mod history;

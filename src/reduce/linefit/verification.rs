@@ -9,7 +9,7 @@
 //! per frequency), which the loop gives from its frequency engine; [`verify`] decides where
 //! to measure, the loop only solves.
 
-use super::picks::pick_maxima;
+use super::picks::{above_tol, pick_maxima};
 use super::true_error::max_error;
 use crate::grid::linspace;
 use crate::reduce::sampling_report::Verified;
@@ -53,6 +53,40 @@ impl Suspects {
                 .unwrap_or((f64::NAN, error)),
             points,
         }
+    }
+}
+
+/// What the verification pass of a converged ROM decides (docs/design.md §3.5, step 5).
+#[derive(Debug, PartialEq)]
+pub(super) enum Verdict {
+    /// The ROM stands: within tol, or above tol only at sampled points.
+    Passed(Verified),
+    /// Above tol: the worst unsampled points the next step solves instead of its picks, and
+    /// the full solves the pass spent (they count in the budget).
+    Failed { forced: Vec<f64>, spent: usize },
+}
+
+/// The [`Verdict`] of a verification `v` with its `errors` (f, ε each) on a ROM the loop
+/// converged to: passed when within `tol`; else up to `k` worst points above `tol` that are
+/// not `sampled` ([`above_tol`]) are forced, and with none the ROM passes too (a new step
+/// cannot add a sampled point again).
+pub(super) fn verdict(
+    v: Verified,
+    errors: Vec<(f64, f64)>,
+    tol: f64,
+    sampled: &[f64],
+    k: usize,
+) -> Verdict {
+    if v.error <= tol {
+        return Verdict::Passed(v);
+    }
+    let forced = above_tol(errors, tol, sampled, k);
+    if forced.is_empty() {
+        return Verdict::Passed(v);
+    }
+    Verdict::Failed {
+        forced,
+        spent: v.points,
     }
 }
 
@@ -282,5 +316,29 @@ mod tests {
         assert_eq!(none.unmeasured, vec![600.0, 800.0, 300.0]);
         assert!(none.worst.0.is_nan());
         assert_eq!(none.worst.1, 3e-3);
+    }
+
+    /// A pass of 4 points with its max 5e-3 at 300 Hz: within tol 1e-2 it passes; at tol
+    /// 1e-3 the two unsampled points above tol are forced, worst first, and the 4 solves
+    /// spent; with both sampled already it passes.
+    #[test]
+    fn a_converged_rom_above_tol_at_unsampled_points_fails_its_verification() {
+        let errors = vec![(100.0, 2e-3), (200.0, 4e-4), (300.0, 5e-3), (400.0, 8e-4)];
+        let v = Verified {
+            points: 4,
+            error: 5e-3,
+        };
+        assert_eq!(verdict(v, errors.clone(), 1e-2, &[], 8), Verdict::Passed(v));
+        assert_eq!(
+            verdict(v, errors.clone(), 1e-3, &[], 8),
+            Verdict::Failed {
+                forced: vec![300.0, 100.0],
+                spent: 4
+            }
+        );
+        assert_eq!(
+            verdict(v, errors, 1e-3, &[100.0, 300.0], 8),
+            Verdict::Passed(v)
+        );
     }
 }
