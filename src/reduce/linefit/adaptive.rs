@@ -36,7 +36,7 @@ use super::true_error::{errors_at, grid_errors, max_error, rel_errs, Sampled};
 use super::verification::{self, Suspects, Verdict};
 use crate::body::Body;
 use crate::engine::{Engine, Keep};
-use crate::reduce::rom::{Provenance, Rom, Timing};
+use crate::reduce::rom::Rom;
 use crate::reduce::sampling_report::{Outcome, SamplingReport, Step, Verified};
 use crate::scene::Scene;
 use crate::sweep::ProgressFn;
@@ -450,7 +450,7 @@ impl<'a> Loop<'a> {
             .map_or((0, 0), |s| (s.solves, s.factorizations));
         let points = verification::points_after(self.sampling.verify_points, solves);
         let converged = outcome == Outcome::Converged;
-        let (error, mut rom, suspects) =
+        let (error, rom, suspects) =
             best::returned(converged, self.best, self.fit.rom, steps.last());
         let verified = match self.verified {
             Some(v) if converged => Some(v),
@@ -473,17 +473,14 @@ impl<'a> Loop<'a> {
             spilled: self.engine.spilled(),
             spill_room: self.plan.spill_room,
         };
-        if let Provenance::LineFit { sampling, fit, .. } = &mut rom.provenance {
-            fit.solves = self.engine.accuracy(); // every solve, the verification's too
-            *sampling = Some(report);
-        }
-        if !self.opts.keep_basis {
-            rom.basis = None;
-        }
-        rom.timings = vec![Timing {
-            phase: "sampling loop (+ verification)".into(),
-            seconds: self.start.elapsed().as_secs_f64(),
-        }];
-        Ok(rom)
+        let solves = self.engine.accuracy(); // every solve, the verification's too
+        let seconds = self.start.elapsed().as_secs_f64();
+        Ok(best::finished(
+            rom,
+            report,
+            solves,
+            self.opts.keep_basis,
+            seconds,
+        ))
     }
 }

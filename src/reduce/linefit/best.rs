@@ -3,8 +3,9 @@
 //! smallest error ([`Best`]) — never an unmeasured refit.
 
 use super::verification::Suspects;
-use crate::reduce::rom::Rom;
-use crate::reduce::sampling_report::Step;
+use crate::reduce::rom::{Provenance, Rom, Timing};
+use crate::reduce::sampling_report::{SamplingReport, Step};
+use crate::sweep::SolveAccuracy;
 
 /// A ROM the loop measured, kept as the one to return if the tolerance is not reached.
 pub(super) struct Best {
@@ -39,6 +40,29 @@ pub(super) fn returned(
         (false, Some(best)) => (best.error, best.rom, Some(best.suspects)),
         (false, None) => (f64::NAN, current, None),
     }
+}
+
+/// `rom` as returned: its sampling `report` and the run's `solves` (the verification's too)
+/// in its provenance, its basis only when `keep_basis`, and the loop's wall time `seconds`.
+pub(super) fn finished(
+    mut rom: Rom,
+    report: SamplingReport,
+    solves: SolveAccuracy,
+    keep_basis: bool,
+    seconds: f64,
+) -> Rom {
+    if let Provenance::LineFit { sampling, fit, .. } = &mut rom.provenance {
+        fit.solves = solves;
+        *sampling = Some(report);
+    }
+    if !keep_basis {
+        rom.basis = None;
+    }
+    rom.timings = vec![Timing {
+        phase: "sampling loop (+ verification)".into(),
+        seconds,
+    }];
+    rom
 }
 
 #[cfg(test)]
