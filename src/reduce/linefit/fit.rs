@@ -135,6 +135,35 @@ impl Partition {
     }
 }
 
+/// The fit of the sampling loop's current interface (docs/design.md §3.5, step 2): its
+/// partition, the streamed QR state of every sampled frequency, and the ROM fitted from them.
+pub(super) struct Fitted {
+    pub(super) part: Partition,
+    pub(super) qr: StreamedQr,
+    pub(super) rom: Rom,
+}
+
+impl Fitted {
+    /// Merges the state `other` of new frequencies into the QR state (TSQR).
+    pub(super) fn merge(&mut self, other: StreamedQr) -> Result<()> {
+        let qr = std::mem::replace(&mut self.qr, StreamedQr::new(0, 0));
+        self.qr = qr.merge(other)?;
+        Ok(())
+    }
+
+    /// A copy of the ROM, with its basis V only when `keep_basis` (V is needed only while
+    /// the ROM is the current one: the indicator, the growth).
+    pub(super) fn rom_copy(&mut self, keep_basis: bool) -> Rom {
+        let basis = self.rom.basis.take();
+        let mut copy = self.rom.clone();
+        if keep_basis {
+            copy.basis = basis.clone();
+        }
+        self.rom.basis = basis;
+        copy
+    }
+}
+
 /// Checks 2pz ≥ n (eq. 22 must not be underdetermined).
 ///
 /// # Errors

@@ -3,10 +3,13 @@
 //! [`crate::snapshots`]): g = max(1, ⌊n/10⌋, c − c′) DoFs at once, c the body's elastic
 //! modes in the band ([`elastic_modes_below`]) and c′ the ROM's ([`missing_modes`]).
 
+use super::options::Growth;
 use crate::body::Body;
+use crate::engine::Engine;
 use crate::factor::count_eigenvalues_below_with;
 use crate::reduce::rom::{FitReport, Rom};
 use crate::reduce::spectrum::rom_spectrum;
+use crate::snapshots::GrowBy;
 use crate::units::hz_to_lambda;
 use crate::{Error, Result};
 
@@ -66,6 +69,34 @@ pub(super) fn largest_residuals(fit: Option<&FitReport>, g: usize) -> Vec<usize>
         d.push(fit.map(|f| f.residual_argmax_dof).unwrap_or(0));
     }
     d
+}
+
+/// The DoFs one growth adds to `interface` by the resolved `rule`: the `g` of largest fit
+/// residual of `rom` ([`largest_residuals`]), or Q-DEIM continued from the interface over
+/// the `engine`'s kept snapshots, at least `g` and at most the `room` below the order cap,
+/// up to the snapshots' numerical rank at `tol`.
+///
+/// # Errors
+/// Those of the engine's Q-DEIM pass.
+pub(super) fn dofs(
+    rule: Growth,
+    engine: &mut Engine<'_>,
+    interface: &[usize],
+    rom: &Rom,
+    [g, room]: [usize; 2],
+    tol: f64,
+) -> Result<Vec<usize>> {
+    match rule {
+        Growth::Residual | Growth::Auto => Ok(largest_residuals(rom.fit(), g)),
+        Growth::QDeim => {
+            let by = GrowBy {
+                at_least: g,
+                at_most: room,
+                rank_tol: tol,
+            };
+            engine.qdeim_next(interface, by)
+        }
+    }
 }
 
 /// The growth step's action: why it grew, the DoFs added and the new order.

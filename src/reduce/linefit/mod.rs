@@ -14,19 +14,24 @@
 //! One entry point, [`reduce`], for every way of choosing the reference frequencies
 //! ([`References`]): given explicitly, a count placed beside the resonances in the band
 //! ([`place_reference_frequencies`]), or a tolerance reached by the adaptive sampling loop
-//! (docs/design.md §3.5): its driver `adaptive.rs`, and its rooms — where a step solves
+//! (docs/design.md §3.5): its driver `adaptive.rs`, and its rooms — the settings resolved
+//! before the first solve (`plan.rs`), the steps so far (`history.rs`), where a step solves
 //! (`picks.rs`), when it stops or grows (`stop.rs`), by how much and which DoFs
-//! (`growth.rs`), the true error ε at known responses (`true_error.rs`), the verification
-//! pass (`verification.rs`); its error indicator in [`indicator`], the snapshots kept for
-//! interface growth in `snapshots.rs`, its report in `reduce/sampling_report.rs`.
+//! (`growth.rs`), the true error ε where H1 is known (`true_error.rs`), the verification
+//! pass (`verification.rs`), the ROM returned (`best.rs`); its error indicator in
+//! [`indicator`], the snapshots kept for interface growth in `snapshots.rs`, its report in
+//! `reduce/sampling_report.rs`.
 
 mod adaptive;
+mod best;
 pub(crate) mod fit;
 mod growth;
+mod history;
 pub mod indicator;
 mod options;
 mod picks;
 mod placement;
+mod plan;
 mod stop;
 mod true_error;
 mod verification;

@@ -6,6 +6,7 @@
 //!   sampled frequency ([`near_sampled`]), at most one per thread.
 //! - [`largest_away`]: when every local maximum lies next to a sampled point, the largest Δ
 //!   away from them — only before the first measurement or right after a step within tol.
+//! - [`step_points`]: the step's points from the rules above, or none (the loop stagnates).
 //! - [`above_tol`]: after a verification pass that found the converged ROM above tol, its
 //!   worst points.
 //! - [`max_away`]: the largest Δ away from the sampled points (the fit-limit test of
@@ -78,6 +79,29 @@ pub(super) fn max_away(grid: &[f64], delta: &[f64], sampled: &[f64]) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// The points a step solves: a failed verification's worst points (`forced`) when there are
+/// any, else up to `k` largest maxima of `delta` ([`pick_maxima`]), else the largest value
+/// away from the sampled points ([`largest_away`], by its rule on `measured` and
+/// `streak`). `None` when there is none: more frequencies cannot help.
+pub(super) fn step_points(
+    forced: Vec<f64>,
+    grid: &[f64],
+    delta: &[f64],
+    sampled: &[f64],
+    k: usize,
+    measured: bool,
+    streak: usize,
+) -> Option<Vec<f64>> {
+    if !forced.is_empty() {
+        return Some(forced);
+    }
+    let maxima = pick_maxima(grid, delta, sampled, k);
+    if !maxima.is_empty() {
+        return Some(maxima);
+    }
+    largest_away(grid, delta, sampled, measured, streak).map(|f| vec![f])
+}
+
 /// The points of a verification pass (frequency, ε) where the ROM is above `tol` and which
 /// are not sampled yet, the worst first, at most `k`: the next step solves them instead of
 /// the indicator's maxima.
@@ -127,6 +151,31 @@ mod tests {
         assert_eq!(largest_away(&grid, &delta, &sampled, true, 0), None);
         assert_eq!(max_away(&grid, &delta, &sampled), 0.6);
         assert_eq!(max_away(&grid, &delta, &[]), 0.9);
+    }
+
+    /// Forced points come first; then the maxima; with every maximum next to a sampled
+    /// point, the largest value away (100 Hz), unless a step above tol was measured.
+    #[test]
+    fn a_step_solves_the_forced_points_the_maxima_or_the_largest_value_away() {
+        let (grid, delta) = grid_and_delta();
+        let forced = vec![35.0, 65.0];
+        assert_eq!(
+            step_points(forced.clone(), &grid, &delta, &[], 2, true, 0),
+            Some(forced)
+        );
+        assert_eq!(
+            step_points(Vec::new(), &grid, &delta, &[], 2, true, 0),
+            Some(vec![50.0, 80.0])
+        );
+        let sampled = [20.0, 50.0, 80.0, 100.0];
+        assert_eq!(
+            step_points(Vec::new(), &grid, &delta, &sampled, 2, false, 0),
+            Some(vec![0.0])
+        );
+        assert_eq!(
+            step_points(Vec::new(), &grid, &delta, &sampled, 2, true, 0),
+            None
+        );
     }
 
     #[test]

@@ -9,6 +9,7 @@
 //! per frequency), which the loop gives from its frequency engine; [`verify`] decides where
 //! to measure, the loop only solves.
 
+use super::picks::{above_tol, pick_maxima};
 use super::true_error::max_error;
 use crate::grid::linspace;
 use crate::reduce::sampling_report::Verified;
@@ -28,6 +29,65 @@ pub(super) struct Suspects {
     pub(super) points: Vec<f64>,
     /// The measured point of largest error, and that error ([`peak_search`] starts there).
     pub(super) worst: (f64, f64),
+}
+
+impl Suspects {
+    /// The suspects of a ROM of max error `error` measured at `measured` (f, ε each): the
+    /// largest maxima of its `delta` on `candidates` away from the measured points, as many
+    /// as a step solves (`threads`, [`pick_maxima`]), and its measured point of largest ε
+    /// ((NaN, `error`) when there is none).
+    pub(super) fn of(
+        candidates: &[f64],
+        delta: &[f64],
+        measured: &[(f64, f64)],
+        error: f64,
+        threads: usize,
+    ) -> Self {
+        let points: Vec<f64> = measured.iter().map(|e| e.0).collect();
+        Suspects {
+            unmeasured: pick_maxima(candidates, delta, &points, threads),
+            worst: measured
+                .iter()
+                .copied()
+                .max_by(|a, b| a.1.total_cmp(&b.1))
+                .unwrap_or((f64::NAN, error)),
+            points,
+        }
+    }
+}
+
+/// What the verification pass of a converged ROM decides (docs/design.md §3.5, step 5).
+#[derive(Debug, PartialEq)]
+pub(super) enum Verdict {
+    /// The ROM stands: within tol, or above tol only at sampled points.
+    Passed(Verified),
+    /// Above tol: the worst unsampled points the next step solves instead of its picks, and
+    /// the full solves the pass spent (they count in the budget).
+    Failed { forced: Vec<f64>, spent: usize },
+}
+
+/// The [`Verdict`] of a verification `v` with its `errors` (f, ε each) on a ROM the loop
+/// converged to: passed when within `tol`; else up to `k` worst points above `tol` that are
+/// not `sampled` ([`above_tol`]) are forced, and with none the ROM passes too (a new step
+/// cannot add a sampled point again).
+pub(super) fn verdict(
+    v: Verified,
+    errors: Vec<(f64, f64)>,
+    tol: f64,
+    sampled: &[f64],
+    k: usize,
+) -> Verdict {
+    if v.error <= tol {
+        return Verdict::Passed(v);
+    }
+    let forced = above_tol(errors, tol, sampled, k);
+    if forced.is_empty() {
+        return Verdict::Passed(v);
+    }
+    Verdict::Failed {
+        forced,
+        spent: v.points,
+    }
 }
 
 /// Points of the verification pass after `solves` full solves of the loop: `verify_points`
@@ -236,5 +296,49 @@ mod tests {
         assert_eq!(asked[4..6], [875.5, 950.5]);
         assert_eq!(v.points, 7);
         assert!((v.error - 1e-4).abs() < 1e-15, "{v:?}");
+    }
+
+    /// Candidates every 100 Hz with maxima at 300 (0.5), 600 (0.9, within a grid step of the
+    /// measured 650 Hz) and 800 (0.7): the suspects are the maxima away from the measured
+    /// points, largest first, at most `threads` of them, and the worst measured point.
+    #[test]
+    fn the_suspects_are_the_next_maxima_and_the_worst_measured_point() {
+        let candidates: Vec<f64> = (0..11).map(|k| 100.0 * k as f64).collect();
+        let delta = [0.1, 0.2, 0.3, 0.5, 0.2, 0.3, 0.9, 0.4, 0.7, 0.2, 0.1];
+        let measured = [(0.0, 2e-3), (650.0, 7e-3), (1000.0, 4e-3)];
+        let s = Suspects::of(&candidates, &delta, &measured, 7e-3, 4);
+        assert_eq!(s.unmeasured, vec![800.0, 300.0]);
+        assert_eq!(s.points, vec![0.0, 650.0, 1000.0]);
+        assert_eq!(s.worst, (650.0, 7e-3));
+        let s = Suspects::of(&candidates, &delta, &measured, 7e-3, 1);
+        assert_eq!(s.unmeasured, vec![800.0]);
+        let none = Suspects::of(&candidates, &delta, &[], 3e-3, 4);
+        assert_eq!(none.unmeasured, vec![600.0, 800.0, 300.0]);
+        assert!(none.worst.0.is_nan());
+        assert_eq!(none.worst.1, 3e-3);
+    }
+
+    /// A pass of 4 points with its max 5e-3 at 300 Hz: within tol 1e-2 it passes; at tol
+    /// 1e-3 the two unsampled points above tol are forced, worst first, and the 4 solves
+    /// spent; with both sampled already it passes.
+    #[test]
+    fn a_converged_rom_above_tol_at_unsampled_points_fails_its_verification() {
+        let errors = vec![(100.0, 2e-3), (200.0, 4e-4), (300.0, 5e-3), (400.0, 8e-4)];
+        let v = Verified {
+            points: 4,
+            error: 5e-3,
+        };
+        assert_eq!(verdict(v, errors.clone(), 1e-2, &[], 8), Verdict::Passed(v));
+        assert_eq!(
+            verdict(v, errors.clone(), 1e-3, &[], 8),
+            Verdict::Failed {
+                forced: vec![300.0, 100.0],
+                spent: 4
+            }
+        );
+        assert_eq!(
+            verdict(v, errors, 1e-3, &[100.0, 300.0], 8),
+            Verdict::Passed(v)
+        );
     }
 }
