@@ -5,9 +5,12 @@ use faer::linalg::solvers::{DenseSolveCore, Solve};
 use faer::{c64, Mat};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
+use sparsemor::body::Body;
+use sparsemor::metrics::Reference;
 use sparsemor::model::{Damping, Model};
 use sparsemor::scene::Scene;
 use sparsemor::sparse::{from_parts, Csc};
+use sparsemor::sweep::{no_progress, SweepOptions};
 
 /// Dense copy of a sparse matrix.
 pub fn dense(a: &Csc) -> Mat<f64> {
@@ -233,4 +236,18 @@ pub fn dense_h1_deflated(
     let pbc = Mat::<c64>::from_fn(n, inputs.len(), |i, j| c64::new(pb[(i, j)], 0.0));
     let x = a.partial_piv_lu().solve(&pbc);
     Mat::from_fn(outputs.len(), inputs.len(), |o, j| x[(outputs[o], j)])
+}
+
+/// The full model's transfer functions at `freqs` (the reference of ε), solved in this process
+/// with the default sweep options.
+pub fn full_reference(body: &Body, scene: &Scene, freqs: &[f64]) -> Reference {
+    Reference::compute(
+        body,
+        scene,
+        freqs,
+        &SweepOptions::default(),
+        None,
+        &no_progress,
+    )
+    .unwrap()
 }

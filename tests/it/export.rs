@@ -5,20 +5,20 @@
 //! (`pip install numpy scipy exudyn`); otherwise they print why they were skipped.
 
 use crate::cli::ok;
-use crate::common::dense;
+use crate::common::{dense, full_reference};
 use faer::linalg::solvers::{DenseSolveCore, Solve};
 use faer::{c64, Mat};
 use sparsemor::body::Body;
 use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
 use sparsemor::io::{exudyn, model_dir, rom_dir};
-use sparsemor::metrics::{rom_eigenfrequencies, ErrorCurve, Reference};
+use sparsemor::metrics::{rom_eigenfrequencies, ErrorCurve};
 use sparsemor::model::Model;
 use sparsemor::reduce::flexible::{elastic_basis, ElasticBasis};
 use sparsemor::reduce::linefit::{self, Interface, LineFitOptions, References};
 use sparsemor::reduce::serep::{self, ModeChoice, SerepOptions};
 use sparsemor::reduce::Rom;
 use sparsemor::scene::Scene;
-use sparsemor::sweep::{no_progress, SweepOptions};
+use sparsemor::sweep::no_progress;
 use std::path::Path;
 use std::process::Command;
 
@@ -208,15 +208,7 @@ fn elastic_basis_of_a_linefit_rom_is_rigid_free_and_keeps_its_accuracy() {
     );
     check_against_dense(&model, rom.basis.as_ref().unwrap(), &eb);
     let grid: Vec<f64> = (0..50).map(|k| 1.0 + 999.0 * k as f64 / 49.0).collect();
-    let reference = Reference::compute(
-        &body,
-        &scene,
-        &grid,
-        &SweepOptions::default(),
-        None,
-        &no_progress,
-    )
-    .unwrap();
+    let reference = full_reference(&body, &scene, &grid);
     let eps = |r: &Rom| ErrorCurve::max_mean(&reference.error(r).unwrap().eps_elastic);
     let (before, after) = (eps(&rom), eps(&eb.rom));
     println!(
@@ -308,15 +300,7 @@ fn exudyn_check(label: &str, model: &Model, scene: &Scene, rom: &Rom, freq_hz: f
     assert!(worst <= 1e-6);
     assert!(rigid.iter().all(|l| l.abs() <= 1e-6 * lambda1), "{rigid:?}");
     // (b) column of the first input at freq_hz
-    let reference = Reference::compute(
-        &body,
-        scene,
-        &[freq_hz],
-        &SweepOptions::default(),
-        None,
-        &no_progress,
-    )
-    .unwrap();
+    let reference = full_reference(&body, scene, &[freq_hz]);
     let eps = reference.error(&eb.rom).unwrap().eps_elastic[0];
     let h1 = &reference.h1[0];
     let (re, im) = (list("response_re"), list("response_im"));

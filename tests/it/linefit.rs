@@ -16,7 +16,7 @@ use sparsemor::reduce::linefit::{
 };
 use sparsemor::reduce::Rom;
 use sparsemor::scene::Scene;
-use sparsemor::sweep::{no_progress, SolveMethod, SweepOptions};
+use sparsemor::sweep::{no_progress, SolveMethod};
 use sparsemor::Error;
 
 fn opts(interface: Interface, freqs: &[f64], threads: usize) -> LineFitOptions {
@@ -40,15 +40,7 @@ fn paper_bar() -> (Model, Scene) {
 /// A reference transfer function on a frequency grid.
 fn reference(model: &Model, scene: &Scene, freqs: &[f64]) -> Reference {
     let body = Body::new(model).unwrap();
-    Reference::compute(
-        &body,
-        scene,
-        freqs,
-        &SweepOptions::default(),
-        None,
-        &no_progress,
-    )
-    .unwrap()
+    full_reference(&body, scene, freqs)
 }
 
 /// Dense X_k = Pᵀ A(iω)⁻¹ P B (P = I on a constrained body).

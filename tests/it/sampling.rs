@@ -26,15 +26,7 @@ fn bar() -> &'static (Model, Scene, Reference) {
         let (m, scene) = (bar_model(&spec).unwrap(), paper_scene(&spec));
         let grid: Vec<f64> = (0..2000).map(|k| 1.0 + 999.0 * k as f64 / 1999.0).collect();
         let body = Body::new(&m).unwrap();
-        let r = Reference::compute(
-            &body,
-            &scene,
-            &grid,
-            &SweepOptions::default(),
-            None,
-            &no_progress,
-        )
-        .unwrap();
+        let r = full_reference(&body, &scene, &grid);
         (m, scene, r)
     })
 }
@@ -456,15 +448,7 @@ fn defaults_reach_the_tolerance_on_the_bracket() {
     let body = Body::new(&model).unwrap();
     let band = sparsemor::scene::positive_band(scene.band_hz);
     let grid = sparsemor::grid::linspace(band, 2000);
-    let reference = Reference::compute(
-        &body,
-        &scene,
-        &grid,
-        &SweepOptions::default(),
-        None,
-        &no_progress,
-    )
-    .unwrap();
+    let reference = full_reference(&body, &scene, &grid);
     for tol in [1e-2, 1e-3, 1e-4] {
         let rom = by_default(&body, &scene, tol);
         let r = report(&rom);
@@ -511,15 +495,7 @@ fn a_rom_converged_on_the_grid_reports_its_grid_error() {
     assert_eq!(r.error, grid);
     let band = sparsemor::scene::positive_band(scene.band_hz);
     let candidates = sparsemor::grid::linspace(band, 2000);
-    let reference = Reference::compute(
-        &body,
-        &scene,
-        &candidates,
-        &SweepOptions::default(),
-        None,
-        &no_progress,
-    )
-    .unwrap();
+    let reference = full_reference(&body, &scene, &candidates);
     let v = verified_max(&reference, &rom);
     println!("reported {:.6e}, 2000 certified solves {v:.6e}", r.error);
     assert!(
@@ -565,15 +541,7 @@ fn a_band_without_resonances_converges_with_measured_errors() {
         );
     }
     let grid: Vec<f64> = (0..400).map(|k| 1.0 + 999.0 * k as f64 / 399.0).collect();
-    let reference = Reference::compute(
-        &body,
-        &scene,
-        &grid,
-        &SweepOptions::default(),
-        None,
-        &no_progress,
-    )
-    .unwrap();
+    let reference = full_reference(&body, &scene, &grid);
     let v = verified_max(&reference, &rom);
     assert!(v <= tol, "400-point max {v:.3e}");
 }
