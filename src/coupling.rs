@@ -148,6 +148,76 @@ fn offsets(p: &RemotePoint, nodes: &[[f64; 3]]) -> Result<Vec<[f64; 3]>> {
     Ok(r)
 }
 
+/// The weighted least-squares rigid fit of a point's nodes (module doc): the offsets r_i, the
+/// scaled rows G(r_i) (rotations times 1/ℓ, ℓ the set's mean radius, so A compares lengths
+/// with lengths) and A⁻¹ in unscaled rotations (its rows 3..6 divided by ℓ).
+struct Fit {
+    r: Vec<[f64; 3]>,
+    scale: f64,
+    inv: faer::Mat<f64>,
+}
+
+impl Fit {
+    /// # Errors
+    /// As [`offsets`], and the nodes on one line (A singular: no rotation about it).
+    fn new(p: &RemotePoint, nodes: &[[f64; 3]]) -> Result<Self> {
+        let r = offsets(p, nodes)?;
+        let scale = r
+            .iter()
+            .map(|d| d.iter().map(|v| v * v).sum::<f64>().sqrt())
+            .sum::<f64>()
+            / r.len() as f64;
+        let mut a = faer::Mat::<f64>::zeros(6, 6);
+        for (k, d) in r.iter().enumerate() {
+            let gk = scaled_rows(*d, scale);
+            for i in 0..6 {
+                for j in 0..6 {
+                    a[(i, j)] += weight(p, k) * (0..3).map(|m| gk[m][i] * gk[m][j]).sum::<f64>();
+                }
+            }
+        }
+        let (values, vectors) = crate::dense::sym_eigen(a.as_ref()).ok_or_else(|| {
+            Error::InvalidSetting(format!(
+                "remote point {}: its 6 × 6 normal matrix has no eigendecomposition",
+                p.name
+            ))
+        })?;
+        if !(values[0] > 1e-10 * values[5]) {
+            return Err(Error::InvalidSetting(format!(
+                "remote point {}: its {} nodes lie on one line (or are one point), so a \
+                 rotation about that line moves none of them and rx, ry, rz are undefined; add \
+                 nodes off the line",
+                p.name,
+                p.nodes.len()
+            )));
+        }
+        // A⁻¹ = V Λ⁻¹ Vᵀ, then unscale the rotation rows (θ = θ'/ℓ)
+        let inv = faer::Mat::<f64>::from_fn(6, 6, |i, j| {
+            let s: f64 = (0..6)
+                .map(|k| vectors[(i, k)] * vectors[(j, k)] / values[k])
+                .sum();
+            s / if i >= 3 { scale } else { 1.0 }
+        });
+        Ok(Fit { r, scale, inv })
+    }
+}
+
+/// Node k's weight (1 when the point gives none).
+fn weight(p: &RemotePoint, k: usize) -> f64 {
+    p.weights.get(k).copied().unwrap_or(1.0)
+}
+
+/// G(r) with its rotation columns divided by `scale` (θ' = θ·scale).
+fn scaled_rows(d: [f64; 3], scale: f64) -> [[f64; 6]; 3] {
+    let mut g = rigid_rows(d);
+    for row in &mut g {
+        for v in &mut row[3..] {
+            *v /= scale;
+        }
+    }
+    g
+}
+
 /// The six functionals of an RBE3 point's motion (x, y, z, rx, ry, rz) in the DoFs of a
 /// model whose node i owns DoFs `dofs_per_node·i + d` (translations d = 0, 1, 2): the weighted
 /// least-squares rigid motion of its nodes (module doc). Rotations are scaled by the set's
@@ -162,64 +232,16 @@ pub fn distributing_rows(
     nodes: &[[f64; 3]],
     dofs_per_node: usize,
 ) -> Result<[SparseRow; 6]> {
-    let r = offsets(p, nodes)?;
-    let w = |k: usize| p.weights.get(k).copied().unwrap_or(1.0);
-    let scale = r
-        .iter()
-        .map(|d| d.iter().map(|v| v * v).sum::<f64>().sqrt())
-        .sum::<f64>()
-        / r.len() as f64;
-    // G scaled: rotation columns times 1/scale (θ' = θ·scale)
-    let g = |d: [f64; 3]| {
-        let mut g = rigid_rows(d);
-        for row in &mut g {
-            for v in &mut row[3..] {
-                *v /= scale;
-            }
-        }
-        g
-    };
-    let mut a = faer::Mat::<f64>::zeros(6, 6);
-    for (k, d) in r.iter().enumerate() {
-        let gk = g(*d);
-        for i in 0..6 {
-            for j in 0..6 {
-                a[(i, j)] += w(k) * (0..3).map(|m| gk[m][i] * gk[m][j]).sum::<f64>();
-            }
-        }
-    }
-    let (values, vectors) = crate::dense::sym_eigen(a.as_ref()).ok_or_else(|| {
-        Error::InvalidSetting(format!(
-            "remote point {}: its 6 × 6 normal matrix has no eigendecomposition",
-            p.name
-        ))
-    })?;
-    let (lo, hi) = (values[0], values[5]);
-    if !(lo > 1e-10 * hi) {
-        return Err(Error::InvalidSetting(format!(
-            "remote point {}: its {} nodes lie on one line (or are one point), so a rotation \
-             about that line moves none of them and rx, ry, rz are undefined; add nodes off \
-             the line",
-            p.name,
-            p.nodes.len()
-        )));
-    }
-    // A⁻¹ = V Λ⁻¹ Vᵀ, then unscale the rotation rows (θ = θ'/scale)
-    let inv = faer::Mat::<f64>::from_fn(6, 6, |i, j| {
-        let s: f64 = (0..6)
-            .map(|k| vectors[(i, k)] * vectors[(j, k)] / values[k])
-            .sum();
-        s / if i >= 3 { scale } else { 1.0 }
-    });
+    let Fit { r, scale, inv } = Fit::new(p, nodes)?;
     let mut order: Vec<usize> = (0..p.nodes.len()).collect();
     order.sort_by_key(|&k| p.nodes[k]);
     let mut rows: [SparseRow; 6] = Default::default();
     for &k in &order {
-        let gk = g(r[k]);
+        let gk = scaled_rows(r[k], scale);
         for m in 0..3 {
             let col = dofs_per_node * p.nodes[k] + m;
             for (i, row) in rows.iter_mut().enumerate() {
-                let v: f64 = (0..6).map(|j| inv[(i, j)] * gk[m][j]).sum::<f64>() * w(k);
+                let v: f64 = (0..6).map(|j| inv[(i, j)] * gk[m][j]).sum::<f64>() * weight(p, k);
                 row.idx.push(col);
                 row.val.push(v);
             }
@@ -233,9 +255,10 @@ pub fn distributing_rows(
 /// also ties the nodes' rotations to the point's.
 ///
 /// # Errors
-/// [`Error::InvalidSetting`]: as [`distributing_rows`] for each point's node set (but a line
-/// of nodes is allowed: the constraint needs no fit), and a node coupled by two rigid points
-/// (each would constrain it: the second overconstrains it).
+/// [`Error::InvalidSetting`]: as [`distributing_rows`] for each point's node set (a line of
+/// nodes only on a model with rotational DoFs, whose nodes' rotations then fix the point's),
+/// and a node coupled by two rigid points (each would constrain it: the second overconstrains
+/// it).
 pub fn rigid_elimination(
     points: &[RemotePoint],
     nodes: &[[f64; 3]],
@@ -245,7 +268,13 @@ pub fn rigid_elimination(
     let mut owner = vec![usize::MAX; nodes.len()];
     let mut offs = Vec::with_capacity(points.len());
     for (k, p) in points.iter().enumerate() {
-        offs.push(offsets(p, nodes)?);
+        // without rotational DoFs a line of nodes leaves the point's rotation about it with
+        // neither mass nor stiffness (a singular M'), so the fit's check applies
+        offs.push(if dofs_per_node == 6 {
+            offsets(p, nodes)?
+        } else {
+            Fit::new(p, nodes)?.r
+        });
         for &i in &p.nodes {
             if owner[i] != usize::MAX {
                 return Err(Error::InvalidSetting(format!(
@@ -700,11 +729,21 @@ mod tests {
             "{}",
             message(&collinear)
         );
+        // a rigid point on that line of a translations-only model: the same refusal (its
+        // rotation about the line would have neither mass nor stiffness)
+        let rigid_line = RemotePoint {
+            kind: Kind::Rigid,
+            ..collinear.clone()
+        };
+        let err = rigid_elimination(&[rigid_line], nodes, 3)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("lie on one line"), "{err}");
         p.position = nodes[p.nodes[2]];
         assert!(message(&p).contains("coincides with coupled node"));
         let a = bore(&model, 0.0, Kind::Rigid, "A");
         let mut b = bore(&model, 0.0, Kind::Rigid, "B");
-        b.nodes.truncate(2);
+        b.nodes.truncate(3);
         let err = rigid_elimination(&[a, b], nodes, 3)
             .unwrap_err()
             .to_string();
