@@ -523,6 +523,15 @@ mod tests {
         a.partial_piv_lu().solve(b)
     }
 
+    /// The node at `x`'s offset from the point.
+    fn offset(x: [f64; 3], p: &RemotePoint) -> [f64; 3] {
+        [
+            x[0] - p.position[0],
+            x[1] - p.position[1],
+            x[2] - p.position[2],
+        ]
+    }
+
     /// The response of `a` at the coordinates `at` to unit loads there.
     fn at_coordinates(a: &Mat<c64>, at: &[usize]) -> Mat<c64> {
         let e = Mat::<c64>::from_fn(a.nrows(), at.len(), |i, j| {
@@ -565,11 +574,7 @@ mod tests {
         let x0 = [1e-3, -2e-3, 3e-3, 0.2, -0.1, 0.3];
         let rigid = |c: usize| {
             let (i, m) = (c / 3, c % 3);
-            let r = [
-                nodes[i][0] - p.position[0],
-                nodes[i][1] - p.position[1],
-                nodes[i][2] - p.position[2],
-            ];
+            let r = offset(nodes[i], &p);
             (0..6).map(|j| rigid_rows(r)[m][j] * x0[j]).sum()
         };
         let x = apply(&rigid);
@@ -581,11 +586,7 @@ mod tests {
         let x = apply(&u);
         let mut normal = [0.0; 6];
         for (k, &i) in p.nodes.iter().enumerate() {
-            let r = [
-                nodes[i][0] - p.position[0],
-                nodes[i][1] - p.position[1],
-                nodes[i][2] - p.position[2],
-            ];
+            let r = offset(nodes[i], &p);
             let g = rigid_rows(r);
             for m in 0..3 {
                 let res = u(3 * i + m) - (0..6).map(|j| g[m][j] * x[j]).sum::<f64>();
@@ -665,11 +666,7 @@ mod tests {
         let mut nc = 0;
         for (pk, p) in points.iter().enumerate() {
             for &i in &p.nodes {
-                let r = [
-                    nodes[i][0] - p.position[0],
-                    nodes[i][1] - p.position[1],
-                    nodes[i][2] - p.position[2],
-                ];
+                let r = offset(nodes[i], p);
                 for (mm, g) in rigid_rows(r).iter().enumerate() {
                     let mut row = vec![(3 * i + mm, 1.0)];
                     for (j, &v) in g.iter().enumerate() {

@@ -107,12 +107,11 @@ pub fn transfer_function(
         Response::Total
     };
     let mut engine = Engine::new(body, opts, cluster);
-    let (xs, freq_stats) = engine.respond(response, inputs, outputs, freqs_hz, progress)?;
+    let (mut h, freq_stats) = engine.respond(response, inputs, outputs, freqs_hz, progress)?;
     let h0 = |f: f64| match (split, body.rigid()) {
         (true, Some(rb)) => Some(rb.h0(2.0 * std::f64::consts::PI * f, inputs, outputs)),
         _ => None,
     };
-    let mut h = xs;
     for (h, &f) in h.iter_mut().zip(freqs_hz) {
         if let Some(h0) = h0(f) {
             *h += h0;
