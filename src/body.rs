@@ -35,7 +35,8 @@ pub struct Body {
 }
 
 impl Body {
-    /// Builds the pencil and detects the rigid part ([`RigidBody::detect`]); copies the
+    /// Builds the pencil and detects the rigid part ([`RigidBody::detect`], or
+    /// [`RigidBody::detect_modes`] for the model's explicit rigid modes); copies the
     /// model's name and nodes. Cost O(nnz + N); the body keeps no reference to `model`.
     ///
     /// # Errors
@@ -43,9 +44,10 @@ impl Body {
     /// definite (wrong node coordinates).
     pub fn new(model: &Model) -> Result<Self> {
         let pencil = Pencil::new(model);
-        let rigid = match &model.nodes {
-            Some(nodes) => RigidBody::detect(&pencil, nodes, model.dofs_per_node)?,
-            None => None,
+        let rigid = match (&model.rigid_modes, &model.nodes) {
+            (Some(v0), _) => RigidBody::detect_modes(&pencil, v0.clone())?,
+            (None, Some(nodes)) => RigidBody::detect(&pencil, nodes, model.dofs_per_node)?,
+            (None, None) => None,
         };
         Ok(Body {
             name: model.name.clone(),

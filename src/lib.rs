@@ -58,6 +58,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod body;
+pub mod coupled;
 pub mod coupling;
 pub mod dense;
 pub mod eigen;

@@ -57,6 +57,10 @@ pub struct Model {
     pub nodes: Option<Vec<[f64; 3]>>,
     /// 3 (translations) or 6 (translations + rotations).
     pub dofs_per_node: usize,
+    /// Rigid-body modes V0 (N×6) given explicitly, for a model whose DoFs are not all node
+    /// DoFs (a coupled model, docs/design.md §3.11); they win over `nodes` when the body's
+    /// rigid part is detected (§3.2). `None` from [`Model::new`].
+    pub rigid_modes: Option<faer::Mat<f64>>,
 }
 
 /// What [`Model::new`] measured while validating: returned to the user (`sparsemor info`).
@@ -145,6 +149,7 @@ impl Model {
             damping,
             nodes,
             dofs_per_node,
+            rigid_modes: None,
         };
         Ok((
             model,
@@ -154,6 +159,29 @@ impl Model {
                 mass_diagonal: diag,
             },
         ))
+    }
+
+    /// The model with explicit rigid-body modes `v0` (N×6, finite; see
+    /// [`Model::rigid_modes`]).
+    ///
+    /// # Errors
+    /// [`Error::InvalidModel`] for a wrong shape or a non-finite entry.
+    pub fn with_rigid_modes(mut self, v0: faer::Mat<f64>) -> Result<Self> {
+        if v0.nrows() != self.n() || v0.ncols() != 6 {
+            return Err(Error::InvalidModel(format!(
+                "rigid modes: {}×{} given for a model of N = {}; need N×6",
+                v0.nrows(),
+                v0.ncols(),
+                self.n()
+            )));
+        }
+        if (0..6).any(|j| v0.col(j).iter().any(|v| !v.is_finite())) {
+            return Err(Error::InvalidModel(
+                "rigid modes: a non-finite entry".into(),
+            ));
+        }
+        self.rigid_modes = Some(v0);
+        Ok(self)
     }
 
     /// Number of DoFs N.

@@ -50,6 +50,11 @@ pub struct RigidBody {
 
 /// Rigid modes (N×6: tx, ty, tz, rx, ry, rz) from node coordinates, centered at the centroid.
 pub fn rigid_modes(nodes: &[[f64; 3]], dofs_per_node: usize) -> Mat<f64> {
+    rigid_modes_about(nodes, dofs_per_node, centroid(nodes))
+}
+
+/// The centroid of `nodes` (the origin for none).
+pub fn centroid(nodes: &[[f64; 3]]) -> [f64; 3] {
     let nn = nodes.len().max(1) as f64;
     let mut c = [0.0; 3];
     for p in nodes {
@@ -57,6 +62,13 @@ pub fn rigid_modes(nodes: &[[f64; 3]], dofs_per_node: usize) -> Mat<f64> {
             c[a] += p[a] / nn;
         }
     }
+    c
+}
+
+/// Rigid modes (N×6) of points with `dofs_per_node` DoFs each, rotations about `centre`:
+/// translations `I₃`, rotations `−skew(r − centre)`, and [0; I₃] on rotational DoFs.
+pub fn rigid_modes_about(nodes: &[[f64; 3]], dofs_per_node: usize, centre: [f64; 3]) -> Mat<f64> {
+    let c = centre;
     let mut v0 = Mat::<f64>::zeros(nodes.len() * dofs_per_node, 6);
     for (k, p) in nodes.iter().enumerate() {
         let r = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
@@ -101,7 +113,15 @@ impl RigidBody {
         nodes: &[[f64; 3]],
         dofs_per_node: usize,
     ) -> Result<Option<Self>> {
-        let v0 = rigid_modes(nodes, dofs_per_node);
+        Self::detect_modes(pencil, rigid_modes(nodes, dofs_per_node))
+    }
+
+    /// [`Self::detect`] for given rigid modes `v0` (N×6), for a model whose DoFs are not all
+    /// node DoFs (a coupled model, docs/design.md §3.11).
+    ///
+    /// # Errors
+    /// As [`Self::detect`].
+    pub fn detect_modes(pencil: &Pencil, v0: Mat<f64>) -> Result<Option<Self>> {
         let residual = stiffness_residual(pencil, &v0);
         if residual > FREE_BODY_RTOL {
             return Ok(None);
@@ -115,7 +135,14 @@ impl RigidBody {
     /// # Errors
     /// [`Error::InvalidModel`] when M0 = V0ᵀMV0 is not positive definite.
     pub fn from_nodes(pencil: &Pencil, nodes: &[[f64; 3]], dofs_per_node: usize) -> Result<Self> {
-        let v0 = rigid_modes(nodes, dofs_per_node);
+        Self::from_modes(pencil, rigid_modes(nodes, dofs_per_node))
+    }
+
+    /// [`Self::from_nodes`] for given rigid modes `v0` (N×6).
+    ///
+    /// # Errors
+    /// As [`Self::from_nodes`].
+    pub fn from_modes(pencil: &Pencil, v0: Mat<f64>) -> Result<Self> {
         let residual = stiffness_residual(pencil, &v0);
         Self::with_modes(pencil, v0, residual)
     }

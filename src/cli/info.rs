@@ -4,14 +4,20 @@ use super::args::human_bytes;
 use sparsemor::factor::{Analysis, Backend};
 use sparsemor::io::model_dir;
 use sparsemor::pencil::Pencil;
-use sparsemor::rigid::RigidBody;
+use sparsemor::rigid::{rigid_modes, RigidBody};
 use sparsemor::Result;
 use std::path::Path;
 use std::time::Instant;
 
 pub fn info(dir: &Path) -> Result<()> {
     let t = Instant::now();
-    let (model, scene, report) = model_dir::read(dir)?;
+    let model_dir::Loaded {
+        model,
+        scene,
+        report,
+        notes,
+        ..
+    } = model_dir::load(dir)?;
     let t_read = t.elapsed().as_secs_f64();
     println!("model            {} ({})", model.name, dir.display());
     println!("N                {}", model.n());
@@ -33,24 +39,37 @@ pub fn info(dir: &Path) -> Result<()> {
     println!("dofs per node    {}", model.dofs_per_node);
     println!("damping          {}", describe_damping(&model.damping));
     let pencil = Pencil::new(&model);
-    match &model.nodes {
-        None => println!(
-            "nodes            none (rigid part cannot be separated; fine for constrained bodies)"
-        ),
-        Some(nodes) => {
-            println!("nodes            {}", nodes.len());
-            let rb = RigidBody::from_nodes(&pencil, nodes, model.dofs_per_node)?;
-            let free = rb.stiffness_residual <= sparsemor::rigid::FREE_BODY_RTOL;
-            println!(
-                "rigid modes      {} (|K V0| / |K||V0| = {:.1e})",
-                if free {
-                    "6: free body, elastic part separated by inertia relief"
-                } else {
-                    "none: constrained body"
-                },
-                rb.stiffness_residual
-            );
+    let v0 = match (&model.rigid_modes, &model.nodes) {
+        (Some(v0), _) => {
+            println!("nodes            none: a coupled model, rigid modes from its couplings");
+            Some(v0.clone())
         }
+        (None, Some(nodes)) => {
+            println!("nodes            {}", nodes.len());
+            Some(rigid_modes(nodes, model.dofs_per_node))
+        }
+        (None, None) => {
+            println!(
+                "nodes            none (rigid part cannot be separated; fine for constrained bodies)"
+            );
+            None
+        }
+    };
+    if let Some(v0) = v0 {
+        let rb = RigidBody::from_modes(&pencil, v0)?;
+        let free = rb.stiffness_residual <= sparsemor::rigid::FREE_BODY_RTOL;
+        println!(
+            "rigid modes      {} (|K V0| / |K||V0| = {:.1e})",
+            if free {
+                "6: free body, elastic part separated by inertia relief"
+            } else {
+                "none: constrained body"
+            },
+            rb.stiffness_residual
+        );
+    }
+    for note in &notes {
+        println!("note             {note}");
     }
     println!(
         "scene            {} inputs, {} outputs, band {:?} Hz",

@@ -12,6 +12,7 @@ pub mod dmig;
 pub mod exudyn;
 mod file;
 pub mod import;
+pub mod joints;
 pub mod matrix_market;
 pub mod mbdyn;
 pub mod model_dir;

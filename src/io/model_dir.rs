@@ -50,8 +50,11 @@
 //! interrupted write never leaves a directory that looks complete.
 
 use crate::body::Body;
+use crate::coupled::{self, Coordinate, Functional};
+use crate::coupling::Kind;
 use crate::io::file::read_regular_text;
 use crate::io::import::{self, Direction, Dof};
+use crate::io::joints::{self, RemotePointToml};
 use crate::io::{atomic, matrix_market};
 use crate::model::{Damping, Model, ValidationReport};
 use crate::scene::Scene;
@@ -95,6 +98,9 @@ pub struct Manifest {
     /// Read the FE code's own files instead of `mass`/`stiffness`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub import: Option<ImportToml>,
+    /// Remote points (`[[remote_points]]`, docs/design.md §3.11).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub remote_points: Vec<RemotePointToml>,
 }
 
 /// `[import]`: the files an FE code wrote, read by [`crate::io::import::read`] at every load.
@@ -136,6 +142,9 @@ pub enum DofNames {
         /// 3 or 6.
         dofs_per_node: usize,
     },
+    /// A coupled model (docs/design.md §3.11): each DoF's name (`NODE:DIR` of the original
+    /// DoF, `POINT:DIR`, or a scene matrix's row) and index.
+    Coupled(std::collections::HashMap<String, usize>),
 }
 
 impl DofNames {
@@ -151,13 +160,17 @@ impl DofNames {
     /// the token when the model has no such DoF or the token is neither form.
     pub fn index(&self, token: &str, what: &str) -> Result<usize> {
         let token = token.trim();
-        let n = match self {
-            DofNames::Map(m) => m.len(),
-            DofNames::PerNode { n, .. } => *n,
-        };
         if let Ok(i) = token.parse::<usize>() {
             return self.checked(i, what);
         }
+        if let Some(i) = self.point_name(token) {
+            return Ok(i);
+        }
+        let n = match self {
+            DofNames::Map(m) => m.len(),
+            DofNames::PerNode { n, .. } => *n,
+            DofNames::Coupled(m) => m.len(),
+        };
         let dof: Dof = token
             .parse()
             .map_err(|e| Error::InvalidSetting(format!("{what}: {e}, or a 0-based index")))?;
@@ -171,6 +184,7 @@ impl DofNames {
                     .and_then(|first| first.checked_add(k))
                     .filter(|&i| k < *dofs_per_node && i < n)
             }
+            DofNames::Coupled(m) => m.get(&dof.to_string()).copied(),
         };
         found.ok_or_else(|| {
             let why = match self {
@@ -184,9 +198,46 @@ impl DofNames {
                         .collect::<Vec<_>>()
                         .join(", ")
                 ),
+                DofNames::Coupled(_) => "a DoF rigidly coupled to a remote point, or a \
+                    functional's pivot, is no longer one of its DoFs: name the point's \
+                    POINT:DIR"
+                    .into(),
             };
             Error::InvalidSetting(format!("{what}: the model has no DoF {dof} ({why})"))
         })
+    }
+
+    /// A coupled model's DoF named other than `NODE:DIR`: a point's `POINT:DIR` (direction in
+    /// any case) or a scene matrix's row, verbatim.
+    fn point_name(&self, token: &str) -> Option<usize> {
+        let DofNames::Coupled(m) = self else {
+            return None;
+        };
+        let key = match token.split_once(':') {
+            Some((a, d)) if a.trim().parse::<u64>().is_err() => match d.parse::<Direction>() {
+                Ok(dir) => format!("{}:{dir}", a.trim()),
+                Err(_) => token.to_string(),
+            },
+            _ => token.to_string(),
+        };
+        m.get(&key).copied()
+    }
+
+    /// The name of every DoF, in order (`NODE:DIR`; a coupled model's own names).
+    pub fn names(&self) -> Vec<String> {
+        match self {
+            DofNames::Map(m) => by_index(m.iter().map(|(d, &i)| (d.to_string(), i)), m.len()),
+            DofNames::PerNode { n, dofs_per_node } => (0..*n)
+                .map(|i| {
+                    format!(
+                        "{}:{}",
+                        i / dofs_per_node,
+                        Direction::ALL[i % dofs_per_node]
+                    )
+                })
+                .collect(),
+            DofNames::Coupled(m) => by_index(m.iter().map(|(s, &i)| (s.clone(), i)), m.len()),
+        }
     }
 
     /// `i` when it is a DoF of the model (< N).
@@ -194,6 +245,7 @@ impl DofNames {
         let n = match self {
             DofNames::Map(m) => m.len(),
             DofNames::PerNode { n, .. } => *n,
+            DofNames::Coupled(m) => m.len(),
         };
         if i < n {
             Ok(i)
@@ -224,6 +276,15 @@ impl DofNames {
     }
 }
 
+/// Names placed at their indices 0..n.
+fn by_index(named: impl Iterator<Item = (String, usize)>, n: usize) -> Vec<String> {
+    let mut v = vec![String::new(); n];
+    for (s, i) in named {
+        v[i] = s;
+    }
+    v
+}
+
 /// `[rayleigh]`.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -240,12 +301,20 @@ pub struct Rayleigh {
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SceneToml {
-    /// Input DoFs (0-based indices or `NODE:DIR`).
+    /// Input DoFs (0-based indices, `NODE:DIR` or a remote point's `POINT:DIR`).
+    #[serde(default)]
     pub inputs: Vec<DofRef>,
-    /// Output DoFs (0-based indices or `NODE:DIR`).
+    /// Output DoFs (as `inputs`).
+    #[serde(default)]
     pub outputs: Vec<DofRef>,
     /// Band [f_lo, f_hi] in Hz.
     pub band_hz: [f64; 2],
+    /// More inputs: the columns of B (N × p, Matrix Market), after `inputs`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub input_matrix: Option<String>,
+    /// More outputs: the rows of C (q × N, Matrix Market), after `outputs`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub output_matrix: Option<String>,
 }
 
 /// `[source]`: the provenance of an imported model ([`crate::io::import`]).
@@ -414,9 +483,15 @@ pub fn load(dir: &Path) -> Result<Loaded> {
             let mass = matrix_market::read_sparse(&dir.join(m))?;
             let stiffness = matrix_market::read_sparse(&dir.join(k))?;
             let dofs_per_node = man.dofs_per_node.unwrap_or(3);
-            let (model, report) =
-                Model::new(man.name, mass, stiffness, damping, nodes, dofs_per_node)
-                    .map_err(named)?;
+            let (model, report) = Model::new(
+                man.name.clone(),
+                mass,
+                stiffness,
+                damping,
+                nodes,
+                dofs_per_node,
+            )
+            .map_err(named)?;
             let names = match &man.source {
                 Some(src) => {
                     let path = dir.join(&src.dof_map);
@@ -461,7 +536,7 @@ pub fn load(dir: &Path) -> Result<Loaded> {
             }
             let names = DofNames::from_map(&im.dofs);
             let (model, report) = Model::new(
-                man.name,
+                man.name.clone(),
                 im.mass,
                 im.stiffness,
                 damping,
@@ -479,14 +554,25 @@ pub fn load(dir: &Path) -> Result<Loaded> {
             )))
         }
     };
-    let scene = Scene {
-        inputs: names
-            .resolve(&man.scene.inputs, "[scene] inputs")
-            .map_err(named)?,
-        outputs: names
-            .resolve(&man.scene.outputs, "[scene] outputs")
-            .map_err(named)?,
-        band_hz: man.scene.band_hz,
+    let joints = !man.remote_points.is_empty()
+        || man.scene.input_matrix.is_some()
+        || man.scene.output_matrix.is_some();
+    let (model, scene, names, notes) = if joints {
+        let mut notes = notes;
+        let (model, scene, names) =
+            with_joints(dir, &man, &model, &names, &mut notes).map_err(named)?;
+        (model, scene, names, notes)
+    } else {
+        let scene = Scene {
+            inputs: names
+                .resolve(&man.scene.inputs, "[scene] inputs")
+                .map_err(named)?,
+            outputs: names
+                .resolve(&man.scene.outputs, "[scene] outputs")
+                .map_err(named)?,
+            band_hz: man.scene.band_hz,
+        };
+        (model, scene, names, notes)
     };
     scene.validate(model.n(), "scene").map_err(named)?;
     Ok(Loaded {
@@ -496,6 +582,93 @@ pub fn load(dir: &Path) -> Result<Loaded> {
         names,
         notes,
     })
+}
+
+/// The coupled model of a directory with `[[remote_points]]` or a scene matrix
+/// (docs/design.md §3.11): its scene as DoFs of the coupled model and its DoF names
+/// ([`DofNames::Coupled`]); what the coupling did is added to `notes`.
+///
+/// # Errors
+/// As [`joints::points`], [`joints::matrix_functionals`] and [`coupled::couple`], and a scene
+/// token that names neither a point's DoF nor a model DoF.
+fn with_joints(
+    dir: &Path,
+    man: &Manifest,
+    model: &Model,
+    names: &DofNames,
+    notes: &mut Vec<String>,
+) -> Result<(Model, Scene, DofNames)> {
+    let points = joints::points(&man.remote_points, model.nodes.as_deref().unwrap_or(&[]))?;
+    let functionals = |refs: &[DofRef], matrix: &Option<String>, what: &str| {
+        let mut list = refs
+            .iter()
+            .map(|r| match r {
+                DofRef::Name(s) => match joints::point_dof(&points, s)? {
+                    Some(f) => Ok(f),
+                    None => names.index(s, what).map(Functional::Dof),
+                },
+                DofRef::Index(_) => names
+                    .resolve(std::slice::from_ref(r), what)
+                    .map(|d| Functional::Dof(d[0])),
+            })
+            .collect::<Result<Vec<_>>>()?;
+        if let Some(f) = matrix {
+            list.extend(joints::matrix_functionals(
+                &dir.join(f),
+                model.n(),
+                what.ends_with("inputs"),
+            )?);
+        }
+        Ok::<_, Error>(list)
+    };
+    let inputs = functionals(&man.scene.inputs, &man.scene.input_matrix, "[scene] inputs")?;
+    let outputs = functionals(
+        &man.scene.outputs,
+        &man.scene.output_matrix,
+        "[scene] outputs",
+    )?;
+    let cp = coupled::couple(model, &points, &inputs, &outputs)?;
+    for p in &points {
+        notes.push(format!(
+            "remote point {}: {} over {} nodes at ({:.6e}, {:.6e}, {:.6e})",
+            p.name,
+            match p.kind {
+                Kind::Rigid => "rigid (RBE2)",
+                Kind::Distributing => "distributing (RBE3)",
+            },
+            p.nodes.len(),
+            p.position[0],
+            p.position[1],
+            p.position[2]
+        ));
+    }
+    notes.push(format!(
+        "coupled model: N {} -> {}, stored entries of K {} -> {}",
+        model.n(),
+        cp.n,
+        cp.nnz[0],
+        cp.nnz[1]
+    ));
+    let original = names.names();
+    let label = |c: &Coordinate| match c {
+        Coordinate::Dof(i) => original[*i].clone(),
+        Coordinate::Point { point, dir } => {
+            format!("{}:{}", points[*point].name, Direction::ALL[*dir].label())
+        }
+        Coordinate::Row(name) => name.clone(),
+    };
+    let named = cp
+        .coordinates
+        .iter()
+        .enumerate()
+        .map(|(i, c)| (label(c), i));
+    let names = DofNames::Coupled(named.collect());
+    let scene = Scene {
+        inputs: cp.inputs,
+        outputs: cp.outputs,
+        band_hz: man.scene.band_hz,
+    };
+    Ok((cp.model, scene, names))
 }
 
 /// A file named in `[import] files`, relative to `dir`, keeping a `K=`/`M=` prefix.
@@ -615,6 +788,8 @@ pub fn write_with_source(
                     .map(|&i| DofRef::Index(i as u64))
                     .collect(),
                 band_hz: scene.band_hz,
+                input_matrix: None,
+                output_matrix: None,
             },
             source: source
                 .map(|src| -> Result<SourceToml> {
@@ -633,6 +808,7 @@ pub fn write_with_source(
                 })
                 .transpose()?,
             import: None,
+            remote_points: Vec::new(),
         };
         let text = toml::to_string(&man)
             .map_err(|e| Error::InvalidModel(format!("cannot serialize manifest: {e}")))?;

@@ -22,6 +22,7 @@ mod matrix_market;
 mod model_dir;
 #[cfg(feature = "mpi")]
 mod mpi;
+mod remote_points;
 mod report;
 mod rigid_elastic;
 mod sampling;

@@ -1,0 +1,518 @@
+//! A model with its joints (docs/design.md §3.11): remote points and the scene's functionals
+//! (inputs and outputs given as DoFs, as a point's `POINT:DIR`, or as rows of a sparse B or C)
+//! turned into coordinates of one congruent model, so that the scene of that model is a list
+//! of DoFs again and every reductor, check and export works on it unchanged.
+//!
+//! Two changes of variables, composed as q = T z with T = T₁T₂:
+//! 1. the rigid (RBE2) points' elimination q = T₁ z₁ ([`crate::coupling::rigid_elimination`]);
+//! 2. every distinct input and output functional, written in z₁ (a row c of the original DoFs
+//!    becomes c T₁), made a coordinate z₁ = T₂ z ([`crate::coupling::functionals_as_coordinates`]).
+//!
+//! The model is M' = TᵀMT, K' = TᵀKT, D' = TᵀDT (Rayleigh damping stays Rayleigh: the
+//! congruence is linear). An output c q is the coordinate z_p; an input load b = cᵀ (a
+//! distributing point's force, a DoF's unit force, a column of B) is the unit load at z_p,
+//! since Tᵀcᵀ = e_p (S T = I). Its rigid modes are the original ones in the new coordinates,
+//! V0' = S V0 (a point's rows are its own rigid motion): the body stays free or constrained
+//! as it was, with its inertia relief (§3.2) on the new DoFs.
+//!
+//! Cost: each functional's pivot DoF is expressed through all DoFs of its support, so M' and
+//! K' gain a dense block over the union of a functional's support (a distributing point over
+//! s DoFs adds up to s² entries); [`Coupled::nnz`] reports it.
+//!
+//! Entry point: [`couple`].
+
+use crate::coupling::{
+    congruence, distributing_rows, functionals_as_coordinates, rigid_elimination, Kind,
+    RemotePoint, SparseRow,
+};
+use crate::model::{Damping, Model};
+use crate::rigid::{centroid, rigid_modes, rigid_modes_about};
+use crate::{Error, Result};
+use faer::Mat;
+use std::collections::BTreeMap;
+
+/// One input or output of a scene.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Functional {
+    /// A DoF of the model (0-based).
+    Dof(usize),
+    /// A remote point's DoF: `point` indexes the points, `dir` is 0..6 (x, y, z, rx, ry, rz).
+    Point {
+        /// Which point.
+        point: usize,
+        /// Which of its six DoFs.
+        dir: usize,
+    },
+    /// A row of C or a column of B, named (e.g. `C.mtx row 3`).
+    Row(String, SparseRow),
+}
+
+/// What a DoF of the coupled model is.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Coordinate {
+    /// DoF i of the original model.
+    Dof(usize),
+    /// A remote point's DoF.
+    Point {
+        /// Which point.
+        point: usize,
+        /// Which of its six DoFs.
+        dir: usize,
+    },
+    /// A functional given as a row, by its name.
+    Row(String),
+}
+
+/// The coupled model and its scene.
+#[derive(Clone, Debug)]
+pub struct Coupled {
+    /// M', K', D' and the rigid modes in the new coordinates; no node coordinates.
+    pub model: Model,
+    /// The inputs as DoFs of `model`, in the order given.
+    pub inputs: Vec<usize>,
+    /// The outputs as DoFs of `model`, in the order given.
+    pub outputs: Vec<usize>,
+    /// What each DoF of `model` is.
+    pub coordinates: Vec<Coordinate>,
+    /// Stored entries of K before and after (the dense blocks of the module doc).
+    pub nnz: [usize; 2],
+    /// The coupled model's size N' (the original N less 3 or 6 per rigidly coupled node plus 6
+    /// per rigid point).
+    pub n: usize,
+}
+
+/// The coupled model of `model` with remote `points` and the scene's `inputs` and `outputs`
+/// (module doc).
+///
+/// # Errors
+/// [`Error::InvalidSetting`] naming the point or functional: points on a model without node
+/// coordinates, any check of [`rigid_elimination`] and [`distributing_rows`], a DoF or row out
+/// of range, the same functional given twice as an input (or as an output), and functionals
+/// that are linearly dependent. [`Error::InvalidModel`] when the coupled model fails
+/// validation.
+pub fn couple(
+    model: &Model,
+    points: &[RemotePoint],
+    inputs: &[Functional],
+    outputs: &[Functional],
+) -> Result<Coupled> {
+    let n = model.n();
+    let dpn = model.dofs_per_node;
+    let nodes = model.nodes.as_deref();
+    if !points.is_empty() && nodes.is_none() {
+        return Err(Error::InvalidSetting(
+            "remote points need the model's node coordinates: add `nodes = \"nodes.csv\"`".into(),
+        ));
+    }
+    let no_nodes: &[[f64; 3]] = &[];
+    let nodes_or_none = nodes.unwrap_or(no_nodes);
+    // 1. RBE2 elimination
+    let rigid: Vec<usize> = (0..points.len())
+        .filter(|&k| points[k].kind == Kind::Rigid)
+        .collect();
+    let rigid_points: Vec<RemotePoint> = rigid.iter().map(|&k| points[k].clone()).collect();
+    let mut coordinates: Vec<Coordinate>;
+    let t1 = if rigid.is_empty() {
+        coordinates = (0..n).map(Coordinate::Dof).collect();
+        None
+    } else {
+        let change = rigid_elimination(&rigid_points, nodes_or_none, dpn)?;
+        let mut coupled = vec![false; nodes_or_none.len()];
+        for p in &rigid_points {
+            for &i in &p.nodes {
+                coupled[i] = true;
+            }
+        }
+        coordinates = (0..n)
+            .filter(|&q| !coupled[q / dpn])
+            .map(Coordinate::Dof)
+            .collect();
+        for &k in &rigid {
+            coordinates.extend((0..6).map(|dir| Coordinate::Point { point: k, dir }));
+        }
+        Some(change.t)
+    };
+    let n1 = coordinates.len();
+    // 2. the functionals as rows in z₁
+    let rows_of_t1 = t1
+        .as_ref()
+        .map(|t| {
+            t.as_ref()
+                .transpose()
+                .to_col_major()
+                .map_err(|e| Error::Factor(format!("coupled model: {e:?}")))
+        })
+        .transpose()?;
+    let in_z1 = |row: &SparseRow| -> SparseRow {
+        let Some(rt) = &rows_of_t1 else {
+            return row.clone();
+        };
+        let mut acc = BTreeMap::<usize, f64>::new();
+        for (&i, &v) in row.idx.iter().zip(&row.val) {
+            for (&j, &t) in rt.row_idx_of_col_raw(i).iter().zip(rt.val_of_col(i)) {
+                *acc.entry(j).or_insert(0.0) += v * t;
+            }
+        }
+        SparseRow {
+            idx: acc.keys().copied().collect(),
+            val: acc.values().copied().collect(),
+        }
+    };
+    let mut distributing: BTreeMap<usize, [SparseRow; 6]> = BTreeMap::new();
+    let mut unique: Vec<(SparseRow, Coordinate)> = Vec::new();
+    let mut pivot_index = |f: &Functional, what: &str| -> Result<usize> {
+        let (row, label) = match f {
+            Functional::Dof(i) => {
+                if *i >= n {
+                    return Err(Error::DofOutOfRange {
+                        what: what.to_string(),
+                        dof: *i,
+                        n,
+                    });
+                }
+                (
+                    in_z1(&SparseRow {
+                        idx: vec![*i],
+                        val: vec![1.0],
+                    }),
+                    Coordinate::Dof(*i),
+                )
+            }
+            Functional::Point { point, dir } => {
+                let p = points.get(*point).filter(|_| *dir < 6).ok_or_else(|| {
+                    Error::InvalidSetting(format!(
+                        "{what}: no remote point {point} with DoF {dir} ({} points, DoFs 0..6)",
+                        points.len()
+                    ))
+                })?;
+                let label = Coordinate::Point {
+                    point: *point,
+                    dir: *dir,
+                };
+                let row = match p.kind {
+                    Kind::Rigid => {
+                        let z = coordinates
+                            .iter()
+                            .position(|c| *c == label)
+                            .expect("every rigid point has its six coordinates");
+                        SparseRow {
+                            idx: vec![z],
+                            val: vec![1.0],
+                        }
+                    }
+                    Kind::Distributing => {
+                        if !distributing.contains_key(point) {
+                            distributing.insert(*point, distributing_rows(p, nodes_or_none, dpn)?);
+                        }
+                        in_z1(&distributing[point][*dir])
+                    }
+                };
+                (row, label)
+            }
+            Functional::Row(name, row) => {
+                if let Some(&c) = row.idx.iter().find(|&&c| c >= n) {
+                    return Err(Error::InvalidSetting(format!(
+                        "{what}: {name} has an entry in column {c}, but the model has {n} DoFs"
+                    )));
+                }
+                (in_z1(row), Coordinate::Row(name.clone()))
+            }
+        };
+        Ok(match unique.iter().position(|(r, _)| *r == row) {
+            Some(k) => k,
+            None => {
+                unique.push((row, label));
+                unique.len() - 1
+            }
+        })
+    };
+    let mut scene = |list: &[Functional], what: &str| -> Result<Vec<usize>> {
+        let idx = list
+            .iter()
+            .map(|f| pivot_index(f, what))
+            .collect::<Result<Vec<_>>>()?;
+        for (a, &k) in idx.iter().enumerate() {
+            if let Some(b) = idx[..a].iter().position(|&j| j == k) {
+                return Err(Error::InvalidSetting(format!(
+                    "{what}: entries {b} and {a} are the same functional; give each once"
+                )));
+            }
+        }
+        Ok(idx)
+    };
+    let inputs = scene(inputs, "inputs")?;
+    let outputs = scene(outputs, "outputs")?;
+    let rows: Vec<SparseRow> = unique.iter().map(|(r, _)| r.clone()).collect();
+    let change = functionals_as_coordinates(&rows, n1, "the scene's inputs and outputs")?;
+    let pivots = change.coordinates;
+    for ((_, label), &p) in unique.iter().zip(&pivots) {
+        coordinates[p] = label.clone();
+    }
+    let t = match &t1 {
+        Some(t1) => faer::sparse::linalg::matmul::sparse_sparse_matmul(
+            t1.as_ref(),
+            change.t.as_ref(),
+            1.0,
+            faer::Par::Seq,
+        )
+        .map_err(|e| Error::Factor(format!("coupled model: {e:?}")))?,
+        None => change.t,
+    };
+    let damping = match &model.damping {
+        Damping::Matrix(d) => Damping::Matrix(congruence(d, &t)?),
+        other => other.clone(),
+    };
+    let stiffness = congruence(&model.stiffness, &t)?;
+    let nnz = [model.stiffness.compute_nnz(), stiffness.compute_nnz()];
+    let (mut coupled, _) = Model::new(
+        model.name.clone(),
+        congruence(&model.mass, &t)?,
+        stiffness,
+        damping,
+        None,
+        dpn,
+    )?;
+    if let Some(nodes) = nodes {
+        coupled = coupled.with_rigid_modes(rigid_modes_in(
+            nodes,
+            dpn,
+            points,
+            &rigid,
+            &coordinates,
+            &rows,
+            &pivots,
+        ))?;
+    }
+    Ok(Coupled {
+        model: coupled,
+        inputs: inputs.iter().map(|&k| pivots[k]).collect(),
+        outputs: outputs.iter().map(|&k| pivots[k]).collect(),
+        coordinates,
+        nnz,
+        n: n1,
+    })
+}
+
+/// V0' = S V0₁ (module doc): the original rigid modes about the nodes' centroid on the kept
+/// DoFs, each rigid point's own rigid motion on its six, and pivot row p_k replaced by
+/// functional k applied to V0₁.
+fn rigid_modes_in(
+    nodes: &[[f64; 3]],
+    dpn: usize,
+    points: &[RemotePoint],
+    rigid: &[usize],
+    coordinates: &[Coordinate],
+    rows: &[SparseRow],
+    pivots: &[usize],
+) -> Mat<f64> {
+    let v0 = rigid_modes(nodes, dpn);
+    let c = centroid(nodes);
+    let positions: Vec<[f64; 3]> = rigid.iter().map(|&k| points[k].position).collect();
+    let at_points = rigid_modes_about(&positions, 6, c);
+    // V0₁: z₁ is the kept DoFs in order, then six per rigid point
+    let kept = coordinates.len() - 6 * rigid.len();
+    let mut kept_dofs = Vec::with_capacity(kept);
+    let mut eliminated = vec![false; nodes.len()];
+    for &k in rigid {
+        for &i in &points[k].nodes {
+            eliminated[i] = true;
+        }
+    }
+    kept_dofs.extend((0..v0.nrows()).filter(|&q| !eliminated[q / dpn]));
+    let v01 = Mat::<f64>::from_fn(coordinates.len(), 6, |i, j| {
+        if i < kept {
+            v0[(kept_dofs[i], j)]
+        } else {
+            at_points[(i - kept, j)]
+        }
+    });
+    let mut v = v01.clone();
+    for (row, &p) in rows.iter().zip(pivots) {
+        for j in 0..6 {
+            v[(p, j)] = row
+                .idx
+                .iter()
+                .zip(&row.val)
+                .map(|(&i, &x)| x * v01[(i, j)])
+                .sum();
+        }
+    }
+    v
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fe::{bar_model, BoxSpec};
+    use crate::sparse::Csc;
+    use faer::c64;
+
+    fn small_bar() -> Model {
+        let mut m = bar_model(&BoxSpec {
+            elements: [1, 2, 4],
+            size_m: [0.02, 0.03, 0.2],
+            mass_kg: 0.1,
+            young_pa: 2e10,
+            poisson: 0.3,
+        })
+        .unwrap();
+        m.damping = Damping::Rayleigh {
+            alpha: 0.0,
+            beta: 1e-5,
+        };
+        m
+    }
+
+    /// H(iω) = C (K + iωβK − ω²M)⁻¹ B, dense.
+    fn transfer(k: &Csc, m: &Csc, b: &Mat<f64>, c: &Mat<f64>, omega: f64, beta: f64) -> Mat<c64> {
+        let (k, m) = (k.as_ref().to_dense(), m.as_ref().to_dense());
+        let a = Mat::<c64>::from_fn(k.nrows(), k.ncols(), |i, j| {
+            c64::new(
+                k[(i, j)] - omega * omega * m[(i, j)],
+                omega * beta * k[(i, j)],
+            )
+        });
+        let bc = Mat::<c64>::from_fn(b.nrows(), b.ncols(), |i, j| c64::new(b[(i, j)], 0.0));
+        let x = faer::linalg::solvers::Solve::solve(&a.partial_piv_lu(), &bc);
+        let cc = Mat::<c64>::from_fn(c.nrows(), c.ncols(), |i, j| c64::new(c[(i, j)], 0.0));
+        cc * x
+    }
+
+    fn dense_rows(rows: &[SparseRow], n: usize) -> Mat<f64> {
+        let mut c = Mat::<f64>::zeros(rows.len(), n);
+        for (i, r) in rows.iter().enumerate() {
+            for (&j, &v) in r.idx.iter().zip(&r.val) {
+                c[(i, j)] += v;
+            }
+        }
+        c
+    }
+
+    fn selection(dofs: &[usize], n: usize) -> Mat<f64> {
+        Mat::from_fn(n, dofs.len(), |i, j| f64::from(dofs[j] == i))
+    }
+
+    /// A distributing point, a DoF and a general row: the coupled model's response at its
+    /// DoFs equals C A⁻¹ B of the original with B = Cᵀ of the same functionals.
+    #[test]
+    fn coupled_transfer_function_equals_the_original_with_b_and_c_applied() {
+        let model = small_bar();
+        let nodes = model.nodes.clone().unwrap();
+        let top: Vec<usize> = (0..nodes.len()).filter(|&i| nodes[i][2] > 0.199).collect();
+        let point = RemotePoint {
+            name: "tip".into(),
+            position: [0.01, 0.015, 0.21],
+            nodes: top,
+            weights: Vec::new(),
+            kind: Kind::Distributing,
+        };
+        let general = SparseRow {
+            idx: vec![4, 9, 20],
+            val: vec![0.5, -1.25, 2.0],
+        };
+        let functionals = vec![
+            Functional::Point { point: 0, dir: 0 },
+            Functional::Point { point: 0, dir: 5 },
+            Functional::Dof(7),
+            Functional::Row("C.mtx row 0".into(), general.clone()),
+        ];
+        let cp = couple(
+            &model,
+            std::slice::from_ref(&point),
+            &functionals[..3],
+            &functionals,
+        )
+        .unwrap();
+        let rows = distributing_rows(&point, &nodes, 3).unwrap();
+        let c = dense_rows(
+            &[
+                rows[0].clone(),
+                rows[5].clone(),
+                SparseRow {
+                    idx: vec![7],
+                    val: vec![1.0],
+                },
+                general,
+            ],
+            model.n(),
+        );
+        let b = c.transpose().to_owned();
+        let b3 = Mat::from_fn(model.n(), 3, |i, j| b[(i, j)]);
+        for omega in [300.0, 4000.0] {
+            let want = transfer(&model.stiffness, &model.mass, &b3, &c, omega, 1e-5);
+            let m2 = &cp.model;
+            let got = transfer(
+                &m2.stiffness,
+                &m2.mass,
+                &selection(&cp.inputs, m2.n()),
+                &selection(&cp.outputs, m2.n()).transpose().to_owned(),
+                omega,
+                1e-5,
+            );
+            let err = (&got - &want).norm_l2() / want.norm_l2();
+            assert!(err < 1e-10, "ω = {omega}: relative difference {err:e}");
+        }
+        assert_eq!(
+            cp.coordinates[cp.outputs[0]],
+            Coordinate::Point { point: 0, dir: 0 }
+        );
+        assert_eq!(cp.coordinates[cp.outputs[2]], Coordinate::Dof(7));
+    }
+
+    /// The coupled model's rigid modes are the original ones: T V0' = V0 (rigid motions are
+    /// exact for both couplings), and K' V0' = 0 on the free bar.
+    #[test]
+    fn rigid_modes_carry_over_to_the_coupled_coordinates() {
+        let model = small_bar();
+        let nodes = model.nodes.clone().unwrap();
+        let pick = |z: f64| -> Vec<usize> {
+            (0..nodes.len())
+                .filter(|&i| (nodes[i][2] - z).abs() < 1e-9)
+                .collect()
+        };
+        let points = [
+            RemotePoint {
+                name: "base".into(),
+                position: [0.01, 0.015, -0.01],
+                nodes: pick(0.0),
+                weights: Vec::new(),
+                kind: Kind::Rigid,
+            },
+            RemotePoint {
+                name: "tip".into(),
+                position: [0.01, 0.015, 0.21],
+                nodes: pick(0.2),
+                weights: Vec::new(),
+                kind: Kind::Distributing,
+            },
+        ];
+        let io = [
+            Functional::Point { point: 0, dir: 3 },
+            Functional::Point { point: 1, dir: 2 },
+        ];
+        let cp = couple(&model, &points, &io, &io).unwrap();
+        let v0 = cp.model.rigid_modes.clone().unwrap();
+        let k = cp.model.stiffness.as_ref().to_dense();
+        let kv = &k * &v0;
+        assert!(kv.norm_l2() < 1e-12 * k.norm_l2() * v0.norm_l2());
+        assert_eq!(cp.n, model.n() - 3 * pick(0.0).len() + 6);
+        assert_eq!(
+            cp.coordinates[cp.inputs[0]],
+            Coordinate::Point { point: 0, dir: 3 }
+        );
+    }
+
+    #[test]
+    fn the_same_input_twice_is_refused_by_position() {
+        let model = small_bar();
+        let e = couple(
+            &model,
+            &[],
+            &[Functional::Dof(3), Functional::Dof(3)],
+            &[Functional::Dof(3)],
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("inputs: entries 0 and 1"), "{e}");
+    }
+}

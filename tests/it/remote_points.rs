@@ -1,0 +1,357 @@
+//! Remote points and general inputs and outputs in a model directory (docs/design.md §3.11,
+//! §4): the coupled model's transfer function against a dense Lagrange-multiplier solve
+//! (rigid points) and the weighted-average definition (distributing points) computed here,
+//! the tolerance-driven line-fitting on it, and one test per kind of bad input.
+
+use crate::common::{dense, rel_err};
+use faer::linalg::solvers::Solve;
+use faer::{c64, Mat};
+use sparsemor::body::Body;
+use sparsemor::fe::{bar_model, BoxSpec};
+use sparsemor::frf::{transfer_function, Part};
+use sparsemor::io::model_dir;
+use sparsemor::model::Model;
+use sparsemor::scene::Scene;
+use sparsemor::sweep::{no_progress, SweepOptions};
+use std::path::{Path, PathBuf};
+
+const BETA: f64 = 2e-5;
+
+/// The 90-DoF bar (1 × 2 × 4 hexahedra, 0.02 × 0.03 × 0.2 m), free, Rayleigh damped.
+fn bar() -> Model {
+    let mut m = bar_model(&BoxSpec {
+        elements: [1, 2, 4],
+        size_m: [0.02, 0.03, 0.2],
+        mass_kg: 0.1,
+        young_pa: 2e10,
+        poisson: 0.3,
+    })
+    .unwrap();
+    m.damping = sparsemor::model::Damping::Rayleigh {
+        alpha: 0.0,
+        beta: BETA,
+    };
+    m
+}
+
+/// A directory with the bar's files and a `model.toml` whose remote points and scene are
+/// `joints` (TOML text after the common keys).
+fn directory(name: &str, joints: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join("remote_points")
+        .join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(dir.parent().unwrap()).unwrap();
+    let scene = Scene {
+        inputs: vec![0],
+        outputs: vec![0],
+        band_hz: [0.0, 2000.0],
+    };
+    model_dir::write(&dir, &bar(), &scene).unwrap();
+    let toml = format!(
+        "name = \"bar\"\nmass = \"M.mtx\"\nstiffness = \"K.mtx\"\nnodes = \"nodes.csv\"\n\
+         dofs_per_node = 3\n[rayleigh]\nbeta = {BETA}\n{joints}"
+    );
+    std::fs::write(dir.join("model.toml"), toml).unwrap();
+    dir
+}
+
+/// A Matrix Market `coordinate real general` file of the dense matrix `a` (nonzeros only).
+fn write_mtx(path: &Path, a: &Mat<f64>) {
+    let mut s = String::from("%%MatrixMarket matrix coordinate real general\n");
+    let entries: Vec<_> = (0..a.ncols())
+        .flat_map(|j| (0..a.nrows()).map(move |i| (i, j)))
+        .filter(|&(i, j)| a[(i, j)] != 0.0)
+        .collect();
+    s += &format!("{} {} {}\n", a.nrows(), a.ncols(), entries.len());
+    for (i, j) in entries {
+        s += &format!("{} {} {:e}\n", i + 1, j + 1, a[(i, j)]);
+    }
+    std::fs::write(path, s).unwrap();
+}
+
+/// The nodes of `model` with z = `z`.
+fn face(model: &Model, z: f64) -> Vec<usize> {
+    let nodes = model.nodes.as_ref().unwrap();
+    (0..nodes.len())
+        .filter(|&i| (nodes[i][2] - z).abs() < 1e-9)
+        .collect()
+}
+
+/// G(r) = [I, −[r]×]: a node's translation under the rigid motion (t, θ) of a point at offset
+/// −r from it.
+fn g(r: [f64; 3]) -> Mat<f64> {
+    let mut g = Mat::<f64>::zeros(3, 6);
+    for a in 0..3 {
+        g[(a, a)] = 1.0;
+    }
+    // θ × r
+    g[(0, 4)] = r[2];
+    g[(0, 5)] = -r[1];
+    g[(1, 3)] = -r[2];
+    g[(1, 5)] = r[0];
+    g[(2, 3)] = r[1];
+    g[(2, 4)] = -r[0];
+    g
+}
+
+/// The distributing point's six functionals by their definition: the least-squares rigid
+/// motion of the nodes, W = (Σ GᵢᵀGᵢ)⁻¹ [G₁ᵀ … Gₖᵀ] on the nodes' translations (6 × N).
+fn weighted_average(model: &Model, nodes: &[usize], at: [f64; 3]) -> Mat<f64> {
+    let xyz = model.nodes.as_ref().unwrap();
+    let r = |i: usize| [0, 1, 2].map(|a| xyz[i][a] - at[a]);
+    let mut a = Mat::<f64>::zeros(6, 6);
+    let mut rhs = Mat::<f64>::zeros(6, model.n());
+    for &i in nodes {
+        let gi = g(r(i));
+        a += gi.transpose() * &gi;
+        for m in 0..3 {
+            for j in 0..6 {
+                rhs[(j, 3 * i + m)] = gi[(m, j)];
+            }
+        }
+    }
+    a.partial_piv_lu().solve(&rhs)
+}
+
+/// H(iω) of the bar with a rigid point over `rigid` at `at` by a dense Lagrange-multiplier
+/// solve: unknowns [q; x; λ], constraints u_i − G(r_i) x = 0. `b` (N+6 rows: the body's DoFs,
+/// then the point's) and `c` (N+6 columns) are the loads and measurements.
+fn lagrange_h(
+    model: &Model,
+    rigid: &[usize],
+    at: [f64; 3],
+    b: &Mat<f64>,
+    c: &Mat<f64>,
+    f: f64,
+) -> Mat<c64> {
+    let (n, k) = (model.n(), 3 * rigid.len());
+    let w = 2.0 * std::f64::consts::PI * f;
+    let (mm, kk) = (dense(&model.mass), dense(&model.stiffness));
+    let size = n + 6 + k;
+    let mut a = Mat::<c64>::zeros(size, size);
+    for i in 0..n {
+        for j in 0..n {
+            a[(i, j)] = c64::new(kk[(i, j)] - w * w * mm[(i, j)], w * BETA * kk[(i, j)]);
+        }
+    }
+    let xyz = model.nodes.as_ref().unwrap();
+    for (row, &i) in rigid.iter().enumerate() {
+        let gi = g([0, 1, 2].map(|d| xyz[i][d] - at[d]));
+        for m in 0..3 {
+            let l = n + 6 + 3 * row + m;
+            a[(l, 3 * i + m)] = c64::new(1.0, 0.0);
+            a[(3 * i + m, l)] = c64::new(1.0, 0.0);
+            for j in 0..6 {
+                a[(l, n + j)] = c64::new(-gi[(m, j)], 0.0);
+                a[(n + j, l)] = c64::new(-gi[(m, j)], 0.0);
+            }
+        }
+    }
+    let bb = Mat::<c64>::from_fn(size, b.ncols(), |i, j| {
+        c64::new(if i < n + 6 { b[(i, j)] } else { 0.0 }, 0.0)
+    });
+    let x = a.partial_piv_lu().solve(&bb);
+    Mat::from_fn(c.nrows(), b.ncols(), |o, j| {
+        (0..n + 6).map(|i| x[(i, j)] * c[(o, i)]).sum()
+    })
+}
+
+/// Every kind of input and output at once — a rigid point's DoFs, a distributing point's, a
+/// node DoF, a column of B and a row of C — swept on the coupled directory, against the
+/// dense references built here from the definitions (≤ 1e-9).
+#[test]
+fn coupled_directory_sweeps_like_lagrange_multipliers_and_weighted_averages() {
+    let model = bar();
+    let n = model.n();
+    let (base, tip) = (face(&model, 0.0), face(&model, 0.2));
+    let (at_base, at_tip) = ([0.01, 0.015, -0.01], [0.01, 0.015, 0.21]);
+    // a general load over the middle of the bar and a general measurement
+    let mut bmat = Mat::<f64>::zeros(n, 1);
+    for (d, v) in [(30, 1.0), (31, -0.5), (45, 2.0), (61, 0.25)] {
+        bmat[(d, 0)] = v;
+    }
+    let mut cmat = Mat::<f64>::zeros(1, n);
+    for (d, v) in [(33, 0.5), (47, 1.5), (48, -1.0)] {
+        cmat[(0, d)] = v;
+    }
+    let dir = directory(
+        "every_kind",
+        "[scene]\n\
+         inputs = [\"base:x\", \"base:rz\", \"tip:z\", \"tip:rx\", \"9:y\"]\n\
+         outputs = [\"base:x\", \"base:ry\", \"tip:z\", \"tip:rx\", \"tip:ry\", 40]\n\
+         input_matrix = \"B.mtx\"\noutput_matrix = \"C.mtx\"\nband_hz = [0.0, 2000.0]\n\
+         [[remote_points]]\nname = \"base\"\nkind = \"rigid\"\nposition = [0.01, 0.015, -0.01]\n\
+         box = { min = [-1, -1, -1e-6], max = [1, 1, 1e-6] }\n\
+         [[remote_points]]\nname = \"tip\"\nkind = \"distributing\"\n\
+         position = [0.01, 0.015, 0.21]\ncylinder = { center = [0.01, 0.015, 0.2], axis = [0, 0, 1], \
+         radius = 0.0, length = 1e-6, tol = 1.0 }\n",
+    );
+    write_mtx(&dir.join("B.mtx"), &bmat);
+    write_mtx(&dir.join("C.mtx"), &cmat);
+    let loaded = model_dir::load(&dir).unwrap();
+    assert_eq!(loaded.scene.inputs.len(), 6);
+    assert_eq!(loaded.scene.outputs.len(), 7);
+    // the references: loads and measurements on [q; x_base]
+    let w = weighted_average(&model, &tip, at_tip);
+    let unit = |k: usize| Mat::<f64>::from_fn(n + 6, 1, |i, _| f64::from(i == k));
+    let on_q = |v: &dyn Fn(usize) -> f64| {
+        Mat::<f64>::from_fn(n + 6, 1, |i, _| if i < n { v(i) } else { 0.0 })
+    };
+    let cols = [
+        unit(n),
+        unit(n + 5),
+        on_q(&|i| w[(2, i)]),
+        on_q(&|i| w[(3, i)]),
+        unit(3 * 9 + 1),
+        on_q(&|i| bmat[(i, 0)]),
+    ];
+    let b = Mat::<f64>::from_fn(n + 6, cols.len(), |i, j| cols[j][(i, 0)]);
+    let rows = [
+        unit(n),
+        unit(n + 4),
+        on_q(&|i| w[(2, i)]),
+        on_q(&|i| w[(3, i)]),
+        on_q(&|i| w[(4, i)]),
+        unit(40),
+        on_q(&|i| cmat[(0, i)]),
+    ];
+    let c = Mat::<f64>::from_fn(rows.len(), n + 6, |o, i| rows[o][(i, 0)]);
+    let body = Body::new(&loaded.model).unwrap();
+    assert!(body.rigid().is_some(), "the coupled bar is still free");
+    // not far below 300 Hz: the free bar's dense saddle-point matrix has a condition number
+    // growing like 1/ω², and the reference loses digits (1.4e-9 apart at 37 Hz, 2.9e-11 at 300)
+    let freqs = [300.0, 1800.0, 3100.0];
+    let frf = transfer_function(
+        &body,
+        &loaded.scene,
+        &freqs,
+        Part::Total,
+        &SweepOptions::default(),
+        None,
+        &no_progress,
+    )
+    .unwrap();
+    for (k, &f) in freqs.iter().enumerate() {
+        let want = lagrange_h(&model, &base, at_base, &b, &c, f);
+        let e = rel_err(&frf.h[k], &want);
+        assert!(e < 1e-10, "{f} Hz: relative difference {e:e}");
+    }
+}
+
+/// Line-fitting by tolerance on the coupled bar: the ROM it certifies reproduces the
+/// remote points' transfer functions within the tolerance on a fresh grid.
+#[test]
+fn line_fitting_reaches_its_tolerance_at_remote_points() {
+    use sparsemor::reduce::linefit::{
+        self, Interface, LineFitOptions, References, SamplingOptions,
+    };
+    let dir = directory(
+        "linefit",
+        "[scene]\n\
+         inputs = [\"base:x\", \"base:y\", \"base:z\", \"base:rx\", \"base:ry\", \"base:rz\", \"tip:y\"]\n\
+         outputs = [\"base:x\", \"base:y\", \"base:z\", \"base:rx\", \"base:ry\", \"base:rz\", \"tip:y\"]\n\
+         band_hz = [0.0, 3000.0]\n\
+         [[remote_points]]\nname = \"base\"\nkind = \"distributing\"\n\
+         box = { min = [-1, -1, -1e-6], max = [1, 1, 1e-6] }\nposition = [0.01, 0.015, -0.01]\n\
+         [[remote_points]]\nname = \"tip\"\nkind = \"rigid\"\n\
+         box = { min = [-1, -1, 0.199], max = [1, 1, 1] }\nposition = [0.01, 0.015, 0.21]\n",
+    );
+    let loaded = model_dir::load(&dir).unwrap();
+    let body = Body::new(&loaded.model).unwrap();
+    let tol = 1e-4;
+    let opts = LineFitOptions::new(
+        Interface::OutputsPlus(0),
+        References::Tolerance(SamplingOptions::new(tol)),
+    );
+    let rom = linefit::reduce(&body, &loaded.scene, &opts, None, &no_progress).unwrap();
+    let grid: Vec<f64> = (0..300).map(|k| 3.0 + 2990.0 * k as f64 / 299.0).collect();
+    let reference = crate::common::full_reference(&body, &loaded.scene, &grid);
+    let err = reference.error(&rom).unwrap().eps_elastic;
+    let max = err.iter().copied().fold(0.0, f64::max);
+    assert!(max <= tol, "max error {max:e} > tol {tol:e}");
+}
+
+/// One bad input each, refused with a message that names the point or file and the fix.
+#[test]
+fn bad_remote_points_and_scene_matrices_are_refused_by_name() {
+    let base_scene = "[scene]\ninputs = [\"p:x\"]\noutputs = [\"p:x\"]\nband_hz = [0.0, 100.0]\n";
+    let cases: [(&str, String, &[&str]); 8] = [
+        (
+            "empty",
+            "[[remote_points]]\nname = \"p\"\nkind = \"rigid\"\nbox = { min = [5, 5, 5], max = [6, 6, 6] }\n".into(),
+            &["'p'", "selection holds no node"],
+        ),
+        (
+            "line",
+            // the tip's three nodes at x = 0: a line along y
+            "[[remote_points]]\nname = \"p\"\nkind = \"distributing\"\nposition = [0.01, 0.0, 0.21]\n\
+             box = { min = [-1e-6, -1, 0.1999], max = [1e-6, 1, 1] }\n".into(),
+            &["remote point p", "one line"],
+        ),
+        (
+            "on_node",
+            "[[remote_points]]\nname = \"p\"\nkind = \"rigid\"\nposition = [0.0, 0.0, 0.2]\n\
+             box = { min = [-1, -1, 0.1999], max = [1, 1, 1] }\n".into(),
+            &["remote point p", "coincides with coupled node"],
+        ),
+        (
+            "two_rigid",
+            "[[remote_points]]\nname = \"p\"\nkind = \"rigid\"\nposition = [0.01, 0.015, 0.21]\n\
+             box = { min = [-1, -1, 0.1999], max = [1, 1, 1] }\n\
+             [[remote_points]]\nname = \"q\"\nkind = \"rigid\"\nposition = [0.01, 0.015, 0.25]\n\
+             box = { min = [-1, -1, 0.1999], max = [1, 0.016, 1] }\n".into(),
+            &["remote points p and q", "overconstrains"],
+        ),
+        (
+            "kind",
+            "[[remote_points]]\nname = \"p\"\nkind = \"glued\"\nnodes = [1, 2, 3]\n".into(),
+            &["'p'", "kind = \"glued\"", "rigid", "distributing"],
+        ),
+        (
+            "two_selections",
+            "[[remote_points]]\nname = \"p\"\nkind = \"rigid\"\nnodes = [1, 2, 3]\n\
+             box = { min = [-1, -1, 0.1999], max = [1, 1, 1] }\n".into(),
+            &["'p'", "exactly one node selection"],
+        ),
+        (
+            "rigid_weights",
+            "[[remote_points]]\nname = \"p\"\nkind = \"rigid\"\nposition = [0.01, 0.015, 0.21]\n\
+             box = { min = [-1, -1, 0.1999], max = [1, 1, 1] }\nweights = [1, 1, 1, 1, 1, 1]\n".into(),
+            &["'p'", "weights apply to a distributing point"],
+        ),
+        (
+            "bad_dir",
+            "[[remote_points]]\nname = \"p\"\nkind = \"rigid\"\nposition = [0.01, 0.015, 0.21]\n\
+             box = { min = [-1, -1, 0.1999], max = [1, 1, 1] }\n".into(),
+            &["unknown DoF direction 'w'"],
+        ),
+    ];
+    for (name, points, needles) in cases {
+        let scene = if name == "bad_dir" {
+            base_scene.replace("\"p:x\"]\noutputs", "\"p:w\"]\noutputs")
+        } else {
+            base_scene.to_string()
+        };
+        let dir = directory(name, &format!("{scene}{points}"));
+        let msg = model_dir::load(&dir).unwrap_err().to_string();
+        for n in needles {
+            assert!(msg.contains(n), "{name}: {n:?} not in {msg:?}");
+        }
+        assert!(
+            msg.contains("model.toml"),
+            "{name}: {msg:?} does not name model.toml"
+        );
+    }
+    // a C file of the wrong width
+    let dir = directory(
+        "c_size",
+        "[scene]\ninputs = [0]\noutputs = [0]\noutput_matrix = \"C.mtx\"\nband_hz = [0.0, 100.0]\n",
+    );
+    write_mtx(
+        &dir.join("C.mtx"),
+        &Mat::<f64>::from_fn(1, 7, |_, j| j as f64),
+    );
+    let msg = model_dir::load(&dir).unwrap_err().to_string();
+    assert!(msg.contains("C.mtx: 1 × 7 but C must be q × 90"), "{msg}");
+}
