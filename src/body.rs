@@ -74,6 +74,39 @@ impl Body {
         }
     }
 
+    /// The model again, in full storage, from the pencil's lower triangles (entries of the
+    /// union pattern that a matrix lacks are stored as zeros), with the name, nodes and DoFs
+    /// per node, and the rigid modes when the body has a rigid part (§3.2). For a caller that
+    /// holds only the body and needs the model, e.g. to couple it (§3.11). Memory: the full
+    /// storage of M, K (and D).
+    ///
+    /// # Errors
+    /// [`crate::Error::InvalidModel`] if the values fail [`Model::new`]'s checks (they passed
+    /// them when the body was built).
+    pub fn to_model(&self) -> Result<Model> {
+        use crate::model::Damping;
+        use crate::pencil::Coefficient;
+        let all: Vec<usize> = (0..self.n()).collect();
+        let full = |c| self.pencil.submatrix(c, &all, &all);
+        let damping = match self.pencil.proportional_damping() {
+            Some((0.0, 0.0)) => Damping::None,
+            Some((alpha, beta)) => Damping::Rayleigh { alpha, beta },
+            None => Damping::Matrix(full(Coefficient::Damping)),
+        };
+        let (model, _) = Model::new(
+            self.name.clone(),
+            full(Coefficient::Mass),
+            full(Coefficient::Stiffness),
+            damping,
+            self.nodes.clone(),
+            self.dofs_per_node,
+        )?;
+        match (&self.rigid, &self.nodes) {
+            (Some(rb), None) => model.with_rigid_modes(rb.modes().to_owned()),
+            _ => Ok(model),
+        }
+    }
+
     /// The model's name.
     pub fn name(&self) -> &str {
         &self.name
@@ -134,5 +167,46 @@ impl Body {
             rb.project_load(b.as_mut());
         }
         b
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fe::{bar_model, BoxSpec};
+    use crate::model::Damping;
+
+    /// The model rebuilt from the body has the same M, K and damping, entry for entry.
+    #[test]
+    fn to_model_gives_back_the_matrices() {
+        let mut model = bar_model(&BoxSpec {
+            elements: [1, 1, 3],
+            size_m: [0.02, 0.03, 0.2],
+            mass_kg: 0.1,
+            young_pa: 2e10,
+            poisson: 0.3,
+        })
+        .unwrap();
+        for damping in [
+            Damping::Rayleigh {
+                alpha: 0.5,
+                beta: 1e-5,
+            },
+            Damping::Matrix(model.stiffness.clone()),
+        ] {
+            model.damping = damping;
+            let back = Body::new(&model).unwrap().to_model().unwrap();
+            let dense = |a: &crate::sparse::Csc| a.as_ref().to_dense();
+            assert_eq!(dense(&back.mass), dense(&model.mass));
+            assert_eq!(dense(&back.stiffness), dense(&model.stiffness));
+            match (&back.damping, &model.damping) {
+                (Damping::Rayleigh { alpha, beta }, Damping::Rayleigh { alpha: a, beta: b }) => {
+                    assert_eq!((alpha, beta), (a, b));
+                }
+                (Damping::Matrix(d), Damping::Matrix(e)) => assert_eq!(dense(d), dense(e)),
+                other => panic!("damping changed kind: {other:?}"),
+            }
+            assert_eq!(back.nodes, model.nodes);
+        }
     }
 }

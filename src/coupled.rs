@@ -79,6 +79,9 @@ pub struct Coupled {
     /// The coupled model's size N' (the original N less 3 or 6 per rigidly coupled node plus 6
     /// per rigid point).
     pub n: usize,
+    /// q = T z (N × N'): a state of the coupled model (a ROM's basis) as a state of the
+    /// original model.
+    pub t: crate::sparse::Csc,
 }
 
 /// The coupled model of `model` with remote `points` and the scene's `inputs` and `outputs`
@@ -290,6 +293,7 @@ pub fn couple(
         coordinates,
         nnz,
         n: n1,
+        t,
     })
 }
 
