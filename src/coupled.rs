@@ -192,18 +192,13 @@ pub fn couple(
                     point: *point,
                     dir: *dir,
                 };
-                let row = match p.kind {
-                    Kind::Rigid => {
-                        let z = coordinates
-                            .iter()
-                            .position(|c| *c == label)
-                            .expect("every rigid point has its six coordinates");
-                        SparseRow {
-                            idx: vec![z],
-                            val: vec![1.0],
-                        }
-                    }
-                    Kind::Distributing => {
+                // a rigid point's DoF is coordinate kept + 6·slot + dir of z₁ already
+                let row = match rigid.iter().position(|&k| k == *point) {
+                    Some(slot) => SparseRow {
+                        idx: vec![n1 - 6 * rigid.len() + 6 * slot + dir],
+                        val: vec![1.0],
+                    },
+                    None => {
                         if !distributing.contains_key(point) {
                             distributing.insert(*point, distributing_rows(p, nodes_or_none, dpn)?);
                         }

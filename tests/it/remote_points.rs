@@ -116,7 +116,8 @@ fn weighted_average(model: &Model, nodes: &[usize], at: [f64; 3]) -> Mat<f64> {
 
 /// H(iω) of the bar with a rigid point over `rigid` at `at` by a dense Lagrange-multiplier
 /// solve: unknowns [q; x; λ], constraints u_i − G(r_i) x = 0. `b` (N+6 rows: the body's DoFs,
-/// then the point's) and `c` (N+6 columns) are the loads and measurements.
+/// then the point's) and `c` (N+6 columns) are the loads and measurements. Without `rigid`
+/// nodes there is no point: `b` has N rows, `c` N columns.
 fn lagrange_h(
     model: &Model,
     rigid: &[usize],
@@ -126,9 +127,10 @@ fn lagrange_h(
     f: f64,
 ) -> Mat<c64> {
     let (n, k) = (model.n(), 3 * rigid.len());
+    let x = if rigid.is_empty() { 0 } else { 6 };
     let w = 2.0 * std::f64::consts::PI * f;
     let (mm, kk) = (dense(&model.mass), dense(&model.stiffness));
-    let size = n + 6 + k;
+    let size = n + x + k;
     let mut a = Mat::<c64>::zeros(size, size);
     for i in 0..n {
         for j in 0..n {
@@ -139,7 +141,7 @@ fn lagrange_h(
     for (row, &i) in rigid.iter().enumerate() {
         let gi = g([0, 1, 2].map(|d| xyz[i][d] - at[d]));
         for m in 0..3 {
-            let l = n + 6 + 3 * row + m;
+            let l = n + x + 3 * row + m;
             a[(l, 3 * i + m)] = c64::new(1.0, 0.0);
             a[(3 * i + m, l)] = c64::new(1.0, 0.0);
             for j in 0..6 {
@@ -149,11 +151,11 @@ fn lagrange_h(
         }
     }
     let bb = Mat::<c64>::from_fn(size, b.ncols(), |i, j| {
-        c64::new(if i < n + 6 { b[(i, j)] } else { 0.0 }, 0.0)
+        c64::new(if i < n + x { b[(i, j)] } else { 0.0 }, 0.0)
     });
-    let x = a.partial_piv_lu().solve(&bb);
+    let sol = a.partial_piv_lu().solve(&bb);
     Mat::from_fn(c.nrows(), b.ncols(), |o, j| {
-        (0..n + 6).map(|i| x[(i, j)] * c[(o, i)]).sum()
+        (0..n + x).map(|i| sol[(i, j)] * c[(o, i)]).sum()
     })
 }
 
@@ -354,4 +356,53 @@ fn bad_remote_points_and_scene_matrices_are_refused_by_name() {
     );
     let msg = model_dir::load(&dir).unwrap_err().to_string();
     assert!(msg.contains("C.mtx: 1 × 7 but C must be q × 90"), "{msg}");
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(12))]
+
+    /// Any independent sparse functionals: the coupled model's response at their pivots is
+    /// C A⁻¹ Cᵀ of the original (dense solves, ≤ 1e-10), whatever the rows' supports overlap.
+    #[test]
+    fn any_functionals_become_exact_coordinates(
+        rows in proptest::collection::vec(
+            proptest::collection::btree_map(0usize..90, -2.0f64..2.0, 1..8), 1..5),
+        f in 400.0f64..4000.0,
+    ) {
+        use sparsemor::coupled::{couple, Functional};
+        use sparsemor::coupling::SparseRow;
+        let model = bar();
+        let rows: Vec<SparseRow> = rows
+            .iter()
+            .map(|r| SparseRow {
+                idx: r.keys().copied().collect(),
+                val: r.values().map(|v| if *v == 0.0 { 1.0 } else { *v }).collect(),
+            })
+            .collect();
+        let functionals: Vec<Functional> = rows
+            .iter()
+            .enumerate()
+            .map(|(k, r)| Functional::Row(format!("row {k}"), r.clone()))
+            .collect();
+        let cp = match couple(&model, &[], &functionals, &functionals) {
+            Ok(cp) => cp,
+            Err(e) => {
+                // random rows may be dependent (or repeat): refusing them is the contract
+                let msg = e.to_string();
+                proptest::prop_assert!(
+                    msg.contains("linearly dependent") || msg.contains("same functional"),
+                    "{msg}"
+                );
+                return Ok(());
+            }
+        };
+        let c = Mat::<f64>::from_fn(rows.len(), model.n(), |i, j| {
+            rows[i].idx.iter().position(|&d| d == j).map_or(0.0, |p| rows[i].val[p])
+        });
+        let b = c.transpose().to_owned();
+        let want = lagrange_h(&model, &[], [0.0; 3], &b, &c, f);
+        let got = crate::common::dense_h(&cp.model, f, &cp.inputs, &cp.outputs);
+        let e = rel_err(&got, &want);
+        proptest::prop_assert!(e < 1e-10, "{f} Hz: {e:e}");
+    }
 }
