@@ -41,8 +41,8 @@ inside the circle by the chord's sagitta, so tol is not tiny: see remote_points(
   bracket  base_a, base_b (the base's holes, y = 0.02, 0.06) and upright_a, upright_b (the
            upright's), "rigid" (RBE2); the scene is the 6 DoFs of upright_a and upright_b (12).
 The band is found on the uncoupled free body as for the other parts. RBE2 stiffens the body
-(its coupled surfaces stay rigid), so the bracket's band holds a few modes fewer than 13 of
-the coupled model; RBE3 adds no stiffness. Without --remote the other parts' output is as it
+(its coupled surfaces stay rigid), so the coupled bracket's eigenfrequencies are higher and
+its band may hold fewer than 13 of them (not measured here); RBE3 adds no stiffness. Without --remote the other parts' output is as it
 was (byte for byte).
 
 Model directory: model.toml, K.mtx and M.mtx (Matrix Market, symmetric, lower triangle,
