@@ -14,6 +14,11 @@ Parts (lengths in metres):
   plate    0.3 x 0.2 x 0.01 plate with four corner bolt holes and two larger lightening holes.
   housing  thin-walled open box, 0.2 x 0.15 x 0.1, wall 6 mm, with a flange round the rim
            that has four bolt holes.
+  crank    crank arm (connecting-rod-like lever) in the x-y plane, bore axes along z, 0.2 between
+           the bores: a big-end boss (r 0.036, 0.04 thick) with a bore of r 0.02 at the origin, a
+           small-end boss (r 0.02, 0.026 thick) with a bore of r 0.01 at x = 0.2, joined by an
+           I-section arm 0.028 deep (flanges 6 mm thick and 20 mm wide, web 8 mm), thinner
+           than both bosses.
 
 Material: steel, E = 210 GPa, nu = 0.3, rho = 7850 kg/m^3; Rayleigh damping beta = 1e-5.
 
@@ -24,22 +29,39 @@ corners and the centre; housing - two opposite flange corners and the bottom cen
 node nearest to each point is used. The band runs from 0 to a round number just above the
 13th elastic eigenfrequency (scipy eigsh, shift-invert), unless --band gives it.
 
+Remote points (the crank always, the bracket with --remote): each bore or bolt-hole surface is
+coupled to a reference point with six DoFs (x, y, z, rx, ry, rz) at the hole's centre on its
+axis, written as a `[[remote_points]]` table after `[scene]` that selects the nodes by
+`cylinder` (centre, axis, radius, length, tol: the nodes within tol of the cylinder surface
+and within length/2 of the centre along the axis). The selection is checked to be exactly the
+nodes of the mesh's boundary triangles on the hole, tet10 edge midpoints included (those lie
+inside the circle by the chord's sagitta, so tol is not tiny: see remote_points()).
+  crank    big_end and small_end, "distributing" (RBE3); the scene is the 6 DoFs of both points
+           as inputs and outputs ("big_end:x" ... "small_end:rz", 12).
+  bracket  base_a, base_b (the base's holes, y = 0.02, 0.06) and upright_a, upright_b (the
+           upright's), "rigid" (RBE2); the scene is the 6 DoFs of upright_a and upright_b (12).
+The band is found on the uncoupled free body as for the other parts. RBE2 stiffens the body
+(its coupled surfaces stay rigid), so the coupled bracket's eigenfrequencies are higher and
+its band may hold fewer than 13 of them (not measured here); RBE3 adds no stiffness. Without --remote the other parts' output is as it
+was (byte for byte).
+
 Model directory: model.toml, K.mtx and M.mtx (Matrix Market, symmetric, lower triangle,
 1-based), nodes.csv (x,y,z; vertices then edge midpoints). Node i owns DoFs 3i, 3i+1, 3i+2.
 
 Run:
-  python3 benches/parts.py PART --size H --out DIR [--band F]
+  python3 benches/parts.py PART --size H --out DIR [--band F] [--remote]
   python3 benches/parts.py all --out-root DIR
 
-`all` writes every part at two sizes (about 1e4 and 1e5 DoFs) into DIR/<part>-<N>, both sizes
-of a part with the band found on the small one, checks each model (6 rigid modes, M positive
-definite) and prints a table.
+`all` writes every part at two sizes (about 1e4 and 1e5 DoFs; the crank 2e4 and 1e5, with its
+remote points) into DIR/<part>-<N>, both sizes of a part with the band found on the small one,
+checks each model (6 rigid modes, M positive definite) and prints a table.
 
 Needs: numpy, scipy, gmsh, scikit-fem (`pip install gmsh scikit-fem`; gmsh's wheel needs the
 libGLU, libXcursor, libXinerama and libXft shared libraries on a bare Debian).
 """
 
 import argparse
+import json
 import math
 import pathlib
 import time
@@ -49,6 +71,7 @@ import numpy as np
 import scipy.io
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
+import scipy.spatial
 from skfem import Basis, BilinearForm, ElementTetP2, ElementVector, MeshTet, asm
 from skfem.helpers import dot
 from skfem.models.elasticity import lame_parameters, linear_elasticity
@@ -98,20 +121,36 @@ def shaft(occ):
     return [(0.0, 0.0, 0.0), (0.2, 0.07, 0.0), (0.4, 0.0, 0.0)]
 
 
+# the bracket's plate thickness and bolt-hole radius, shared with its remote points
+BRACKET_T = 0.012
+BRACKET_HOLE_R = 0.006
+
+
 def bracket(occ):
     """An L bracket bolted by its upright (x = 0 face); the base sticks out as a cantilever."""
-    t = 0.012
+    t = BRACKET_T
     body = fuse(occ, [
         box(occ, (0.0, 0.0, 0.0), (0.15, 0.08, t)),
         box(occ, (0.0, 0.0, 0.0), (t, 0.08, 0.12)),
         # gusset: a right-angle wedge in the corner, in the middle of the width
         (3, occ.addWedge(t, 0.034, t, 0.06, 0.012, 0.06)),
     ])
-    r = 0.006
+    r = BRACKET_HOLE_R
     holes = [(3, occ.addCylinder(0.11, y, -0.01, 0, 0, t + 0.02, r)) for y in (0.02, 0.06)]
     holes += [(3, occ.addCylinder(-0.01, y, 0.08, t + 0.02, 0, 0, r)) for y in (0.02, 0.06)]
     cut(occ, body, holes)
     return [(0.0, 0.02, 0.08 + r), (0.0, 0.06, 0.08 + r), (0.15, 0.04, t)]
+
+
+def bracket_holes():
+    """The bracket's four bolt holes: (name, centre, axis, radius, length)."""
+    t, r = BRACKET_T, BRACKET_HOLE_R
+    return [
+        ("base_a", (0.11, 0.02, t / 2), (0.0, 0.0, 1.0), r, t),
+        ("base_b", (0.11, 0.06, t / 2), (0.0, 0.0, 1.0), r, t),
+        ("upright_a", (t / 2, 0.02, 0.08), (1.0, 0.0, 0.0), r, t),
+        ("upright_b", (t / 2, 0.06, 0.08), (1.0, 0.0, 0.0), r, t),
+    ]
 
 
 def plate(occ):
@@ -139,12 +178,51 @@ def housing(occ):
     return [(-lip, -lip, lz), (lx / 2, ly / 2, 0.0), (lx + lip, ly + lip, lz)]
 
 
+# the crank's bores: (name, centre, radius, boss radius, boss thickness); axes along z
+CRANK_BORES = [
+    ("big_end", (0.0, 0.0, 0.0), 0.02, 0.036, 0.04),
+    ("small_end", (0.2, 0.0, 0.0), 0.01, 0.02, 0.026),
+]
+
+
+def crank(occ):
+    """A crank arm: two bored bosses, 0.2 apart, joined by an I-section arm thinner than both."""
+    # arm: depth 0.028 (y), flanges 6 mm thick and 20 mm wide (z), web 8 mm; its ends lie
+    # inside the bosses' rings, so only the flanges' and web's sides meet the bosses
+    x0, x1 = 0.03, 0.186
+    pieces = [(3, occ.addCylinder(c[0], c[1], -th / 2, 0, 0, th, rb))
+              for _, c, _, rb, th in CRANK_BORES]
+    pieces += [
+        box(occ, (x0, 0.008, -0.01), (x1, 0.014, 0.01)),
+        box(occ, (x0, -0.014, -0.01), (x1, -0.008, 0.01)),
+        box(occ, (x0, -0.008, -0.004), (x1, 0.008, 0.004)),
+    ]
+    body = fuse(occ, pieces)
+    bores = [(3, occ.addCylinder(c[0], c[1], -0.03, 0, 0, 0.06, r))
+             for _, c, r, _, _ in CRANK_BORES]
+    cut(occ, body, bores)
+    return [c for _, c, _, _, _ in CRANK_BORES]
+
+
+def crank_bores():
+    """The crank's two bore surfaces: (name, centre, axis, radius, length)."""
+    return [(name, c, (0.0, 0.0, 1.0), r, th) for name, c, r, _, th in CRANK_BORES]
+
+
 # part -> (builder, element sizes giving about 1e4 and 1e5 DoFs)
 PARTS = {
     "shaft": (shaft, (0.017, 0.0066)),
     "bracket": (bracket, (0.02, 0.0043)),
     "plate": (plate, (0.023, 0.0058)),
     "housing": (housing, (0.03, 0.0075)),
+    "crank": (crank, (0.008, 0.0037)),
+}
+
+# part -> (coupling, cylinders (name, centre, axis, radius, length), the points whose 6 DoFs
+# make the scene); the crank always has its remote points, the bracket with --remote
+REMOTE = {
+    "crank": ("distributing", crank_bores(), ("big_end", "small_end")),
+    "bracket": ("rigid", bracket_holes(), ("upright_a", "upright_b")),
 }
 
 
@@ -251,8 +329,93 @@ def scene_dofs(nodes, points):
     return dofs
 
 
-def write_model(out, name, K, M, nodes, dofs, band):
+def cylinder_distance(nodes, centre, axis, radius):
+    """Each node's |distance from the axis line - radius| and axial offset from the centre."""
+    axis = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+    d = nodes - np.asarray(centre, dtype=float)
+    axial = d @ axis
+    radial = np.linalg.norm(d - np.outer(axial, axis), axis=1)
+    return np.abs(radial - radius), axial
+
+
+def surface_nodes(p, t, nodes, centre, axis, radius, length):
+    """The tet10 nodes of the boundary triangles whose vertices lie on the cylinder (exact)."""
+    faces = np.sort(np.hstack([t[[0, 1, 2]], t[[0, 1, 3]], t[[0, 2, 3]], t[[1, 2, 3]]]).T, axis=1)
+    faces, count = np.unique(faces, axis=0, return_counts=True)
+    faces = faces[count == 1]
+    off, axial = cylinder_distance(p.T, centre, axis, radius)
+    on = (off <= 1e-9 * radius) & (np.abs(axial) <= length / 2 * (1 + 1e-9))
+    faces = faces[on[faces].all(axis=1)]
+    # the vertices, then the edge midpoints, found among the nodes by their coordinates
+    pts = [p.T[np.unique(faces)]]
+    pts += [(p.T[faces[:, a]] + p.T[faces[:, b]]) / 2 for a, b in ((0, 1), (0, 2), (1, 2))]
+    dist, idx = scipy.spatial.cKDTree(nodes).query(np.vstack(pts))
+    assert dist.max() <= 1e-12 * radius, dist.max()
+    return np.unique(idx)
+
+
+def remote_points(part, p, t, nodes):
+    """The part's remote points, each a bore or hole surface selected by a cylinder.
+
+    tol is put half-way (geometrically) between the largest distance of a surface node from
+    the cylinder (a mid-edge node of a chord, inside the circle by the chord's sagitta) and
+    the smallest distance of any other node within the cylinder's length, rounded to two
+    significant digits; the cylinder's selection is checked to equal the exact surface nodes.
+    The length is the bore's plus tol, so nodes on the bore's edges are inside whatever the
+    rounding of their axial coordinate.
+    """
+    kind, cylinders, _ = REMOTE[part]
+    points = []
+    for name, centre, axis, radius, length in cylinders:
+        exact = surface_nodes(p, t, nodes, centre, axis, radius, length)
+        off, axial = cylinder_distance(nodes, centre, axis, radius)
+        within = np.abs(axial) <= length / 2 * (1 + 1e-9)
+        inside = np.zeros(len(nodes), dtype=bool)
+        inside[exact] = True
+        dev_in = off[inside].max()
+        dev_out = off[~inside & within].min()
+        if not dev_in < dev_out:
+            raise RuntimeError(f"{name}: a node off the surface is as close as the surface "
+                               f"nodes ({dev_out:.3g} <= {dev_in:.3g})")
+        tol = float(f"{math.sqrt(max(dev_in, 1e-3 * dev_out) * dev_out):.2g}")
+        cyl_length = float(f"{length + tol:.6g}")
+        chosen = np.flatnonzero((off <= tol) & (np.abs(axial) <= cyl_length / 2))
+        if not np.array_equal(chosen, exact):
+            raise RuntimeError(f"{name}: the cylinder selects {len(chosen)} nodes, the surface "
+                               f"has {len(exact)}")
+        points.append(dict(name=name, kind=kind, position=centre, axis=axis, radius=radius,
+                           length=cyl_length, tol=tol, nodes=chosen, dev_in=dev_in,
+                           dev_out=dev_out))
+    return points
+
+
+def remote_scene(part):
+    return [f"{name}:{d}" for name in REMOTE[part][2] for d in ("x", "y", "z", "rx", "ry", "rz")]
+
+
+def toml_floats(v):
+    return "[" + ", ".join(repr(float(x)) for x in v) + "]"
+
+
+def remote_toml(points):
+    text = ""
+    for q in points:
+        text += (
+            "\n[[remote_points]]\n"
+            f'name = "{q["name"]}"\n'
+            f'kind = "{q["kind"]}"\n'
+            f"position = {toml_floats(q['position'])}\n"
+            f"cylinder = {{ center = {toml_floats(q['position'])}, "
+            f"axis = {toml_floats(q['axis'])}, radius = {float(q['radius'])!r}, "
+            f"length = {q['length']!r}, tol = {q['tol']!r} }}\n"
+        )
+    return text
+
+
+def write_model(out, name, K, M, nodes, dofs, band, remote=None):
     out.mkdir(parents=True, exist_ok=True)
+    # DoF indices as before; remote points' "POINT:DIR" names as TOML basic strings
+    scene = json.dumps(dofs) if remote else dofs
     for file, a in (("K.mtx", K), ("M.mtx", M)):
         scipy.io.mmwrite(out / file, sp.tril(a).tocoo(), symmetry="symmetric")
     np.savetxt(out / "nodes.csv", nodes, delimiter=",", header="x,y,z", comments="",
@@ -267,9 +430,10 @@ def write_model(out, name, K, M, nodes, dofs, band):
         "alpha = 0.0\n"
         f"beta = {RAYLEIGH_BETA!r}\n"
         "\n[scene]\n"
-        f"inputs = {dofs}\n"
-        f"outputs = {dofs}\n"
+        f"inputs = {scene}\n"
+        f"outputs = {scene}\n"
         f"band_hz = [0.0, {float(band)!r}]\n"
+        + (remote_toml(remote) if remote else "")
     )
 
 
@@ -287,10 +451,13 @@ def check(M, freqs):
     return lowest
 
 
-def build(part, h, out_for, band=None):
+def build(part, h, out_for, band=None, remote=False):
     """Write one model into out_for(N); return a row of the summary table."""
     start = time.perf_counter()
     builder, _ = PARTS[part]
+    remote = remote or part == "crank"
+    if remote and part not in REMOTE:
+        raise ValueError(f"{part} has no remote points (only {', '.join(REMOTE)})")
     p, t, points = mesh(builder, h)
     K, M, nodes = assemble(p, t)
     built = time.perf_counter() - start
@@ -299,15 +466,26 @@ def build(part, h, out_for, band=None):
     band = band or band_from(freqs)
     n = K.shape[0]
     out = out_for(n)
-    dofs = scene_dofs(nodes, points)
-    write_model(out, f"{part} tet10 h={h:g}", K, M, nodes, dofs, band)
+    if remote:
+        coupled = remote_points(part, p, t, nodes)
+        dofs = remote_scene(part)
+    else:
+        coupled = None
+        dofs = scene_dofs(nodes, points)
+    write_model(out, f"{part} tet10 h={h:g}", K, M, nodes, dofs, band, coupled)
     total = time.perf_counter() - start
     elastic = freqs[np.abs(freqs) >= RIGID_HZ]
     print(f"{out}: N = {n}, tets = {t.shape[1]}, nnz(K) = {K.nnz}, band = 0..{band:g} Hz "
           f"({int(np.sum(elastic <= band))} elastic modes), built in {built:.1f} s, "
           f"total {total:.1f} s; min eig of Jacobi-scaled M {lowest_m:.3g}")
-    for q, i in zip(points, dofs[::3]):
-        print(f"  scene node {i // 3} at {np.round(nodes[i // 3], 4)} for {q}")
+    if remote:
+        for q in coupled:
+            print(f"  remote point {q['name']} ({q['kind']}) at {q['position']}: "
+                  f"{len(q['nodes'])} nodes, tol {q['tol']:g} = {q['tol'] / h:.3g} h "
+                  f"(surface nodes within {q['dev_in']:.3g}, others from {q['dev_out']:.3g})")
+    else:
+        for q, i in zip(points, dofs[::3]):
+            print(f"  scene node {i // 3} at {np.round(nodes[i // 3], 4)} for {q}")
     print("  rigid (Hz):  ", " ".join(f"{f:.3g}" for f in freqs[np.abs(freqs) < RIGID_HZ]))
     print("  elastic (Hz):", " ".join(f"{f:.1f}" for f in elastic))
     return part, out, n, K.nnz, band, elastic, built, total
@@ -337,15 +515,19 @@ def main():
     ap.add_argument("--out", type=pathlib.Path, help="model directory (one part)")
     ap.add_argument("--band", type=float, help="upper end of the band in Hz (one part)")
     ap.add_argument("--out-root", type=pathlib.Path, help="folder for `all`")
+    ap.add_argument("--remote", action="store_true",
+                    help="the part's holes as remote points (bracket; the crank always)")
     args = ap.parse_args()
     if args.part == "all":
         if args.out_root is None:
             ap.error("all needs --out-root")
+        if args.remote:
+            ap.error("--remote is for one part")
         all_parts(args.out_root)
     else:
         if args.size is None or args.out is None:
             ap.error("one part needs --size and --out")
-        build(args.part, args.size, lambda n: args.out, args.band)
+        build(args.part, args.size, lambda n: args.out, args.band, args.remote)
 
 
 if __name__ == "__main__":
