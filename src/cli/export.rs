@@ -60,7 +60,18 @@ pub struct ExportArgs {
 
 pub fn export(a: &ExportArgs) -> Result<()> {
     atomic::check_dir_free(&a.out)?;
-    let (model, scene, _) = model_dir::read(&a.model)?;
+    let loaded = model_dir::load(&a.model)?;
+    let coupled = matches!(loaded.names, model_dir::DofNames::Coupled(_));
+    let (model, scene) = (loaded.model, loaded.scene);
+    if coupled && !matches!(a.format, Format::Op4) {
+        // its DoFs are no longer node DoFs: the node-based exports would misname them
+        return Err(Error::InvalidSetting(format!(
+            "{}: a coupled model (remote points or scene matrices, docs/design.md §3.11): this \
+             export, with a remote point as its interface node, is not built yet; \
+             `--format op4` writes the ROM's matrices",
+            a.model.display()
+        )));
+    }
     let rom = rom_dir::read(&a.rom)?;
     rom.check_model(model.n())
         .map_err(|e| Error::InvalidSetting(format!("{}: {e}", a.rom.display())))?;

@@ -406,3 +406,50 @@ proptest::proptest! {
         proptest::prop_assert!(e < 1e-10, "{f} Hz: {e:e}");
     }
 }
+
+/// The command on a coupled directory: `info` reports the points and the size change,
+/// `reduce --method linefit --tol` and `evaluate` run, and the node-based exports refuse it by name.
+#[test]
+fn the_command_reduces_a_coupled_directory_and_exports_refuse_it() {
+    use crate::cli::{ok, run};
+    let dir = directory(
+        "command",
+        "[scene]\ninputs = [\"tip:x\", \"tip:rz\"]\noutputs = [\"tip:x\", \"tip:rz\", \"base:y\"]\n\
+         band_hz = [0.0, 3000.0]\n\
+         [[remote_points]]\nname = \"base\"\nkind = \"rigid\"\n\
+         box = { min = [-1, -1, -1e-6], max = [1, 1, 1e-6] }\nposition = [0.01, 0.015, -0.01]\n\
+         [[remote_points]]\nname = \"tip\"\nkind = \"distributing\"\n\
+         box = { min = [-1, -1, 0.199], max = [1, 1, 1] }\n",
+    );
+    let info = ok(&dir, &["info", "."]);
+    for needle in [
+        "remote point base: rigid (RBE2) over 6 nodes",
+        "remote point tip: distributing (RBE3) over 6 nodes at (1.000000e-2, 1.500000e-2, 2.000000e-1)",
+        "coupled model: N 90 -> 78",
+        "6: free body",
+    ] {
+        assert!(info.contains(needle), "{needle:?} not in\n{info}");
+    }
+    ok(
+        &dir,
+        &[
+            "reduce", ".", "--method", "linefit", "--tol", "1e-3", "--out", "rom",
+        ],
+    );
+    ok(&dir, &["evaluate", ".", "rom"]);
+    let out = run(
+        &dir,
+        &[
+            "export", "rom", "--model", ".", "--format", "dmig", "--out", "ex",
+        ],
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("a coupled model"),
+        "{err}"
+    );
+    assert!(
+        !dir.join("ex").exists(),
+        "a refused export left a directory"
+    );
+}
