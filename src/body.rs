@@ -179,14 +179,7 @@ mod tests {
     /// The model rebuilt from the body has the same M, K and damping, entry for entry.
     #[test]
     fn to_model_gives_back_the_matrices() {
-        let mut model = bar_model(&BoxSpec {
-            elements: [1, 1, 3],
-            size_m: [0.02, 0.03, 0.2],
-            mass_kg: 0.1,
-            young_pa: 2e10,
-            poisson: 0.3,
-        })
-        .unwrap();
+        let mut model = bar_model(&BoxSpec::small()).unwrap();
         for damping in [
             Damping::Rayleigh {
                 alpha: 0.5,

@@ -347,14 +347,7 @@ mod tests {
     use faer::c64;
 
     fn small_bar() -> Model {
-        let mut m = bar_model(&BoxSpec {
-            elements: [1, 2, 4],
-            size_m: [0.02, 0.03, 0.2],
-            mass_kg: 0.1,
-            young_pa: 2e10,
-            poisson: 0.3,
-        })
-        .unwrap();
+        let mut m = bar_model(&BoxSpec::small()).unwrap();
         m.damping = Damping::Rayleigh {
             alpha: 0.0,
             beta: 1e-5,

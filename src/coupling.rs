@@ -495,14 +495,7 @@ mod tests {
     use faer::{c64, Mat};
 
     fn small_bar() -> crate::model::Model {
-        bar_model(&BoxSpec {
-            elements: [1, 2, 4],
-            size_m: [0.02, 0.03, 0.2],
-            mass_kg: 0.1,
-            young_pa: 2e10,
-            poisson: 0.3,
-        })
-        .unwrap()
+        bar_model(&BoxSpec::small()).unwrap()
     }
 
     fn dense(a: &Csc) -> Mat<f64> {

@@ -19,14 +19,7 @@ const BETA: f64 = 2e-5;
 
 /// The 90-DoF bar (1 × 2 × 4 hexahedra, 0.02 × 0.03 × 0.2 m), free, Rayleigh damped.
 fn bar() -> Model {
-    let mut m = bar_model(&BoxSpec {
-        elements: [1, 2, 4],
-        size_m: [0.02, 0.03, 0.2],
-        mass_kg: 0.1,
-        young_pa: 2e10,
-        poisson: 0.3,
-    })
-    .unwrap();
+    let mut m = bar_model(&BoxSpec::small()).unwrap();
     m.damping = sparsemor::model::Damping::Rayleigh {
         alpha: 0.0,
         beta: BETA,
