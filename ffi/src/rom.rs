@@ -64,6 +64,9 @@ pub struct SparsemorRom {
     /// T V (N×n): the kept basis in the original DoFs, for a ROM of a coupled model (a general
     /// scene); `rom.basis` is then V in the coupled model's DoFs.
     pub(crate) basis_original: Option<Mat<f64>>,
+    /// Whether the ROM is one of a coupled model (a general scene): its DoFs are then the
+    /// coupled model's.
+    pub(crate) coupled: bool,
 }
 
 /// The caller's callback, serialized by a mutex.
@@ -117,6 +120,7 @@ unsafe fn emit(rom: Rom, t: Option<&Csc>, rom_out: *mut *mut SparsemorRom) -> Re
     let h = Box::into_raw(Box::new(SparsemorRom {
         rom,
         basis_original,
+        coupled: t.is_some(),
     }));
     // SAFETY: forwarded contract; rom_out was checked writable at entry.
     if let Err(e) = unsafe { write_out(rom_out, h, "rom_out") } {
@@ -816,8 +820,18 @@ pub unsafe extern "C" fn sparsemor_rom_transfer_error(
     eps_total_out: *mut f64,
 ) -> SparsemorStatus {
     ffi_body!({
-        let body = unsafe { obj(model, "model")? }.active_body();
+        let m = unsafe { obj(model, "model")? };
+        let body = m.active_body();
         let r = unsafe { obj(rom, "rom")? };
+        if r.coupled != m.coupled.is_some() {
+            return Err(Failure::arg(if r.coupled {
+                "the ROM is one of a general scene (a coupled model) but the model handle now \
+                 holds a DoF scene: set the general scene again (sparsemor_model_set_scene_general)"
+            } else {
+                "the ROM is one of a DoF scene but the model handle holds a general scene: \
+                 compare it with a handle of the plain model (sparsemor_model_set_scene)"
+            }));
+        }
         r.rom.check_model(body.n())?;
         if n_freqs == 0 {
             return Err(Failure::arg("transfer error: n_freqs = 0"));

@@ -411,8 +411,10 @@ pub unsafe extern "C" fn sparsemor_model_set_scene_general(
         let n = m.body.n();
         let ins = unsafe { functionals(inputs, true, n, m.points.len())? };
         let outs = unsafe { functionals(outputs, false, n, m.points.len())? };
-        if !(band_lo_hz.is_finite() && band_hi_hz.is_finite() && band_lo_hz >= 0.0)
-            || !(band_hi_hz > band_lo_hz)
+        if !(band_lo_hz.is_finite()
+            && band_hi_hz.is_finite()
+            && band_lo_hz >= 0.0
+            && band_hi_hz > band_lo_hz)
         {
             return Err(Failure::arg(format!(
                 "band [{band_lo_hz}, {band_hi_hz}] Hz: need finite 0 <= band_lo_hz < band_hi_hz"

@@ -392,6 +392,21 @@ fn exact_line_fit_reproduces_c_a_inverse_b_of_the_original_model() {
             (SPARSEMOR_COORDINATE_OUTPUT_ROW, 0, 0),
         ]
     );
+    // with the DoF scene back, the ROM of the coupled model is refused, not misread
+    let io = [OUT_DOF];
+    unsafe { sparsemor_model_set_scene(fx.h, io.as_ptr(), 1, io.as_ptr(), 1, 0.0, 100.0) };
+    let st = unsafe {
+        sparsemor_rom_transfer_error(
+            fx.h,
+            rom,
+            freqs.as_ptr(),
+            2,
+            e1.as_mut_ptr(),
+            e2.as_mut_ptr(),
+        )
+    };
+    refused(st, "the ROM is one of a general scene");
+
     unsafe {
         sparsemor_rom_free(rom);
         sparsemor_options_free(o);
