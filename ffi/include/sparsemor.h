@@ -87,7 +87,9 @@
 
 /**
  * `sparsemor_rom_copy_matrix`: the basis V (N×n), only when kept
- * (`sparsemor_options_set_keep_basis`).
+ * (`sparsemor_options_set_keep_basis`). Always in the DoFs of the model as created: for a ROM
+ * of a general scene (`sparsemor_model_set_scene_general`) it is T V, the coupled model's
+ * basis mapped back by q = T z, so q ≈ V x_r is a state of the original model.
  */
 #define SPARSEMOR_MATRIX_V 5
 
@@ -105,6 +107,39 @@
  * `sparsemor_rom_method`: Craig–Bampton.
  */
 #define SPARSEMOR_METHOD_CRAIG_BAMPTON 2
+
+/**
+ * `kind` of `sparsemor_model_add_remote_point`: rigid coupling (RBE2, kinematic): the nodes
+ * follow the point's rigid motion; their DoFs leave the model, the point's six enter it.
+ */
+#define SPARSEMOR_POINT_RIGID 0
+
+/**
+ * `kind` of `sparsemor_model_add_remote_point`: distributing coupling (RBE3): the point moves
+ * as the weighted least-squares rigid motion of its nodes, a force on it spreads over them;
+ * no stiffness is added.
+ */
+#define SPARSEMOR_POINT_DISTRIBUTING 1
+
+/**
+ * `sparsemor_model_coordinate`: DoF `a` of the original model.
+ */
+#define SPARSEMOR_COORDINATE_DOF 0
+
+/**
+ * `sparsemor_model_coordinate`: DoF `b` (0..5 = x, y, z, rx, ry, rz) of remote point `a`.
+ */
+#define SPARSEMOR_COORDINATE_POINT 1
+
+/**
+ * `sparsemor_model_coordinate`: the functional of column `a` of the inputs' matrix B.
+ */
+#define SPARSEMOR_COORDINATE_INPUT_COLUMN 2
+
+/**
+ * `sparsemor_model_coordinate`: the functional of row `a` of the outputs' matrix C.
+ */
+#define SPARSEMOR_COORDINATE_OUTPUT_ROW 3
 
 /**
  * Result code of every `sparsemor_*` function that can fail.
@@ -173,7 +208,9 @@ typedef enum SparsemorStatus {
  * computed by the first call that factors and reused by every later one; docs/design.md §2),
  * and its scene (inputs, outputs, band). Created by `sparsemor_model_new`, released by
  * `sparsemor_model_free`. Read-only functions may share one handle across threads;
- * `sparsemor_model_set_scene` must not run concurrently with anything else on the handle.
+ * `sparsemor_model_set_scene`, `sparsemor_model_add_remote_point` and
+ * `sparsemor_model_set_scene_general` must not run concurrently with anything else on the
+ * handle.
  */
 typedef struct SparsemorModel SparsemorModel;
 
@@ -330,6 +367,83 @@ typedef struct SparsemorDefiniteness {
     double max_eig;
 } SparsemorDefiniteness;
 
+/**
+ * A general (rectangular) sparse matrix in compressed sparse column form, 0-based, borrowed
+ * for one call: `col_ptr` has `ncols + 1` entries (starting at 0, non-decreasing, ending at
+ * `nnz`), `row_idx` and `values` `nnz` each; each column's row indices `< nrows` and strictly
+ * increasing; every value finite. Explicit zeros are allowed and dropped.
+ */
+typedef struct SparsemorSparse {
+    /**
+     * Number of rows.
+     */
+    size_t nrows;
+    /**
+     * Number of columns.
+     */
+    size_t ncols;
+    /**
+     * Number of stored entries.
+     */
+    size_t nnz;
+    /**
+     * Column pointers, `ncols + 1` entries.
+     */
+    const size_t *col_ptr;
+    /**
+     * Row index of each stored entry, `nnz` entries.
+     */
+    const size_t *row_idx;
+    /**
+     * Value of each stored entry, `nnz` entries.
+     */
+    const double *values;
+} SparsemorSparse;
+
+/**
+ * The inputs (or the outputs) of a general scene, in three groups whose order is the order
+ * of the ROM's Br columns (Cr rows): first `dofs`, then `point_dofs`, then the matrix's
+ * columns (rows). Each group may be empty (a NULL array with length 0, a NULL `matrix`); at
+ * least one input and one output in all.
+ *
+ * - `dofs`: DoFs of the model (0-based, < N): a unit force there (an input), the
+ *   displacement there (an output).
+ * - `point_dofs`: remote points' DoFs, coded `6·point + dir` with `point` the index from
+ *   `sparsemor_model_add_remote_point` and `dir` 0..5 = x, y, z, rx, ry, rz: a force or
+ *   moment on the point, the point's displacement or rotation.
+ * - `matrix`: NULL, or for the inputs B (N×p): each column b a load pattern (the input u_j
+ *   applies the forces b u_j); for the outputs C (q×N): each row c an output y = c q (e.g.
+ *   the average displacement over a face).
+ *
+ * The same functional may be both an input and an output (a DoF, a point's DoF, a column of
+ * B equal to a row of C); within the inputs (or outputs) each must appear once. Functionals
+ * that are linearly dependent (a column of B proportional but not equal to a row of C, a
+ * column that combines others, a DoF among a row's support that another row pivots on) are
+ * refused: scale them to be equal, or give each once.
+ */
+typedef struct SparsemorScenePart {
+    /**
+     * DoFs, `n_dofs` entries (NULL when 0).
+     */
+    const size_t *dofs;
+    /**
+     * Number of DoFs.
+     */
+    size_t n_dofs;
+    /**
+     * Remote points' DoFs coded `6·point + dir`, `n_point_dofs` entries (NULL when 0).
+     */
+    const size_t *point_dofs;
+    /**
+     * Number of point DoFs.
+     */
+    size_t n_point_dofs;
+    /**
+     * NULL, or B (N×p) for the inputs, C (q×N) for the outputs.
+     */
+    const struct SparsemorSparse *matrix;
+} SparsemorScenePart;
+
 #ifdef __cplusplus
 extern "C" {
 #endif // __cplusplus
@@ -467,7 +581,8 @@ enum SparsemorStatus sparsemor_model_dof(const struct SparsemorModel *model,
 enum SparsemorStatus sparsemor_model_free(struct SparsemorModel *model);
 
 /**
- * Number of DoFs N of the model.
+ * Number of DoFs N of the model as created (also with a general scene set: the coupled
+ * model's size is `sparsemor_model_coordinate_count`).
  *
  * # Safety
  * `model` a live handle; `n_out` writable.
@@ -487,7 +602,9 @@ enum SparsemorStatus sparsemor_model_is_free(const struct SparsemorModel *model,
  * Sets the scene: the input DoFs (unit forces, the columns of B), the output DoFs (the rows
  * of C; both 0-based, non-empty, unique, < N) and the band [`band_lo_hz`, `band_hi_hz`]
  * (finite, 0 <= lo < hi). The band is used by SEREP (eigensolver shift) and by
- * `sparsemor_options_set_reference_count`. The arrays are copied.
+ * `sparsemor_options_set_reference_count`. The arrays are copied. It replaces any scene set
+ * before, a general one (`sparsemor_model_set_scene_general`) included: the reductions then
+ * work on the original model again.
  *
  * # Safety
  * `model` a live handle not used concurrently; `inputs`/`outputs` valid for their lengths.
@@ -802,6 +919,8 @@ enum SparsemorStatus sparsemor_rom_copy_matrix(const struct SparsemorRom *rom,
  * The full-model DoF of each physical ROM coordinate (line-fitting interface, SEREP retained
  * DoFs, Craig–Bampton boundary DoFs — its modal coordinates follow them and have no DoF),
  * in ROM order, copied into `buf` (same length protocol as `sparsemor_rom_copy_matrix`).
+ * For a ROM of a general scene these are DoFs of the coupled model (a remote point's DoF,
+ * a row of C, ...): `sparsemor_model_coordinate` on the model handle names each.
  *
  * # Safety
  * `rom` a live handle; `buf` NULL or valid for `buf_len` values; `required_len` NULL or
@@ -931,7 +1050,9 @@ enum SparsemorStatus sparsemor_rom_warning(const struct SparsemorRom *rom,
  * `eps_total_out[k]`. Both buffers must hold `n_freqs` doubles. Costs one sparse
  * factorization of the full model per frequency, on all cores.
  *
- * `model` must be the model the ROM was built from (its N is checked).
+ * `model` must be the model the ROM was built from (its N is checked), with the same scene
+ * kind: a ROM of a general scene is compared with the coupled model (whose transfer function
+ * at its DoFs is C A⁻¹ B of the original), so the handle must still hold that scene.
  *
  * # Safety
  * `model`, `rom` live handles; `freqs_hz` valid for `n_freqs` reads; the two outs for
@@ -997,6 +1118,95 @@ enum SparsemorStatus sparsemor_rom_step(const struct SparsemorRom *rom,
                                         double *sampled_error_out,
                                         size_t *factorizations_out,
                                         double *seconds_out);
+
+/**
+ * Adds a remote point: a reference point with six DoFs (x, y, z, rx, ry, rz) at `position`
+ * tied to `n_nodes` nodes (0-based indices into the node coordinates given to
+ * `sparsemor_model_new`), rigidly (`SPARSEMOR_POINT_RIGID`, RBE2) or distributing
+ * (`SPARSEMOR_POINT_DISTRIBUTING`, RBE3; docs/design.md §3.11). `weights`: NULL (equal
+ * weights), or `n_nodes` finite weights > 0, for a distributing point only. The point's index
+ * (0, 1, ... in the order added; named `point0`, `point1`, ... in messages) goes to
+ * `*index_out` (may be NULL); scene parts name its DoFs as `6·index + dir`.
+ *
+ * The point is checked on its own here (nodes in range and distinct, a position that is no
+ * coupled node's, nodes not on one line where the coupling needs a rotation); checks across
+ * points (a node in two rigid points) come with `sparsemor_model_set_scene_general`, which
+ * uses every point added so far: a rigid point changes the coupled model even where the
+ * scene does not name it. Adding a point does not change a scene already set. The model
+ * needs node coordinates.
+ *
+ * # Safety
+ * `model` a live handle not used concurrently; `position` 3 doubles; `nodes` `n_nodes`
+ * values; `weights` NULL or `n_nodes` doubles; `index_out` NULL or writable.
+ */
+enum SparsemorStatus sparsemor_model_add_remote_point(struct SparsemorModel *model,
+                                                      uint32_t kind,
+                                                      const double *position,
+                                                      const size_t *nodes,
+                                                      size_t n_nodes,
+                                                      const double *weights,
+                                                      size_t *index_out);
+
+/**
+ * Sets a general scene: `inputs` and `outputs` (see `SparsemorScenePart`: DoFs, remote
+ * points' DoFs, the columns of a sparse B / rows of a sparse C) and the band
+ * [`band_lo_hz`, `band_hi_hz`] (finite, 0 <= lo < hi).
+ *
+ * The model with every remote point added so far and these functionals is coupled into one
+ * congruent model M' = TᵀMT, K' = TᵀKT, D' = TᵀDT, q = T z (docs/design.md §3.11), whose
+ * scene is DoFs again; every reduction and `sparsemor_rom_transfer_error` then work on it.
+ * A ROM's Br columns and Cr rows are in the order of the scene parts (dofs, then point
+ * DoFs, then matrix columns / rows), and its transfer function is C A⁻¹ B of the original
+ * model with these B and C. Indices the ABI exchanges with a reduction — the ROM's
+ * coordinates, inputs and outputs (`sparsemor_rom_dofs`), the options' interface and
+ * retained DoFs — are DoFs of the coupled model, 0 .. `sparsemor_model_coordinate_count`,
+ * named by `sparsemor_model_coordinate`; the basis V (`SPARSEMOR_MATRIX_V`) is handed out
+ * as T V, N×n in the original DoFs.
+ *
+ * The original model stays in the handle: calling this again couples it again, and
+ * `sparsemor_model_set_scene` returns to it. On failure the handle keeps the scene it had.
+ * Cost: one congruence (a distributing point over s DoFs adds up to s² entries to M', K')
+ * and the coupled body's preparation.
+ *
+ * # Safety
+ * `model` a live handle not used concurrently; `inputs`, `outputs` valid structs whose
+ * arrays have the lengths they claim.
+ */
+enum SparsemorStatus sparsemor_model_set_scene_general(struct SparsemorModel *model,
+                                                       const struct SparsemorScenePart *inputs,
+                                                       const struct SparsemorScenePart *outputs,
+                                                       double band_lo_hz,
+                                                       double band_hi_hz);
+
+/**
+ * The number of DoFs of the model the reductions work on: N' of the coupled model while a
+ * general scene is set, else N.
+ *
+ * # Safety
+ * `model` a live handle; `n_out` writable.
+ */
+enum SparsemorStatus sparsemor_model_coordinate_count(const struct SparsemorModel *model,
+                                                      size_t *n_out);
+
+/**
+ * What DoF `index` (< `sparsemor_model_coordinate_count`) of the model the reductions work on
+ * is: `*kind_out` one of `SPARSEMOR_COORDINATE_DOF` (`*a_out` the original DoF),
+ * `SPARSEMOR_COORDINATE_POINT` (`*a_out` the remote point, `*b_out` its direction 0..5),
+ * `SPARSEMOR_COORDINATE_INPUT_COLUMN` (`*a_out` the column of the inputs' matrix B; a column
+ * equal to a row of C is named as the column) or `SPARSEMOR_COORDINATE_OUTPUT_ROW` (`*a_out`
+ * the row of the outputs' matrix C); `*b_out` is 0 but for a point. Without a general scene
+ * every DoF is `SPARSEMOR_COORDINATE_DOF` with `*a_out` = `index`. Use it to read
+ * `sparsemor_rom_dofs` and to give an interface or retained DoFs on a coupled model.
+ * `a_out`, `b_out` may be NULL.
+ *
+ * # Safety
+ * `model` a live handle; `kind_out` writable; `a_out`, `b_out` NULL or writable.
+ */
+enum SparsemorStatus sparsemor_model_coordinate(const struct SparsemorModel *model,
+                                                size_t index,
+                                                uint32_t *kind_out,
+                                                size_t *a_out,
+                                                size_t *b_out);
 
 #ifdef __cplusplus
 }  // extern "C"

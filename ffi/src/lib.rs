@@ -21,7 +21,9 @@
 //!   bad value from C is an error, not undefined behaviour.
 //!
 //! Entry points, in the order of use: `sparsemor_version`, `sparsemor_model_new`,
-//! `sparsemor_model_set_scene`, `sparsemor_options_new` and `sparsemor_options_set_*`,
+//! `sparsemor_model_set_scene` (DoFs) or `sparsemor_model_add_remote_point` and
+//! `sparsemor_model_set_scene_general` (remote points, a sparse B and C),
+//! `sparsemor_options_new` and `sparsemor_options_set_*`,
 //! `sparsemor_reduce_linefit` / `sparsemor_reduce_serep`, `sparsemor_rom_*` queries,
 //! `sparsemor_rom_transfer_error`, `sparsemor_*_free`.
 #![warn(missing_docs)]
@@ -36,12 +38,14 @@ mod model;
 mod options;
 mod pool;
 mod rom;
+mod scene;
 mod util;
 
 pub use error::{sparsemor_last_error_length, sparsemor_last_error_message, SparsemorStatus};
 pub use model::*;
 pub use options::*;
 pub use rom::*;
+pub use scene::*;
 
 /// Version of the C ABI. Bumped on every incompatible change of a signature, struct layout,
 /// status code or constant in this header; a client compiled against one ABI version must

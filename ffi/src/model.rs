@@ -1,8 +1,10 @@
 //! Model handle: M, K (CSC), damping, node coordinates, scene.
 
 use crate::error::{ffi_body, Failure, SparsemorStatus};
+use crate::scene::CoupledScene;
 use crate::util::{obj, obj_mut, slice_in, write_out};
 use sparsemor::body::Body;
+use sparsemor::coupling::RemotePoint;
 use sparsemor::io::import::{self, Dof};
 use sparsemor::io::model_dir;
 use sparsemor::model::{Damping, Model};
@@ -49,12 +51,30 @@ pub struct SparsemorCsc {
 /// computed by the first call that factors and reused by every later one; docs/design.md §2),
 /// and its scene (inputs, outputs, band). Created by `sparsemor_model_new`, released by
 /// `sparsemor_model_free`. Read-only functions may share one handle across threads;
-/// `sparsemor_model_set_scene` must not run concurrently with anything else on the handle.
+/// `sparsemor_model_set_scene`, `sparsemor_model_add_remote_point` and
+/// `sparsemor_model_set_scene_general` must not run concurrently with anything else on the
+/// handle.
 pub struct SparsemorModel {
+    /// The original body, as created (never replaced by a coupled one).
     pub(crate) body: Body,
+    /// The scene of `sparsemor_model_set_scene` on the original body (unused while a general
+    /// scene is set).
     pub(crate) scene: Option<Scene>,
     /// Node number and direction of every DoF, when the model was imported from FE files.
     pub(crate) dofs: Option<Vec<Dof>>,
+    /// Remote points added by `sparsemor_model_add_remote_point`, in order (`point0`, ...).
+    pub(crate) points: Vec<RemotePoint>,
+    /// The coupled body and scene of `sparsemor_model_set_scene_general`.
+    pub(crate) coupled: Option<CoupledScene>,
+}
+
+/// What the reductions work on: the original body and its scene, or the coupled body of a
+/// general scene with its scene and q = T z.
+pub(crate) struct Active<'a> {
+    pub body: &'a Body,
+    pub scene: &'a Scene,
+    /// q = T z (N × N') when the body is a coupled one.
+    pub t: Option<&'a Csc>,
 }
 
 impl SparsemorModel {
@@ -66,17 +86,38 @@ impl SparsemorModel {
             body,
             scene: None,
             dofs,
+            points: Vec::new(),
+            coupled: None,
         }))
     }
 
-    /// The body and its scene, after checking that a scene was set.
-    pub(crate) fn with_scene(&self) -> Result<(&Body, &Scene), Failure> {
+    /// The body the reductions work on and its scene: the coupled ones after
+    /// `sparsemor_model_set_scene_general`, else the original body and its scene, after
+    /// checking that a scene was set.
+    pub(crate) fn with_scene(&self) -> Result<Active<'_>, Failure> {
+        if let Some(c) = &self.coupled {
+            return Ok(Active {
+                body: &c.body,
+                scene: &c.scene,
+                t: Some(&c.t),
+            });
+        }
         let scene = self.scene.as_ref().ok_or_else(|| {
             Failure::arg(
-                "the model has no scene: call sparsemor_model_set_scene (inputs, outputs, band) first",
+                "the model has no scene: call sparsemor_model_set_scene (inputs, outputs, band) \
+                 or sparsemor_model_set_scene_general first",
             )
         })?;
-        Ok((&self.body, scene))
+        Ok(Active {
+            body: &self.body,
+            scene,
+            t: None,
+        })
+    }
+
+    /// The body ROMs of this handle belong to: the coupled one while a general scene is set.
+    pub(crate) fn active_body(&self) -> &Body {
+        self.coupled.as_ref().map_or(&self.body, |c| &c.body)
     }
 }
 
@@ -442,7 +483,8 @@ pub unsafe extern "C" fn sparsemor_model_free(model: *mut SparsemorModel) -> Spa
     })
 }
 
-/// Number of DoFs N of the model.
+/// Number of DoFs N of the model as created (also with a general scene set: the coupled
+/// model's size is `sparsemor_model_coordinate_count`).
 ///
 /// # Safety
 /// `model` a live handle; `n_out` writable.
@@ -477,7 +519,9 @@ pub unsafe extern "C" fn sparsemor_model_is_free(
 /// Sets the scene: the input DoFs (unit forces, the columns of B), the output DoFs (the rows
 /// of C; both 0-based, non-empty, unique, < N) and the band [`band_lo_hz`, `band_hi_hz`]
 /// (finite, 0 <= lo < hi). The band is used by SEREP (eigensolver shift) and by
-/// `sparsemor_options_set_reference_count`. The arrays are copied.
+/// `sparsemor_options_set_reference_count`. The arrays are copied. It replaces any scene set
+/// before, a general one (`sparsemor_model_set_scene_general`) included: the reductions then
+/// work on the original model again.
 ///
 /// # Safety
 /// `model` a live handle not used concurrently; `inputs`/`outputs` valid for their lengths.
@@ -507,6 +551,7 @@ pub unsafe extern "C" fn sparsemor_model_set_scene(
         };
         scene.validate(m.body.n(), "scene")?;
         m.scene = Some(scene);
+        m.coupled = None;
         Ok(())
     })
 }

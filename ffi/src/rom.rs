@@ -5,7 +5,7 @@ use crate::model::SparsemorModel;
 use crate::options::SparsemorOptions;
 use crate::pool::in_pool;
 use crate::util::{check_ptr, copy_string, copy_to_buffer, obj, slice_in, write_opt, write_out};
-use faer::MatRef;
+use faer::{Mat, MatRef};
 use sparsemor::eigen::EigenOptions;
 use sparsemor::metrics::Reference;
 use sparsemor::pool::resolve_threads;
@@ -14,6 +14,7 @@ use sparsemor::reduce::interface::Interface;
 use sparsemor::reduce::serep::{ModeChoice, SerepOptions};
 use sparsemor::reduce::{reduce, Context, Method, Reductor, Rom};
 use sparsemor::scene::Scene;
+use sparsemor::sparse::Csc;
 use sparsemor::sweep::{no_progress, Progress, SweepOptions};
 use std::ffi::{c_char, c_void};
 use std::sync::Mutex;
@@ -29,7 +30,9 @@ pub const SPARSEMOR_MATRIX_BR: u32 = 3;
 /// `sparsemor_rom_copy_matrix`: reduced output matrix Cr = C V (q×n).
 pub const SPARSEMOR_MATRIX_CR: u32 = 4;
 /// `sparsemor_rom_copy_matrix`: the basis V (N×n), only when kept
-/// (`sparsemor_options_set_keep_basis`).
+/// (`sparsemor_options_set_keep_basis`). Always in the DoFs of the model as created: for a ROM
+/// of a general scene (`sparsemor_model_set_scene_general`) it is T V, the coupled model's
+/// basis mapped back by q = T z, so q ≈ V x_r is a state of the original model.
 pub const SPARSEMOR_MATRIX_V: u32 = 5;
 
 /// `sparsemor_rom_method`: line-fitting.
@@ -58,6 +61,12 @@ pub type SparsemorProgressFn = Option<
 /// released by `sparsemor_rom_free`. Independent of the model handle it came from.
 pub struct SparsemorRom {
     pub(crate) rom: Rom,
+    /// T V (N×n): the kept basis in the original DoFs, for a ROM of a coupled model (a general
+    /// scene); `rom.basis` is then V in the coupled model's DoFs.
+    pub(crate) basis_original: Option<Mat<f64>>,
+    /// Whether the ROM is one of a coupled model (a general scene): its DoFs are then the
+    /// coupled model's.
+    pub(crate) coupled: bool,
 }
 
 /// The caller's callback, serialized by a mutex.
@@ -88,9 +97,31 @@ impl Callback {
     }
 }
 
-/// Stores a new ROM handle in `*rom_out`, reclaiming it if the write fails.
-unsafe fn emit(rom: Rom, rom_out: *mut *mut SparsemorRom) -> Result<(), Failure> {
-    let h = Box::into_raw(Box::new(SparsemorRom { rom }));
+/// T V: a basis of the coupled model (N'×n) in the original DoFs (N×n), for q = T z.
+fn to_original(t: &Csc, v: MatRef<'_, f64>) -> Mat<f64> {
+    let mut out = Mat::<f64>::zeros(t.nrows(), v.ncols());
+    for j in 0..t.ncols() {
+        for (&i, &x) in t.row_idx_of_col_raw(j).iter().zip(t.val_of_col(j)) {
+            for c in 0..v.ncols() {
+                out[(i, c)] += x * v[(j, c)];
+            }
+        }
+    }
+    out
+}
+
+/// Stores a new ROM handle in `*rom_out`, reclaiming it if the write fails. `t`: q = T z of a
+/// coupled model, to hand the basis out in the original DoFs.
+unsafe fn emit(rom: Rom, t: Option<&Csc>, rom_out: *mut *mut SparsemorRom) -> Result<(), Failure> {
+    let basis_original = match (t, &rom.basis) {
+        (Some(t), Some(v)) => Some(to_original(t, v.as_ref())),
+        _ => None,
+    };
+    let h = Box::into_raw(Box::new(SparsemorRom {
+        rom,
+        basis_original,
+        coupled: t.is_some(),
+    }));
     // SAFETY: forwarded contract; rom_out was checked writable at entry.
     if let Err(e) = unsafe { write_out(rom_out, h, "rom_out") } {
         drop(unsafe { Box::from_raw(h) });
@@ -124,7 +155,8 @@ pub unsafe extern "C" fn sparsemor_reduce_linefit(
 ) -> SparsemorStatus {
     ffi_body!({
         unsafe { write_out(rom_out, std::ptr::null_mut(), "rom_out")? };
-        let (m, scene) = unsafe { obj(model, "model")? }.with_scene()?;
+        let active = unsafe { obj(model, "model")? }.with_scene()?;
+        let (m, scene) = (active.body, active.scene);
         let o = unsafe { obj(options, "options")? };
         let threads = resolve_threads(o.threads);
         let cb = Callback::new(progress, user_data);
@@ -139,7 +171,7 @@ pub unsafe extern "C" fn sparsemor_reduce_linefit(
         };
         let reductor = Reductor::LineFit(opts);
         let rom = in_pool(threads, || reduce(m, scene, &reductor, &context))??;
-        unsafe { emit(rom, rom_out) }
+        unsafe { emit(rom, active.t, rom_out) }
     })
 }
 
@@ -167,7 +199,8 @@ pub unsafe extern "C" fn sparsemor_reduce_serep(
 ) -> SparsemorStatus {
     ffi_body!({
         unsafe { write_out(rom_out, std::ptr::null_mut(), "rom_out")? };
-        let (m, scene) = unsafe { obj(model, "model")? }.with_scene()?;
+        let active = unsafe { obj(model, "model")? }.with_scene()?;
+        let (m, scene) = (active.body, active.scene);
         let o = unsafe { obj(options, "options")? };
         let retain = o
             .serep_retain
@@ -186,7 +219,7 @@ pub unsafe extern "C" fn sparsemor_reduce_serep(
         let rom = bracketed(progress, user_data, resolve_threads(o.threads), || {
             reduce(m, scene, &reductor, &Context::default())
         })?;
-        unsafe { emit(rom, rom_out) }
+        unsafe { emit(rom, active.t, rom_out) }
     })
 }
 
@@ -241,7 +274,8 @@ pub unsafe extern "C" fn sparsemor_reduce_craig_bampton(
 ) -> SparsemorStatus {
     ffi_body!({
         unsafe { write_out(rom_out, std::ptr::null_mut(), "rom_out")? };
-        let (m, scene) = unsafe { obj(model, "model")? }.with_scene()?;
+        let active = unsafe { obj(model, "model")? }.with_scene()?;
+        let (m, scene) = (active.body, active.scene);
         let o = unsafe { obj(options, "options")? };
         let c = o.cb_modes.ok_or_else(|| {
             Failure::arg(
@@ -257,7 +291,7 @@ pub unsafe extern "C" fn sparsemor_reduce_craig_bampton(
         let rom = bracketed(progress, user_data, threads, || {
             reduce(m, scene, &reductor, &Context::default())
         })?;
-        unsafe { emit(rom, rom_out) }
+        unsafe { emit(rom, active.t, rom_out) }
     })
 }
 
@@ -350,7 +384,7 @@ fn matrix<'a>(r: &'a SparsemorRom, which: u32) -> Result<(MatRef<'a, f64>, &'sta
         SPARSEMOR_MATRIX_KR => (rom.kr.as_ref(), "Kr"),
         SPARSEMOR_MATRIX_BR => (rom.br.as_ref(), "Br"),
         SPARSEMOR_MATRIX_CR => (rom.cr.as_ref(), "Cr"),
-        SPARSEMOR_MATRIX_V => match &rom.basis {
+        SPARSEMOR_MATRIX_V => match r.basis_original.as_ref().or(rom.basis.as_ref()) {
             Some(v) => (v.as_ref(), "V"),
             None => {
                 return Err(Failure::new(
@@ -435,6 +469,8 @@ pub unsafe extern "C" fn sparsemor_rom_copy_matrix(
 /// The full-model DoF of each physical ROM coordinate (line-fitting interface, SEREP retained
 /// DoFs, Craig–Bampton boundary DoFs — its modal coordinates follow them and have no DoF),
 /// in ROM order, copied into `buf` (same length protocol as `sparsemor_rom_copy_matrix`).
+/// For a ROM of a general scene these are DoFs of the coupled model (a remote point's DoF,
+/// a row of C, ...): `sparsemor_model_coordinate` on the model handle names each.
 ///
 /// # Safety
 /// `rom` a live handle; `buf` NULL or valid for `buf_len` values; `required_len` NULL or
@@ -767,7 +803,9 @@ pub unsafe extern "C" fn sparsemor_rom_warning(
 /// `eps_total_out[k]`. Both buffers must hold `n_freqs` doubles. Costs one sparse
 /// factorization of the full model per frequency, on all cores.
 ///
-/// `model` must be the model the ROM was built from (its N is checked).
+/// `model` must be the model the ROM was built from (its N is checked), with the same scene
+/// kind: a ROM of a general scene is compared with the coupled model (whose transfer function
+/// at its DoFs is C A⁻¹ B of the original), so the handle must still hold that scene.
 ///
 /// # Safety
 /// `model`, `rom` live handles; `freqs_hz` valid for `n_freqs` reads; the two outs for
@@ -782,8 +820,18 @@ pub unsafe extern "C" fn sparsemor_rom_transfer_error(
     eps_total_out: *mut f64,
 ) -> SparsemorStatus {
     ffi_body!({
-        let body = &unsafe { obj(model, "model")? }.body;
+        let m = unsafe { obj(model, "model")? };
+        let body = m.active_body();
         let r = unsafe { obj(rom, "rom")? };
+        if r.coupled != m.coupled.is_some() {
+            return Err(Failure::arg(if r.coupled {
+                "the ROM is one of a general scene (a coupled model) but the model handle now \
+                 holds a DoF scene: set the general scene again (sparsemor_model_set_scene_general)"
+            } else {
+                "the ROM is one of a DoF scene but the model handle holds a general scene: \
+                 compare it with a handle of the plain model (sparsemor_model_set_scene)"
+            }));
+        }
         r.rom.check_model(body.n())?;
         if n_freqs == 0 {
             return Err(Failure::arg("transfer error: n_freqs = 0"));

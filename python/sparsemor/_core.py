@@ -134,6 +134,67 @@ class _Csc:
             "row_idx": self._buffers[1], "values": self._buffers[2], "storage": storage})
 
 
+class _Sparse:
+    """A scipy.sparse (or dense) matrix as the C ABI's SparsemorSparse (any shape), its arrays
+    kept alive for one call."""
+
+    def __init__(self, a, what: str):
+        a = sp.csc_matrix(a, dtype=np.float64)
+        a.sum_duplicates()
+        a.sort_indices()
+        self._arrays = (
+            np.ascontiguousarray(a.indptr, dtype=np.uintp),
+            np.ascontiguousarray(a.indices, dtype=np.uintp),
+            np.ascontiguousarray(a.data, dtype=np.float64),
+        )
+        col_ptr, row_idx, values = self._arrays
+        self._buffers = (
+            ffi.from_buffer("size_t[]", col_ptr),
+            ffi.from_buffer("size_t[]", row_idx),
+            ffi.from_buffer("double[]", values),
+        )
+        self.ptr = ffi.new("SparsemorSparse *", {
+            "nrows": a.shape[0], "ncols": a.shape[1], "nnz": values.size,
+            "col_ptr": self._buffers[0], "row_idx": self._buffers[1],
+            "values": self._buffers[2]})
+
+
+_DIRECTIONS = ("x", "y", "z", "rx", "ry", "rz")
+
+
+def _point_code(p, what: str) -> int:
+    """(point, dir) with dir 0..5 or 'x' ... 'rz' as the ABI's code 6·point + dir."""
+    try:
+        point, d = p
+    except (TypeError, ValueError):
+        raise InvalidInputError(lib.SPARSEMOR_STATUS_INVALID_ARGUMENT,
+                                f"{what}: {p!r}; give (point, direction) pairs") from None
+    if isinstance(d, str):
+        if d not in _DIRECTIONS:
+            raise InvalidInputError(lib.SPARSEMOR_STATUS_INVALID_ARGUMENT,
+                                    f"{what}: direction {d!r}; use one of {_DIRECTIONS}")
+        d = _DIRECTIONS.index(d)
+    if not (0 <= int(d) < 6) or int(point) < 0:
+        raise InvalidInputError(lib.SPARSEMOR_STATUS_INVALID_ARGUMENT,
+                                f"{what}: {p!r}; point >= 0 and direction 0..5")
+    return 6 * int(point) + int(d)
+
+
+class _ScenePart:
+    """One side of a general scene as the C ABI's SparsemorScenePart, kept alive for a call."""
+
+    def __init__(self, dofs, points, matrix, what: str):
+        self._d = _index_array(list(dofs), f"{what} dofs")
+        codes = [_point_code(p, f"{what} points") for p in points]
+        self._p = _index_array(codes, f"{what} points")
+        self._m = None if matrix is None else _Sparse(matrix, f"{what} matrix")
+        self.ptr = ffi.new("SparsemorScenePart *", {
+            "dofs": self._d[1] if self._d[0].size else ffi.NULL, "n_dofs": self._d[0].size,
+            "point_dofs": self._p[1] if self._p[0].size else ffi.NULL,
+            "n_point_dofs": self._p[0].size,
+            "matrix": ffi.NULL if self._m is None else self._m.ptr})
+
+
 class Model:
     """The full-order model M q'' + D q' + K q = B u, y = C q (docs/design.md §2).
 
@@ -142,7 +203,9 @@ class Model:
     for D = alpha M + beta K, or neither (undamped). `nodes`: optional (n_nodes, 3)
     coordinates with `dofs_per_node` (3 or 6) DoFs per node; they let the library detect a
     free body and separate its rigid part. `lower_only=True` passes only the lower triangles
-    (the library mirrors them). B and C select DoFs: `set_scene(inputs, outputs, band_hz)`.
+    (the library mirrors them). B and C select DoFs: `set_scene(inputs, outputs, band_hz)`;
+    or, with remote points (`add_remote_point`) and a sparse B and C,
+    `set_scene_general(...)` (docs/design.md §3.11).
     """
 
     def __init__(self, M, K, D=None, rayleigh: tuple = (0.0, 0.0), nodes=None,
@@ -153,12 +216,14 @@ class Model:
         k = _Csc(K, n, "K", lower_only)
         d = None if D is None else _Csc(D, n, "D", lower_only)
         alpha, beta = rayleigh
+        self._nodes = None
         if nodes is not None:
             xyz, xyz_p = _f64_array(nodes)
             if xyz.size % 3:
                 raise InvalidInputError(lib.SPARSEMOR_STATUS_INVALID_ARGUMENT,
                                         "nodes: need an (n_nodes, 3) array")
             n_nodes = xyz.size // 3
+            self._nodes = xyz.reshape(n_nodes, 3).copy()
         else:
             xyz_p, n_nodes, dofs_per_node = ffi.NULL, 0, 0
         h = _out("SparsemorModel *")
@@ -169,6 +234,8 @@ class Model:
 
     def _adopt(self, handle) -> None:
         self._h = handle
+        if not hasattr(self, "_nodes"):
+            self._nodes = None
         self._free = lib.sparsemor_model_free  # still there at interpreter shutdown
 
     @classmethod
@@ -218,6 +285,92 @@ class Model:
         _check(lib.sparsemor_model_set_scene(self._h, ip, i.size, op, o.size,
                                              float(band_hz[0]), float(band_hz[1])))
         self.inputs, self.outputs, self.band_hz = list(i), list(o), tuple(band_hz)
+
+    def add_remote_point(self, nodes: Sequence[int], kind: str = "distributing",
+                         position=None, weights=None) -> int:
+        """A reference point with six DoFs tied to `nodes` (0-based node indices; the model
+        needs node coordinates): `kind` "distributing" (RBE3: it moves as the weighted
+        least-squares rigid motion of its nodes, its forces spread over them; optional
+        `weights`, one per node) or "rigid" (RBE2: the nodes follow it). `position`: the
+        reference point, default the nodes' centroid. Returns its index (0, 1, ...), by
+        which `set_scene_general` names it."""
+        kinds = {"rigid": lib.SPARSEMOR_POINT_RIGID,
+                 "distributing": lib.SPARSEMOR_POINT_DISTRIBUTING}
+        if kind not in kinds:
+            raise InvalidInputError(lib.SPARSEMOR_STATUS_INVALID_ARGUMENT,
+                                    f"kind: {kind!r}; use 'rigid' or 'distributing'")
+        d, dp = _index_array(nodes, "nodes")
+        if position is None and d.size == 0:
+            position = (0.0, 0.0, 0.0)  # the library refuses the empty node set by name
+        elif position is None:
+            if self._nodes is None:
+                raise InvalidInputError(lib.SPARSEMOR_STATUS_INVALID_ARGUMENT,
+                                        "position: give it (this Model was not created with "
+                                        "node coordinates here)")
+            if d.max() >= len(self._nodes):
+                raise InvalidInputError(lib.SPARSEMOR_STATUS_INVALID_ARGUMENT,
+                                        f"nodes: {int(d.max())} is not a node (0.."
+                                        f"{len(self._nodes) - 1})")
+            position = self._nodes[d.astype(np.int64)].mean(axis=0)
+        pos, pp = _f64_array(position)
+        if pos.size != 3:
+            raise InvalidInputError(lib.SPARSEMOR_STATUS_INVALID_ARGUMENT,
+                                    "position: need 3 coordinates")
+        if weights is None:
+            wp = ffi.NULL
+        else:
+            w, wp = _f64_array(weights)
+            if w.size != d.size:
+                raise InvalidInputError(lib.SPARSEMOR_STATUS_INVALID_ARGUMENT,
+                                        f"weights: {w.size} for {d.size} nodes; one per node")
+        index = _out("size_t")
+        _check(lib.sparsemor_model_add_remote_point(self._h, kinds[kind], pp,
+                                                    dp if d.size else ffi.NULL, d.size, wp,
+                                                    index))
+        return index[0]
+
+    def set_scene_general(self, band_hz: tuple, input_dofs: Sequence[int] = (),
+                          input_points: Sequence = (), B=None, output_dofs: Sequence[int] = (),
+                          output_points: Sequence = (), C=None) -> None:
+        """A scene of general inputs and outputs (docs/design.md §3.11): DoFs (unit forces,
+        displacements), remote points' DoFs as (point, direction) pairs (direction 0..5 or
+        'x', 'y', 'z', 'rx', 'ry', 'rz'; a force or moment on the point, its motion), and a
+        load matrix `B` (N × p: each column a load pattern) and an output matrix `C` (q × N:
+        each row a functional, e.g. an average over a face), scipy.sparse or numpy.
+
+        The ROM's Br columns are input_dofs, input_points, then B's columns; its Cr rows
+        output_dofs, output_points, then C's rows. A column of B equal to a row of C is one
+        functional (allowed); linearly dependent ones (e.g. proportional but not equal) are
+        refused. The model is coupled with every remote point added so far; the ROM's
+        `dofs` are then DoFs of the coupled model (`coordinate(i)` names them) and its `V`
+        is in the original DoFs. `set_scene` returns to the plain model."""
+        i = _ScenePart(input_dofs, input_points, B, "inputs")
+        o = _ScenePart(output_dofs, output_points, C, "outputs")
+        _check(lib.sparsemor_model_set_scene_general(self._h, i.ptr, o.ptr, float(band_hz[0]),
+                                                     float(band_hz[1])))
+        self.inputs = self.outputs = None
+        self.band_hz = tuple(band_hz)
+
+    @property
+    def coordinate_count(self) -> int:
+        """N' of the model the reductions work on (the coupled model of a general scene),
+        else N."""
+        v = _out("size_t")
+        _check(lib.sparsemor_model_coordinate_count(self._h, v))
+        return v[0]
+
+    def coordinate(self, i: int) -> tuple:
+        """What DoF i of the model the reductions work on is: ('dof', original DoF),
+        ('point', point, direction name), ('input_column', k) of B or ('output_row', k) of
+        C."""
+        kind, a, b = _out("uint32_t"), _out("size_t"), _out("size_t")
+        _check(lib.sparsemor_model_coordinate(self._h, int(i), kind, a, b))
+        if kind[0] == lib.SPARSEMOR_COORDINATE_POINT:
+            return ("point", a[0], _DIRECTIONS[b[0]])
+        name = {lib.SPARSEMOR_COORDINATE_DOF: "dof",
+                lib.SPARSEMOR_COORDINATE_INPUT_COLUMN: "input_column",
+                lib.SPARSEMOR_COORDINATE_OUTPUT_ROW: "output_row"}[kind[0]]
+        return (name, a[0])
 
     @property
     def n(self) -> int:
@@ -278,7 +431,8 @@ class Rom:
     Br = property(lambda self: self.matrix(lib.SPARSEMOR_MATRIX_BR))
     Cr = property(lambda self: self.matrix(lib.SPARSEMOR_MATRIX_CR))
     V = property(lambda self: self.matrix(lib.SPARSEMOR_MATRIX_V))
-    """The basis V (N × order): only when reduced with `keep_basis=True`."""
+    """The basis V (N × order) in the DoFs of the model as created (for a general scene T V,
+    the coupled model's basis mapped back): only when reduced with `keep_basis=True`."""
 
     def _copy(self, fn, dtype, ctype: str) -> np.ndarray:
         need = _out("size_t")
@@ -289,7 +443,8 @@ class Rom:
 
     @property
     def dofs(self) -> np.ndarray:
-        """The full-model DoF of each interface coordinate of the ROM."""
+        """The full-model DoF of each interface coordinate of the ROM (of a general scene:
+        DoFs of the coupled model, named by `Model.coordinate`)."""
         return self._copy(lib.sparsemor_rom_dofs, np.uintp, "size_t").astype(np.int64)
 
     @property

@@ -280,3 +280,57 @@ def test_calls_release_the_gil():
     print(f"call {duration:.3f} s; longest pause of the main thread {longest * 1e3:.1f} ms")
     assert duration > 0.05, "the call is too short to tell"
     assert longest < 0.25 * duration
+
+
+def test_general_scene_with_a_remote_point_and_sparse_b_and_c():
+    """A distributing point on the top of a grounded truss, a load column B and an output row
+    C: an exact line-fit (interface 2·p·z) reproduces C A⁻¹ B of the original model (the
+    point's row from its definition, dense solves); V comes back in the original DoFs; bad
+    scenes raise naming the argument."""
+    M, K, nodes = truss(nx=2, ny=2, nz=8)
+    base = np.repeat(nodes[:, 2] == 0.0, 3)
+    K = (K + sp.diags(1e7 * base.astype(float))).tocsc()
+    n, beta = M.shape[0], 1e-4
+    model = sparsemor.Model(M, K, rayleigh=(0.0, beta), nodes=nodes)
+    top = np.flatnonzero(np.isclose(nodes[:, 2], nodes[:, 2].max()))
+    at = nodes[top].mean(axis=0) + [0.0, 0.0, 0.02]
+    assert model.add_remote_point(top, position=at) == 0
+    # the point's x row: x_ref = A⁻¹ Σ G_iᵀ u_i, A = Σ G_iᵀ G_i, G(r) = [I, −[r]×]
+    g = [np.hstack([np.eye(3), -np.array([[0, -r[2], r[1]], [r[2], 0, -r[0]],
+                                          [-r[1], r[0], 0]])]) for r in nodes[top] - at]
+    w = np.linalg.solve(sum(gi.T @ gi for gi in g), np.eye(6)[:, 0])
+    wx = np.zeros(n)
+    for i, gi in zip(top, g):
+        wx[3 * i:3 * i + 3] = gi @ w
+    b = np.zeros((n, 1))
+    b[[20, 27, 35], 0] = [0.5, -1.25, 2.0]
+    c = np.zeros((1, n))
+    c[0, [30, 31, 50]] = [1.0, -0.4, 0.3]
+    model.set_scene_general((0.0, 1000.0), input_points=[(0, "x")], B=sp.csc_matrix(b),
+                            output_dofs=[70], output_points=[(0, "x")], C=sp.csr_matrix(c))
+    assert model.coordinate_count == n
+    freqs = [150.0, 600.0]
+    rom = sparsemor.reduce_linefit(model, reference_frequencies=freqs, outputs_plus=5,
+                                   keep_basis=True, threads=1)
+    assert rom.order == 8 and not rom.fit_report["truncated"]
+    B = np.column_stack([wx, b[:, 0]])
+    C = np.vstack([np.eye(n)[70], wx, c[0]])
+    for f in freqs:
+        w_ = 2 * np.pi * f
+        a = K.toarray() - w_ * w_ * M.toarray() + 1j * w_ * beta * K.toarray()
+        h = C @ np.linalg.solve(a, B)
+        assert eps(h, rom.transfer(f)) <= 1e-8
+    assert rom.V.shape == (n, 8)
+    np.testing.assert_allclose(C @ rom.V, rom.Cr, atol=1e-12 * np.abs(rom.Cr).max())
+    assert [model.coordinate(d) for d in rom.dofs[:3]] == [("dof", 70), ("point", 0, "x"),
+                                                          ("output_row", 0)]
+    with pytest.raises(sparsemor.InvalidInputError, match=r"inputs.point_dofs\[0\] = 6"):
+        model.set_scene_general((0.0, 1.0), input_points=[(1, "x")], output_dofs=[0])
+    with pytest.raises(sparsemor.InvalidInputError, match="B must be N×p"):
+        model.set_scene_general((0.0, 1.0), B=np.ones((n - 1, 1)), output_dofs=[0])
+    with pytest.raises(sparsemor.InvalidInputError, match="n_nodes = 0"):
+        model.add_remote_point([], position=(0, 0, 0))
+    # the failed calls kept the scene; the DoF scene returns to the plain model
+    assert model.coordinate(rom.dofs[2]) == ("output_row", 0)
+    model.set_scene([70], [70], (0.0, 1000.0))
+    assert model.coordinate(0) == ("dof", 0)

@@ -99,9 +99,18 @@ def cond_1(model, s):
 
 def test_models_sparsemor_cannot_take_are_refused_by_name(bar):
     fom, band = bar
-    doubled = NumpyMatrixOperator(2.0 * fom.B.matrix)
-    with pytest.raises(ValueError, match="fom.B: column 0 is not a unit vector"):
-        SparsemorReductor(fom.with_(B=doubled), band).reduce()
+    velocity = NumpyMatrixOperator(fom.Cp.matrix.copy())
+    with pytest.raises(ValueError, match="fom.Cv: must be zero"):
+        SparsemorReductor(fom.with_(Cv=velocity), band)
+    b = fom.B.matrix.tocsc()
+
+    def with_b(extra):
+        return SecondOrderModel.from_matrices(fom.M.matrix, fom.E.matrix, fom.K.matrix,
+                                              sp.hstack([b, extra]).tocsc(), fom.Cp.matrix)
+    with pytest.raises(ValueError, match="linearly dependent"):
+        SparsemorReductor(with_b(b[:, 0] + b[:, 1]), band, reference_count=4).reduce()
+    with pytest.raises(ValueError, match=f"fom.B: column {b.shape[1]} is zero"):
+        SparsemorReductor(with_b(sp.csc_matrix((b.shape[0], 1))), band).reduce()
     with pytest.raises(ValueError, match="method"):
         SparsemorReductor(fom, band, method="pod")
     with pytest.raises(ValueError, match="modes: Craig–Bampton"):

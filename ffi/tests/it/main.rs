@@ -5,6 +5,7 @@ mod c_client;
 mod common;
 mod craig_bampton;
 mod discipline;
+mod general_scene;
 mod header;
 mod import;
 mod readme;
