@@ -17,7 +17,8 @@
 //!
 //! Cost: each functional's pivot DoF is expressed through all DoFs of its support, so M' and
 //! K' gain a dense block over the union of a functional's support (a distributing point over
-//! s DoFs adds up to s² entries); [`Coupled::nnz`] reports it.
+//! s DoFs adds up to s² entries); [`Coupled::nnz`] reports it, and [`couple`] refuses a
+//! scene past [`MAX_FILL_ENTRIES`] or [`MAX_ELIMINATION_ENTRIES`] before allocating.
 //!
 //! Entry point: [`couple`].
 
@@ -163,6 +164,9 @@ pub fn couple(
     };
     let mut distributing: BTreeMap<usize, [SparseRow; 6]> = BTreeMap::new();
     let mut unique: Vec<(SparseRow, Coordinate)> = Vec::new();
+    // each distinct row's index in `unique`, keyed by its entries' bits (−0 as +0)
+    let mut seen: std::collections::HashMap<(Vec<usize>, Vec<u64>), usize> =
+        std::collections::HashMap::new();
     let mut pivot_index = |f: &Functional, what: &str| -> Result<usize> {
         let (row, label) = match f {
             Functional::Dof(i) => {
@@ -216,13 +220,14 @@ pub fn couple(
                 (in_z1(row), Coordinate::Row(name.clone()))
             }
         };
-        Ok(match unique.iter().position(|(r, _)| *r == row) {
-            Some(k) => k,
-            None => {
-                unique.push((row, label));
-                unique.len() - 1
-            }
-        })
+        let key = (
+            row.idx.clone(),
+            row.val.iter().map(|v| (v + 0.0).to_bits()).collect(),
+        );
+        Ok(*seen.entry(key).or_insert_with(|| {
+            unique.push((row, label));
+            unique.len() - 1
+        }))
     };
     let mut scene = |list: &[Functional], what: &str| -> Result<Vec<usize>> {
         let idx = list
@@ -241,6 +246,7 @@ pub fn couple(
     let inputs = scene(inputs, "inputs")?;
     let outputs = scene(outputs, "outputs")?;
     let rows: Vec<SparseRow> = unique.iter().map(|(r, _)| r.clone()).collect();
+    check_size(&rows)?;
     let change = functionals_as_coordinates(&rows, n1, "the scene's inputs and outputs")?;
     let pivots = change.coordinates;
     for ((_, label), &p) in unique.iter().zip(&pivots) {
@@ -290,6 +296,41 @@ pub fn couple(
         n: n1,
         t,
     })
+}
+
+/// Largest dense elimination block r × |support| of the functionals (8 bytes an entry:
+/// 400 MB).
+pub const MAX_ELIMINATION_ENTRIES: usize = 50_000_000;
+
+/// Largest dense fill Σ s² (s the size of each distinct support) that M' and K' may gain:
+/// 2·10⁸ entries, about 3.2 GB in each.
+pub const MAX_FILL_ENTRIES: usize = 200_000_000;
+
+/// Refuses functionals whose dense elimination block or fill (module doc) would pass
+/// [`MAX_ELIMINATION_ENTRIES`] or [`MAX_FILL_ENTRIES`], before anything is allocated.
+fn check_size(rows: &[SparseRow]) -> Result<()> {
+    let mut support: Vec<usize> = rows.iter().flat_map(|r| r.idx.iter().copied()).collect();
+    support.sort_unstable();
+    support.dedup();
+    let block = rows.len().saturating_mul(support.len());
+    let mut supports: Vec<&[usize]> = rows.iter().map(|r| r.idx.as_slice()).collect();
+    supports.sort_unstable();
+    supports.dedup();
+    let fill = supports.iter().fold(0usize, |acc, s| {
+        acc.saturating_add(s.len().saturating_mul(s.len()))
+    });
+    if block > MAX_ELIMINATION_ENTRIES || fill > MAX_FILL_ENTRIES {
+        return Err(Error::InvalidSetting(format!(
+            "the scene's {} functionals run over {} DoFs: their elimination block ({block} \
+             entries, limit {MAX_ELIMINATION_ENTRIES}) or the dense fill of the coupled \
+             matrices ({fill} entries, limit {MAX_FILL_ENTRIES}) is too large; select fewer \
+             nodes for a distributing point (a ring of the bore rather than its whole \
+             surface), make it rigid, or give fewer matrix rows",
+            rows.len(),
+            support.len()
+        )));
+    }
+    Ok(())
 }
 
 /// V0' = S V0₁ (module doc): the original rigid modes about the nodes' centroid on the kept
@@ -491,6 +532,25 @@ mod tests {
         assert_eq!(
             cp.coordinates[cp.inputs[0]],
             Coordinate::Point { point: 0, dir: 3 }
+        );
+    }
+
+    /// Thousands of output rows: the dense elimination block would pass its limit, refused
+    /// before anything of that size is allocated.
+    #[test]
+    fn too_many_functionals_are_refused_with_the_sizes() {
+        let model = bar_model(&BoxSpec {
+            elements: [10, 10, 25],
+            ..BoxSpec::small()
+        })
+        .unwrap();
+        let outputs: Vec<Functional> = (0..7200).map(Functional::Dof).collect();
+        let e = couple(&model, &[], &[Functional::Dof(0)], &outputs)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("7200 functionals run over 7200 DoFs") && e.contains("limit 50000000"),
+            "{e}"
         );
     }
 

@@ -1,7 +1,8 @@
 //! The model directory (`model.toml` + matrices + `nodes.csv` + the import's DoF lists), from
 //! one input in the archive format of the shared code (`=== NAME` sections). On success the
 //! model re-validates: the scene fits N, and writing the directory and reading it back gives
-//! the same matrices bit-exactly.
+//! the same matrices bit-exactly. Memory is bounded by the input, except a coupled
+//! directory's dense blocks (below).
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
@@ -27,7 +28,17 @@ fuzz_target!(|data: &[u8]| {
         return;
     }
     let (result, peak) = measured(|| model_dir::read(dir.path()));
-    check_bound("model_dir::read", peak, input_bytes(&files), declared);
+    // a coupled directory's dense blocks grow with its node sets, not with the input's bytes:
+    // they are bounded by `coupled::MAX_FILL_ENTRIES` and `MAX_ELIMINATION_ENTRIES`
+    // (docs/design.md §3.11), stated rather than fuzzed
+    let coupled = model_dir::read_manifest(dir.path()).is_ok_and(|m| {
+        !m.remote_points.is_empty()
+            || m.scene.input_matrix.is_some()
+            || m.scene.output_matrix.is_some()
+    });
+    if !coupled {
+        check_bound("model_dir::read", peak, input_bytes(&files), declared);
+    }
     let Ok((model, scene, _)) = result else {
         return;
     };
