@@ -115,27 +115,26 @@ pub fn couple(
         .filter(|&k| points[k].kind == Kind::Rigid)
         .collect();
     let rigid_points: Vec<RemotePoint> = rigid.iter().map(|&k| points[k].clone()).collect();
-    let mut coordinates: Vec<Coordinate>;
     let t1 = if rigid.is_empty() {
-        coordinates = (0..n).map(Coordinate::Dof).collect();
         None
     } else {
-        let change = rigid_elimination(&rigid_points, nodes_or_none, dpn)?;
-        let mut coupled = vec![false; nodes_or_none.len()];
-        for p in &rigid_points {
-            for &i in &p.nodes {
-                coupled[i] = true;
-            }
-        }
-        coordinates = (0..n)
-            .filter(|&q| !coupled[q / dpn])
-            .map(Coordinate::Dof)
-            .collect();
-        for &k in &rigid {
-            coordinates.extend((0..6).map(|dir| Coordinate::Point { point: k, dir }));
-        }
-        Some(change.t)
+        Some(rigid_elimination(&rigid_points, nodes_or_none, dpn)?.t)
     };
+    // z₁: the DoFs of nodes no rigid point couples (checked in range above), in order, then
+    // six per rigid point
+    let mut eliminated = vec![false; nodes_or_none.len()];
+    for p in &rigid_points {
+        for &i in &p.nodes {
+            eliminated[i] = true;
+        }
+    }
+    let kept: Vec<usize> = (0..n)
+        .filter(|&q| !eliminated.get(q / dpn).copied().unwrap_or(false))
+        .collect();
+    let mut coordinates: Vec<Coordinate> = kept.iter().map(|&q| Coordinate::Dof(q)).collect();
+    for &k in &rigid {
+        coordinates.extend((0..6).map(|dir| Coordinate::Point { point: k, dir }));
+    }
     let n1 = coordinates.len();
     // 2. the functionals as rows in z₁
     let rows_of_t1 = t1
@@ -278,13 +277,7 @@ pub fn couple(
     )?;
     if let Some(nodes) = nodes {
         coupled = coupled.with_rigid_modes(rigid_modes_in(
-            nodes,
-            dpn,
-            points,
-            &rigid,
-            &coordinates,
-            &rows,
-            &pivots,
+            nodes, dpn, points, &rigid, &kept, &rows, &pivots,
         ))?;
     }
     Ok(Coupled {
@@ -341,30 +334,17 @@ fn rigid_modes_in(
     dpn: usize,
     points: &[RemotePoint],
     rigid: &[usize],
-    coordinates: &[Coordinate],
+    kept: &[usize],
     rows: &[SparseRow],
     pivots: &[usize],
 ) -> Mat<f64> {
     let v0 = rigid_modes(nodes, dpn);
-    let c = centroid(nodes);
     let positions: Vec<[f64; 3]> = rigid.iter().map(|&k| points[k].position).collect();
-    let at_points = rigid_modes_about(&positions, 6, c);
+    let at_points = rigid_modes_about(&positions, 6, centroid(nodes));
     // V0₁: z₁ is the kept DoFs in order, then six per rigid point
-    let kept = coordinates.len() - 6 * rigid.len();
-    let mut kept_dofs = Vec::with_capacity(kept);
-    let mut eliminated = vec![false; nodes.len()];
-    for &k in rigid {
-        for &i in &points[k].nodes {
-            eliminated[i] = true;
-        }
-    }
-    kept_dofs.extend((0..v0.nrows()).filter(|&q| !eliminated[q / dpn]));
-    let v01 = Mat::<f64>::from_fn(coordinates.len(), 6, |i, j| {
-        if i < kept {
-            v0[(kept_dofs[i], j)]
-        } else {
-            at_points[(i - kept, j)]
-        }
+    let v01 = Mat::<f64>::from_fn(kept.len() + 6 * rigid.len(), 6, |i, j| match kept.get(i) {
+        Some(&q) => v0[(q, j)],
+        None => at_points[(i - kept.len(), j)],
     });
     let mut v = v01.clone();
     for (row, &p) in rows.iter().zip(pivots) {
