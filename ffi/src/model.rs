@@ -121,6 +121,82 @@ impl SparsemorModel {
     }
 }
 
+/// A checked CSC matrix borrowed from the caller: column pointers, row indices, values.
+pub(crate) type CscSlices<'a> = (&'a [usize], &'a [usize], &'a [f64]);
+
+/// The caller's CSC arrays of a `shape[0]` × `shape[1]` matrix with `nnz` entries, checked:
+/// the pointers valid, `col_ptr` starting at 0, non-decreasing and ending at `nnz` (named
+/// `col_ptr[{cols}]` in messages), each column's row indices in range and strictly
+/// increasing, every value finite.
+///
+/// # Safety
+/// The pointers must be valid for the lengths they claim (`shape[1] + 1`, `nnz`).
+pub(crate) unsafe fn csc_arrays<'a>(
+    col_ptr: *const usize,
+    row_idx: *const usize,
+    values: *const f64,
+    shape: [usize; 2],
+    nnz: usize,
+    cols: &str,
+    what: &str,
+) -> Result<CscSlices<'a>, Failure> {
+    let [nrows, ncols] = shape;
+    let np1 = ncols
+        .checked_add(1)
+        .ok_or_else(|| Failure::arg(format!("{what}: {cols} = {ncols} is too large")))?;
+    // SAFETY: the caller's contract.
+    let col_ptr = unsafe { slice_in(col_ptr, np1, &format!("{what}: col_ptr"))? };
+    let row_idx = unsafe { slice_in(row_idx, nnz, &format!("{what}: row_idx"))? };
+    let values = unsafe { slice_in(values, nnz, &format!("{what}: values"))? };
+    if col_ptr[0] != 0 {
+        return Err(Failure::arg(format!(
+            "{what}: col_ptr[0] = {}; CSC column pointers start at 0",
+            col_ptr[0]
+        )));
+    }
+    if let Some(j) = (0..ncols).find(|&j| col_ptr[j + 1] < col_ptr[j]) {
+        return Err(Failure::arg(format!(
+            "{what}: col_ptr is not non-decreasing: col_ptr[{}] = {} < col_ptr[{j}] = {}",
+            j + 1,
+            col_ptr[j + 1],
+            col_ptr[j]
+        )));
+    }
+    if col_ptr[ncols] != nnz {
+        return Err(Failure::arg(format!(
+            "{what}: col_ptr[{cols}] = {} but nnz = {nnz}; they must agree",
+            col_ptr[ncols]
+        )));
+    }
+    for j in 0..ncols {
+        let (a, b) = (col_ptr[j], col_ptr[j + 1]);
+        for p in a..b {
+            let i = row_idx[p];
+            if i >= nrows {
+                return Err(Failure::arg(format!(
+                    "{what}: row index {i} in column {j} (entry {p}) is out of range 0..{}",
+                    nrows.saturating_sub(1)
+                )));
+            }
+            if p > a && i <= row_idx[p - 1] {
+                return Err(Failure::arg(format!(
+                    "{what}: column {j}: row indices must be strictly increasing (sorted, no duplicates), \
+                     found {} then {i} at entries {}..{p}",
+                    row_idx[p - 1],
+                    p - 1
+                )));
+            }
+            if !values[p].is_finite() {
+                return Err(Failure::arg(format!(
+                    "{what}: entry ({i}, {j}) is not finite ({})",
+                    values[p]
+                )));
+            }
+        }
+    }
+    Ok((col_ptr, row_idx, values))
+}
+
 /// Checks the caller's CSC arrays and copies them into a full-storage matrix.
 ///
 /// # Safety
@@ -139,62 +215,14 @@ unsafe fn csc_from_c(c: &SparsemorCsc, what: &str) -> Result<Csc, Failure> {
         )))
         }
     };
-    let np1 = n
-        .checked_add(1)
-        .ok_or_else(|| Failure::arg(format!("{what}: n = {n} is too large")))?;
     // SAFETY: the caller's contract on the CSC struct.
-    let col_ptr = unsafe { slice_in(c.col_ptr, np1, &format!("{what}: col_ptr"))? };
-    let row_idx = unsafe { slice_in(c.row_idx, c.nnz, &format!("{what}: row_idx"))? };
-    let values = unsafe { slice_in(c.values, c.nnz, &format!("{what}: values"))? };
-    if col_ptr[0] != 0 {
-        return Err(Failure::arg(format!(
-            "{what}: col_ptr[0] = {}; CSC column pointers start at 0",
-            col_ptr[0]
-        )));
-    }
-    for j in 0..n {
-        if col_ptr[j + 1] < col_ptr[j] {
-            return Err(Failure::arg(format!(
-                "{what}: col_ptr is not non-decreasing: col_ptr[{}] = {} < col_ptr[{j}] = {}",
-                j + 1,
-                col_ptr[j + 1],
-                col_ptr[j]
-            )));
-        }
-    }
-    if col_ptr[n] != c.nnz {
-        return Err(Failure::arg(format!(
-            "{what}: col_ptr[n] = {} but nnz = {}; they must agree",
-            col_ptr[n], c.nnz
-        )));
-    }
-    for j in 0..n {
-        let (a, b) = (col_ptr[j], col_ptr[j + 1]);
-        for p in a..b {
-            let i = row_idx[p];
-            if i >= n {
-                return Err(Failure::arg(format!(
-                    "{what}: row index {i} in column {j} (entry {p}) is out of range 0..{}",
-                    n - 1
-                )));
-            }
-            if p > a && i <= row_idx[p - 1] {
-                return Err(Failure::arg(format!(
-                    "{what}: column {j}: row indices must be strictly increasing (sorted, no duplicates), \
-                     found {} then {i} at entries {}..{p}",
-                    row_idx[p - 1],
-                    p - 1
-                )));
-            }
-            if lower && i < j {
+    let (col_ptr, row_idx, values) =
+        unsafe { csc_arrays(c.col_ptr, c.row_idx, c.values, [n, n], c.nnz, "n", what)? };
+    if lower {
+        for j in 0..n {
+            if let Some(&i) = row_idx[col_ptr[j]..col_ptr[j + 1]].iter().find(|&&i| i < j) {
                 return Err(Failure::arg(format!(
                     "{what}: entry ({i}, {j}) is above the diagonal but storage is SPARSEMOR_STORAGE_LOWER"
-                )));
-            }
-            if !values[p].is_finite() {
-                return Err(Failure::arg(format!(
-                    "{what}: entry ({i}, {j}) is not finite ({})",
-                    values[p]
                 )));
             }
         }

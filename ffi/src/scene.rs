@@ -13,7 +13,7 @@
 //! `sparsemor_model_coordinate_count`, `sparsemor_model_coordinate`.
 
 use crate::error::{ffi_body, Failure, SparsemorStatus};
-use crate::model::SparsemorModel;
+use crate::model::{csc_arrays, SparsemorModel};
 use crate::pool::in_pool;
 use crate::util::{obj, obj_mut, slice_in, write_opt, write_out};
 use sparsemor::body::Body;
@@ -110,58 +110,23 @@ pub(crate) struct CoupledScene {
 /// # Safety
 /// The pointers in `s` valid for the lengths they claim (`ncols + 1`, `nnz`).
 unsafe fn columns(s: &SparsemorSparse, what: &str) -> Result<Vec<SparseRow>, Failure> {
-    let np1 = s
-        .ncols
-        .checked_add(1)
-        .ok_or_else(|| Failure::arg(format!("{what}: ncols = {} is too large", s.ncols)))?;
     // SAFETY: the caller's contract on the struct.
-    let col_ptr = unsafe { slice_in(s.col_ptr, np1, &format!("{what}: col_ptr"))? };
-    let row_idx = unsafe { slice_in(s.row_idx, s.nnz, &format!("{what}: row_idx"))? };
-    let values = unsafe { slice_in(s.values, s.nnz, &format!("{what}: values"))? };
-    if col_ptr[0] != 0 {
-        return Err(Failure::arg(format!(
-            "{what}: col_ptr[0] = {}; CSC column pointers start at 0",
-            col_ptr[0]
-        )));
-    }
-    if let Some(j) = (0..s.ncols).find(|&j| col_ptr[j + 1] < col_ptr[j]) {
-        return Err(Failure::arg(format!(
-            "{what}: col_ptr is not non-decreasing: col_ptr[{}] = {} < col_ptr[{j}] = {}",
-            j + 1,
-            col_ptr[j + 1],
-            col_ptr[j]
-        )));
-    }
-    if col_ptr[s.ncols] != s.nnz {
-        return Err(Failure::arg(format!(
-            "{what}: col_ptr[ncols] = {} but nnz = {}; they must agree",
-            col_ptr[s.ncols], s.nnz
-        )));
-    }
+    let (col_ptr, row_idx, values) = unsafe {
+        csc_arrays(
+            s.col_ptr,
+            s.row_idx,
+            s.values,
+            [s.nrows, s.ncols],
+            s.nnz,
+            "ncols",
+            what,
+        )?
+    };
     let mut cols = Vec::with_capacity(s.ncols);
     for j in 0..s.ncols {
         let mut col = SparseRow::default();
         for p in col_ptr[j]..col_ptr[j + 1] {
             let (i, v) = (row_idx[p], values[p]);
-            if i >= s.nrows {
-                return Err(Failure::arg(format!(
-                    "{what}: row index {i} in column {j} (entry {p}) is out of range 0..{}",
-                    s.nrows.saturating_sub(1)
-                )));
-            }
-            if p > col_ptr[j] && i <= row_idx[p - 1] {
-                return Err(Failure::arg(format!(
-                    "{what}: column {j}: row indices must be strictly increasing (sorted, no \
-                     duplicates), found {} then {i} at entries {}..{p}",
-                    row_idx[p - 1],
-                    p - 1
-                )));
-            }
-            if !v.is_finite() {
-                return Err(Failure::arg(format!(
-                    "{what}: entry ({i}, {j}) is not finite ({v})"
-                )));
-            }
             if v != 0.0 {
                 col.idx.push(i);
                 col.val.push(v);
@@ -430,18 +395,22 @@ pub unsafe extern "C" fn sparsemor_model_set_scene_general(
                 band_hz: [band_lo_hz, band_hi_hz],
             };
             scene.validate(cp.n, "scene")?;
-            let rows: HashMap<String, (u32, usize)> = ins
-                .iter()
-                .map(|f| (f, SPARSEMOR_COORDINATE_INPUT_COLUMN))
-                .chain(outs.iter().map(|f| (f, SPARSEMOR_COORDINATE_OUTPUT_ROW)))
-                .filter_map(|(f, kind)| match f {
-                    Functional::Row(name, _) => {
-                        let k = name.rsplit(' ').next()?.parse().ok()?;
-                        Some((name.clone(), (kind, k)))
-                    }
-                    _ => None,
-                })
-                .collect();
+            // the k-th row functional of a part is its matrix's column (row) k
+            let matrix_rows = |list: &[Functional], kind: u32| {
+                list.iter()
+                    .filter_map(|f| match f {
+                        Functional::Row(name, _) => Some(name.clone()),
+                        _ => None,
+                    })
+                    .enumerate()
+                    .map(move |(k, name)| (name, (kind, k)))
+                    .collect::<Vec<_>>()
+            };
+            let rows: HashMap<String, (u32, usize)> =
+                matrix_rows(&ins, SPARSEMOR_COORDINATE_INPUT_COLUMN)
+                    .into_iter()
+                    .chain(matrix_rows(&outs, SPARSEMOR_COORDINATE_OUTPUT_ROW))
+                    .collect();
             let coordinates = cp
                 .coordinates
                 .iter()
