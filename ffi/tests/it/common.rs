@@ -145,6 +145,39 @@ pub fn model_from(m: &CscArrays, k: &CscArrays, beta: f64) -> *mut SparsemorMode
     h
 }
 
+/// The model handle of `model` with its node coordinates (3 DoFs per node) and Rayleigh
+/// damping D = βK; panics with the message on failure.
+pub fn model_with_nodes(model: &sparsemor::model::Model, beta: f64) -> *mut SparsemorModel {
+    let (m, k) = (
+        CscArrays::from_csc(&model.mass),
+        CscArrays::from_csc(&model.stiffness),
+    );
+    let xyz: Vec<f64> = model
+        .nodes
+        .as_ref()
+        .expect("a model with node coordinates")
+        .iter()
+        .flatten()
+        .copied()
+        .collect();
+    let mut h = std::ptr::null_mut();
+    let st = unsafe {
+        sparsemor_model_new(
+            &m.view(),
+            &k.view(),
+            std::ptr::null(),
+            0.0,
+            beta,
+            xyz.as_ptr(),
+            xyz.len() / 3,
+            3,
+            &mut h,
+        )
+    };
+    assert_eq!(st, SparsemorStatus::Ok, "{}", last_error());
+    h
+}
+
 /// The chain model of `n` DoFs with Rayleigh β = 1e-4 and the scene inputs = outputs =
 /// {n−1}, band [0, 40] Hz.
 pub fn chain_model(n: usize) -> *mut SparsemorModel {

@@ -2,48 +2,20 @@
 //! equals the library's ROM bit for bit (one thread), its report and fixed-interface
 //! frequencies come through, and bad settings are refused with their status.
 
-use crate::common::{last_error, options, rom_matrix, CscArrays};
+use crate::common::{last_error, model_with_nodes, options, rom_matrix};
 use sparsemor::body::Body;
 use sparsemor::fe::{bar_model, paper_scene, BoxSpec};
 use sparsemor::reduce::craig_bampton::{self, CraigBamptonOptions};
 use sparsemor::reduce::linefit::Interface;
 use sparsemor_ffi::*;
-use std::ptr::{null, null_mut};
+use std::ptr::null_mut;
 
 #[test]
 fn bar_craig_bampton_equals_the_library() {
     let spec = BoxSpec::paper_bar();
     let (model, scene) = (bar_model(&spec).unwrap(), paper_scene(&spec));
-    let nodes: Vec<f64> = model
-        .nodes
-        .as_ref()
-        .unwrap()
-        .iter()
-        .flatten()
-        .copied()
-        .collect();
-    let (m, k) = (
-        CscArrays::from_csc(&model.mass),
-        CscArrays::from_csc(&model.stiffness),
-    );
-    let mut h = null_mut();
+    let h = model_with_nodes(&model, 1e-5);
     unsafe {
-        assert_eq!(
-            sparsemor_model_new(
-                &m.view(),
-                &k.view(),
-                null(),
-                0.0,
-                1e-5,
-                nodes.as_ptr(),
-                nodes.len() / 3,
-                3,
-                &mut h
-            ),
-            SparsemorStatus::Ok,
-            "{}",
-            last_error()
-        );
         let io = &scene.inputs;
         assert_eq!(
             sparsemor_model_set_scene(h, io.as_ptr(), io.len(), io.as_ptr(), io.len(), 0.0, 1000.0),

@@ -21,14 +21,7 @@ const GROUND: f64 = 1e8;
 /// The small bar (N = 90, 30 nodes) with ground springs on its base's DoFs, so the body is
 /// constrained and H is the ROM's whole transfer function.
 fn grounded_bar() -> Model {
-    let spec = BoxSpec {
-        elements: [1, 2, 4],
-        size_m: [0.02, 0.03, 0.2],
-        mass_kg: 0.1,
-        young_pa: 2e10,
-        poisson: 0.3,
-    };
-    let mut model = bar_model(&spec).unwrap();
+    let mut model = bar_model(&BoxSpec::small()).unwrap();
     let nodes = model.nodes.clone().unwrap();
     let n = model.n();
     let dense = model.stiffness.as_ref().to_dense();
@@ -108,36 +101,33 @@ fn part(dofs: &[usize], points: &[usize], matrix: Option<&SparsemorSparse>) -> S
     }
 }
 
-/// The model handle of `model` with its nodes and Rayleigh β.
-fn handle(model: &Model) -> *mut SparsemorModel {
-    let (m, k) = (
-        CscArrays::from_csc(&model.mass),
-        CscArrays::from_csc(&model.stiffness),
-    );
-    let xyz: Vec<f64> = model
-        .nodes
-        .as_ref()
-        .unwrap()
-        .iter()
-        .flatten()
-        .copied()
-        .collect();
-    let mut h = null_mut();
+/// `sparsemor_model_add_remote_point` on `h` (no weights given when `weights` is empty): its
+/// status and the index it wrote.
+fn add_point(
+    h: *mut SparsemorModel,
+    kind: u32,
+    at: &[f64; 3],
+    nodes: &[usize],
+    weights: &[f64],
+) -> (SparsemorStatus, usize) {
+    let mut index = usize::MAX;
+    let w = if weights.is_empty() {
+        null()
+    } else {
+        weights.as_ptr()
+    };
     let st = unsafe {
-        sparsemor_model_new(
-            &m.view(),
-            &k.view(),
-            null(),
-            0.0,
-            BETA,
-            xyz.as_ptr(),
-            xyz.len() / 3,
-            3,
-            &mut h,
+        sparsemor_model_add_remote_point(
+            h,
+            kind,
+            at.as_ptr(),
+            nodes.as_ptr(),
+            nodes.len(),
+            w,
+            &mut index,
         )
     };
-    assert_eq!(st, SparsemorStatus::Ok, "{}", last_error());
-    h
+    (st, index)
 }
 
 /// Row `dir` of a distributing point with equal weights, from its definition: the point's
@@ -249,19 +239,8 @@ fn fixture() -> Fixture {
     let nodes = model.nodes.clone().unwrap();
     let top: Vec<usize> = (0..nodes.len()).filter(|&i| nodes[i][2] > 0.199).collect();
     let at = [0.01, 0.015, 0.21];
-    let h = handle(&model);
-    let mut index = usize::MAX;
-    let st = unsafe {
-        sparsemor_model_add_remote_point(
-            h,
-            SPARSEMOR_POINT_DISTRIBUTING,
-            at.as_ptr(),
-            top.as_ptr(),
-            top.len(),
-            null(),
-            &mut index,
-        )
-    };
+    let h = model_with_nodes(&model, BETA);
+    let (st, index) = add_point(h, SPARSEMOR_POINT_DISTRIBUTING, &at, &top, &[]);
     assert_eq!(st, SparsemorStatus::Ok, "{}", last_error());
     assert_eq!(index, 0);
     // a load pattern over a few DoFs in the middle, and an output row elsewhere
@@ -430,18 +409,7 @@ fn each_call_couples_the_original_model_again() {
     let nodes = fx.model.nodes.clone().unwrap();
     let base: Vec<usize> = (0..nodes.len()).filter(|&i| nodes[i][2] < 1e-9).collect();
     let at = [0.01, 0.015, -0.01];
-    let mut index = 0;
-    let st = unsafe {
-        sparsemor_model_add_remote_point(
-            fx.h,
-            SPARSEMOR_POINT_RIGID,
-            at.as_ptr(),
-            base.as_ptr(),
-            base.len(),
-            null(),
-            &mut index,
-        )
-    };
+    let (st, index) = add_point(fx.h, SPARSEMOR_POINT_RIGID, &at, &base, &[]);
     assert_eq!(st, SparsemorStatus::Ok, "{}", last_error());
     assert_eq!(index, 1);
     assert_eq!(set_scene(&fx), SparsemorStatus::Ok, "{}", last_error());
@@ -480,34 +448,19 @@ fn bad_scenes_and_points_are_refused_by_name() {
     let fx = fixture();
     let n = fx.model.n();
     let at = [0.0; 3];
-    let add = |kind, nodes: &[usize], weights: *const f64| unsafe {
-        sparsemor_model_add_remote_point(
-            fx.h,
-            kind,
-            at.as_ptr(),
-            nodes.as_ptr(),
-            nodes.len(),
-            weights,
-            null_mut(),
-        )
-    };
+    let add = |kind, nodes: &[usize], weights: &[f64]| add_point(fx.h, kind, &at, nodes, weights).0;
+    refused(add(SPARSEMOR_POINT_DISTRIBUTING, &[], &[]), "n_nodes = 0");
+    refused(add(7, &[1, 2, 3], &[]), "kind = 7");
     refused(
-        add(SPARSEMOR_POINT_DISTRIBUTING, &[], null()),
-        "n_nodes = 0",
-    );
-    refused(add(7, &[1, 2, 3], null()), "kind = 7");
-    refused(
-        add(SPARSEMOR_POINT_DISTRIBUTING, &[1, 2, 300], null()),
+        add(SPARSEMOR_POINT_DISTRIBUTING, &[1, 2, 300], &[]),
         "nodes[2] = 300",
     );
-    let w = [1.0, 1.0, 1.0];
     refused(
-        add(SPARSEMOR_POINT_RIGID, &[1, 2, 3], w.as_ptr()),
+        add(SPARSEMOR_POINT_RIGID, &[1, 2, 3], &[1.0, 1.0, 1.0]),
         "weights: a rigid point",
     );
-    let wbad = [1.0, -1.0, 1.0];
     refused(
-        add(SPARSEMOR_POINT_DISTRIBUTING, &[1, 7, 13], wbad.as_ptr()),
+        add(SPARSEMOR_POINT_DISTRIBUTING, &[1, 7, 13], &[1.0, -1.0, 1.0]),
         "weights[1] = -1",
     );
     // the nodes on the edge x = y = 0 lie on one line: no rotation about it is defined
@@ -517,17 +470,7 @@ fn bad_scenes_and_points_are_refused_by_name() {
         .collect();
     assert_eq!(edge.len(), 5);
     let off = [0.05, 0.05, 0.1];
-    let st = unsafe {
-        sparsemor_model_add_remote_point(
-            fx.h,
-            SPARSEMOR_POINT_DISTRIBUTING,
-            off.as_ptr(),
-            edge.as_ptr(),
-            edge.len(),
-            null(),
-            null_mut(),
-        )
-    };
+    let (st, _) = add_point(fx.h, SPARSEMOR_POINT_DISTRIBUTING, &off, &edge, &[]);
     refused(st, "lie on one line");
     let st = unsafe {
         sparsemor_model_add_remote_point(fx.h, 0, null(), [0usize].as_ptr(), 1, null(), null_mut())
@@ -622,17 +565,7 @@ fn bad_scenes_and_points_are_refused_by_name() {
     // remote points need nodes
     let (m, k) = mk_chain();
     let h = model_from(&m, &k, 1e-4);
-    let st = unsafe {
-        sparsemor_model_add_remote_point(
-            h,
-            0,
-            at.as_ptr(),
-            [0usize].as_ptr(),
-            1,
-            null(),
-            null_mut(),
-        )
-    };
+    let (st, _) = add_point(h, SPARSEMOR_POINT_RIGID, &at, &[0], &[]);
     refused(st, "no node coordinates");
     unsafe {
         sparsemor_model_free(h);
