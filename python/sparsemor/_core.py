@@ -103,6 +103,22 @@ def version() -> tuple:
     return tuple(x[0] for x in v)
 
 
+def _csc_buffers(a):
+    """The CSC arrays of `a` (size_t indices, doubles) and the cffi buffers over them; the
+    caller keeps both alive for the call."""
+    arrays = (
+        np.ascontiguousarray(a.indptr, dtype=np.uintp),
+        np.ascontiguousarray(a.indices, dtype=np.uintp),
+        np.ascontiguousarray(a.data, dtype=np.float64),
+    )
+    buffers = (
+        ffi.from_buffer("size_t[]", arrays[0]),
+        ffi.from_buffer("size_t[]", arrays[1]),
+        ffi.from_buffer("double[]", arrays[2]),
+    )
+    return arrays, buffers
+
+
 class _Csc:
     """A scipy.sparse matrix as the C ABI's SparsemorCsc, its arrays kept alive for one
     call."""
@@ -117,17 +133,8 @@ class _Csc:
         if lower:
             a = sp.tril(a, format="csc")
             a.sort_indices()
-        self._arrays = (
-            np.ascontiguousarray(a.indptr, dtype=np.uintp),
-            np.ascontiguousarray(a.indices, dtype=np.uintp),
-            np.ascontiguousarray(a.data, dtype=np.float64),
-        )
-        col_ptr, row_idx, values = self._arrays
-        self._buffers = (
-            ffi.from_buffer("size_t[]", col_ptr),
-            ffi.from_buffer("size_t[]", row_idx),
-            ffi.from_buffer("double[]", values),
-        )
+        self._arrays, self._buffers = _csc_buffers(a)
+        values = self._arrays[2]
         storage = lib.SPARSEMOR_STORAGE_LOWER if lower else lib.SPARSEMOR_STORAGE_FULL
         self.ptr = ffi.new("SparsemorCsc *", {
             "n": n, "nnz": values.size, "col_ptr": self._buffers[0],
@@ -142,17 +149,8 @@ class _Sparse:
         a = sp.csc_matrix(a, dtype=np.float64)
         a.sum_duplicates()
         a.sort_indices()
-        self._arrays = (
-            np.ascontiguousarray(a.indptr, dtype=np.uintp),
-            np.ascontiguousarray(a.indices, dtype=np.uintp),
-            np.ascontiguousarray(a.data, dtype=np.float64),
-        )
-        col_ptr, row_idx, values = self._arrays
-        self._buffers = (
-            ffi.from_buffer("size_t[]", col_ptr),
-            ffi.from_buffer("size_t[]", row_idx),
-            ffi.from_buffer("double[]", values),
-        )
+        self._arrays, self._buffers = _csc_buffers(a)
+        values = self._arrays[2]
         self.ptr = ffi.new("SparsemorSparse *", {
             "nrows": a.shape[0], "ncols": a.shape[1], "nnz": values.size,
             "col_ptr": self._buffers[0], "row_idx": self._buffers[1],
