@@ -84,14 +84,22 @@ impl Body {
     /// [`crate::Error::InvalidModel`] if the values fail [`Model::new`]'s checks (they passed
     /// them when the body was built).
     pub fn to_model(&self) -> Result<Model> {
-        use crate::model::Damping;
+        use crate::model::{Damping, Structural};
         use crate::pencil::Coefficient;
         let all: Vec<usize> = (0..self.n()).collect();
         let full = |c| self.pencil.submatrix(c, &all, &all);
-        let damping = match self.pencil.proportional_damping() {
+        let damping = match self.pencil.rayleigh() {
             Some((0.0, 0.0)) => Damping::None,
             Some((alpha, beta)) => Damping::Rayleigh { alpha, beta },
             None => Damping::Matrix(full(Coefficient::Damping)),
+        };
+        // H = ηK + K₄ again, as η alone or as one matrix
+        let structural = match self.pencil.structural() {
+            (eta, false) => Structural { eta, matrix: None },
+            (_, true) => Structural {
+                eta: 0.0,
+                matrix: Some(full(Coefficient::Structural)),
+            },
         };
         let (model, _) = Model::new(
             self.name.clone(),
@@ -101,6 +109,7 @@ impl Body {
             self.nodes.clone(),
             self.dofs_per_node,
         )?;
+        let model = model.with_structural(structural)?;
         match (&self.rigid, &self.nodes) {
             (Some(rb), None) => model.with_rigid_modes(rb.modes().to_owned()),
             _ => Ok(model),

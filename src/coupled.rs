@@ -8,8 +8,8 @@
 //! 2. every distinct input and output functional, written in z₁ (a row c of the original DoFs
 //!    becomes c T₁), made a coordinate z₁ = T₂ z ([`crate::coupling::functionals_as_coordinates`]).
 //!
-//! The model is M' = TᵀMT, K' = TᵀKT, D' = TᵀDT (Rayleigh damping stays Rayleigh: the
-//! congruence is linear). An output c q is the coordinate z_p; an input load b = cᵀ (a
+//! The model is M' = TᵀMT, K' = TᵀKT, D' = TᵀDT, K₄' = TᵀK₄T (Rayleigh damping and a loss
+//! factor stay as they are: the congruence is linear). An output c q is the coordinate z_p; an input load b = cᵀ (a
 //! distributing point's force, a DoF's unit force, a column of B) is the unit load at z_p,
 //! since Tᵀcᵀ = e_p (S T = I). Its rigid modes are the original ones in the new coordinates,
 //! V0' = S V0 (a point's rows are its own rigid motion): the body stays free or constrained
@@ -26,7 +26,7 @@ use crate::coupling::{
     congruence, distributing_rows, functionals_as_coordinates, rigid_elimination, Kind,
     RemotePoint, SparseRow,
 };
-use crate::model::{Damping, Model};
+use crate::model::{Damping, Model, Structural};
 use crate::rigid::{centroid, rigid_modes, rigid_modes_about};
 use crate::{Error, Result};
 use faer::Mat;
@@ -275,6 +275,14 @@ pub fn couple(
         None,
         dpn,
     )?;
+    let structural = Structural {
+        eta: model.structural.eta,
+        matrix: match &model.structural.matrix {
+            Some(k4) => Some(congruence(k4, &t)?),
+            None => None,
+        },
+    };
+    coupled = coupled.with_structural(structural)?;
     if let Some(nodes) = nodes {
         coupled = coupled.with_rigid_modes(rigid_modes_in(
             nodes, dpn, points, &rigid, &kept, &rows, &pivots,

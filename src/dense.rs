@@ -157,6 +157,20 @@ impl MatStack {
         MatStack { m, p, data }
     }
 
+    /// The `count` m × p matrices `f(k)`, k = 0..count.
+    pub fn from_fn(m: usize, p: usize, count: usize, f: impl Fn(usize) -> Mat<c64>) -> Self {
+        let mut data = Vec::with_capacity(m * p * count);
+        for k in 0..count {
+            let x = f(k);
+            debug_assert_eq!((x.nrows(), x.ncols()), (m, p));
+            data.extend(
+                x.col_iter()
+                    .flat_map(|c| c.iter().copied().collect::<Vec<_>>()),
+            );
+        }
+        MatStack { m, p, data }
+    }
+
     /// The number of matrices.
     pub fn len(&self) -> usize {
         self.data.len() / (self.m * self.p).max(1)

@@ -75,6 +75,7 @@ pub mod metrics;
 pub mod model;
 pub mod pencil;
 pub mod pool;
+pub mod proportional;
 pub(crate) mod random;
 pub mod reduce;
 pub mod report;

@@ -28,6 +28,25 @@ pub enum Damping {
     Matrix(Csc),
 }
 
+/// Structural (hysteretic) damping H = ηK + K₄: A(iω) = K + iH − ω²M + iωD
+/// (docs/design.md §3.1). Defined in the frequency domain only: a loss factor η on K (Nastran's
+/// G, ANSYS's DMPSTR, Abaqus's structural damping) and an element-wise structural damping matrix
+/// K₄ (Nastran's K4), or both. [`Structural::default`] is none.
+#[derive(Clone, Debug, Default)]
+pub struct Structural {
+    /// Uniform loss factor η ≥ 0 on K.
+    pub eta: f64,
+    /// Structural damping matrix K₄ (symmetric, full storage), if any.
+    pub matrix: Option<Csc>,
+}
+
+impl Structural {
+    /// True when H = 0.
+    pub fn is_zero(&self) -> bool {
+        self.eta == 0.0 && self.matrix.is_none()
+    }
+}
+
 impl Damping {
     /// True when D = 0 (no damping matrix, or Rayleigh with α = β = 0).
     pub fn is_zero(&self) -> bool {
@@ -61,6 +80,8 @@ pub struct Model {
     /// DoFs (a coupled model, docs/design.md §3.11); they win over `nodes` when the body's
     /// rigid part is detected (§3.2). `None` from [`Model::new`].
     pub rigid_modes: Option<faer::Mat<f64>>,
+    /// Structural damping H = ηK + K₄ (none from [`Model::new`]; [`Model::with_structural`]).
+    pub structural: Structural,
 }
 
 /// What [`Model::new`] measured while validating: returned to the user (`sparsemor info`).
@@ -150,6 +171,7 @@ impl Model {
             nodes,
             dofs_per_node,
             rigid_modes: None,
+            structural: Structural::default(),
         };
         Ok((
             model,
@@ -184,6 +206,25 @@ impl Model {
         Ok(self)
     }
 
+    /// The model with structural damping `structural` (docs/design.md §3.1).
+    ///
+    /// # Errors
+    /// [`Error::InvalidModel`] for η negative or not finite, or a K₄ of another size than M,
+    /// unsymmetric or not finite.
+    pub fn with_structural(mut self, structural: Structural) -> Result<Self> {
+        let eta = structural.eta;
+        if !(eta.is_finite() && eta >= 0.0) {
+            return Err(Error::InvalidModel(format!(
+                "structural damping eta = {eta}: need a finite loss factor >= 0 (e.g. 0.02)"
+            )));
+        }
+        if let Some(k4) = &structural.matrix {
+            check_matrix(k4, self.n(), "structural damping matrix K4")?;
+        }
+        self.structural = structural;
+        Ok(self)
+    }
+
     /// Number of DoFs N.
     pub fn n(&self) -> usize {
         self.mass.nrows()
@@ -195,7 +236,12 @@ impl Model {
             Damping::Matrix(d) => d.compute_nnz(),
             _ => 0,
         };
-        self.mass.compute_nnz() + self.stiffness.compute_nnz() + d
+        let k4 = self
+            .structural
+            .matrix
+            .as_ref()
+            .map_or(0, |m| m.compute_nnz());
+        self.mass.compute_nnz() + self.stiffness.compute_nnz() + d + k4
     }
 }
 

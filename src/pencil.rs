@@ -17,6 +17,7 @@
 //! rows on its own nonzeros, made at the first one (the 10⁶-DoF bar: 21.2 M entries, 254 MB).
 
 use crate::model::{Damping, Model};
+use crate::proportional::{split, Pattern, Proportional, Remainder, Split, Viscous};
 use crate::sparse::{from_parts, lower_triangle, mirror_lower, Csc};
 use faer::{c64, Mat, MatMut, MatRef};
 use std::borrow::Cow;
@@ -44,6 +45,8 @@ pub enum Coefficient {
     Stiffness,
     /// D (zero without damping, αM + βK for Rayleigh damping).
     Damping,
+    /// The structural damping H = ηK + K₄ (zero without it; §3.1).
+    Structural,
 }
 
 /// Lower-triangle union pattern of M, K, D with per-matrix coefficient arrays.
@@ -55,6 +58,12 @@ pub struct Pencil {
     m: Vec<f64>,
     k: Vec<f64>,
     d: DampingValues,
+    /// The loss factor η of H = ηK + K₄.
+    eta: f64,
+    /// K₄ on the pattern, if any.
+    k4: Option<Vec<f64>>,
+    /// The damping's proportional part and remainder (docs/design.md §3.12).
+    split: Split,
     /// M by rows on its own nonzeros (built at the first product with M).
     mass_rows: OnceLock<Option<Rows>>,
 }
@@ -153,6 +162,9 @@ impl Pencil {
         if let Damping::Matrix(d) = &model.damping {
             parts.push(lower_triangle(d.as_ref()));
         }
+        if let Some(k4) = &model.structural.matrix {
+            parts.push(lower_triangle(k4.as_ref()));
+        }
         // union pattern, column by column (sorted merge of the sorted row lists)
         let mut col_ptr = Vec::with_capacity(n + 1);
         let mut row_idx = Vec::new();
@@ -195,6 +207,11 @@ impl Pencil {
         };
         let m = scatter(&parts[0]);
         let k = scatter(&parts[1]);
+        let k4 = model
+            .structural
+            .matrix
+            .as_ref()
+            .map(|_| scatter(parts.last().expect("K4 was pushed last")));
         let d = match &model.damping {
             Damping::Matrix(_) => DampingValues::Matrix(scatter(&parts[2])),
             Damping::Rayleigh { alpha, beta } if !model.damping.is_zero() => {
@@ -205,6 +222,32 @@ impl Pencil {
             }
             _ => DampingValues::Zero,
         };
+        let eta = model.structural.eta;
+        let pattern = Pattern {
+            col_ptr: &col_ptr,
+            row_idx: &row_idx,
+        };
+        let split = match &d {
+            DampingValues::Matrix(dv) => {
+                split(pattern, &m, &k, Viscous::Matrix(dv), eta, k4.as_deref())
+            }
+            DampingValues::Rayleigh { alpha, beta } => split(
+                pattern,
+                &m,
+                &k,
+                Viscous::Rayleigh(*alpha, *beta),
+                eta,
+                k4.as_deref(),
+            ),
+            DampingValues::Zero => split(
+                pattern,
+                &m,
+                &k,
+                Viscous::Rayleigh(0.0, 0.0),
+                eta,
+                k4.as_deref(),
+            ),
+        };
         Pencil {
             n,
             col_ptr,
@@ -212,6 +255,9 @@ impl Pencil {
             m,
             k,
             d,
+            eta,
+            k4,
+            split,
             mass_rows: OnceLock::new(),
         }
     }
@@ -236,20 +282,47 @@ impl Pencil {
         self.row_idx.len()
     }
 
-    /// True when D = 0: A(iω) = K − ω²M is real.
+    /// True when D = 0 and H = 0: A(iω) = K − ω²M is real.
     pub fn is_real(&self) -> bool {
-        matches!(self.d, DampingValues::Zero)
+        matches!(self.d, DampingValues::Zero) && self.eta == 0.0 && self.k4.is_none()
     }
 
-    /// (α, β) when D = αM + βK (Rayleigh damping; (0, 0) without damping): then
-    /// A(iω) = (1 + iωβ)(K − μM) with μ = (ω² − iωα)/(1 + iωβ), a shift of one real pencil
-    /// (docs/design.md §3.10). `None` for an explicit D.
-    pub fn proportional_damping(&self) -> Option<(f64, f64)> {
+    /// The damping's proportional part and remainder (docs/design.md §3.12).
+    pub fn split(&self) -> &Split {
+        &self.split
+    }
+
+    /// The proportional part A_p(iω) = (1 + iη + iωβ)K − (ω² − iωα − iγ)M when the rest
+    /// of A(iω) is zero or of low rank: a shift of one real pencil (§3.10, §3.12). `None`
+    /// when a remainder on many DoFs is left.
+    pub fn proportional(&self) -> Option<&Proportional> {
+        match &self.split {
+            Split::Proportional(p) | Split::LowRank(p, _) => Some(p),
+            Split::General(..) => None,
+        }
+    }
+
+    /// The low-rank remainder of the damping, if there is one (§3.12).
+    pub fn remainder(&self) -> Option<&Remainder> {
+        match &self.split {
+            Split::LowRank(_, r) => Some(r),
+            _ => None,
+        }
+    }
+
+    /// (α, β) of the body's own Rayleigh damping ((0, 0) without viscous damping), `None`
+    /// for an explicit D.
+    pub fn rayleigh(&self) -> Option<(f64, f64)> {
         match self.d {
             DampingValues::Zero => Some((0.0, 0.0)),
             DampingValues::Rayleigh { alpha, beta } => Some((alpha, beta)),
             DampingValues::Matrix(_) => None,
         }
+    }
+
+    /// η and whether the body has a structural damping matrix K₄ (H = ηK + K₄).
+    pub fn structural(&self) -> (f64, bool) {
+        (self.eta, self.k4.is_some())
     }
 
     /// True when D is an explicit matrix (not zero, not Rayleigh).
@@ -272,6 +345,16 @@ impl Pencil {
                     .map(|(m, k)| alpha * m + beta * k)
                     .collect(),
             ),
+            (Coefficient::Structural, _) => match &self.k4 {
+                None => Cow::Owned(self.k.iter().map(|k| self.eta * k).collect()),
+                Some(k4) => Cow::Owned(
+                    self.k
+                        .iter()
+                        .zip(k4)
+                        .map(|(k, h)| self.eta * k + h)
+                        .collect(),
+                ),
+            },
         }
     }
 
@@ -396,6 +479,21 @@ impl Pencil {
         }
     }
 
+    /// The structural counterpart of a stiffness term `k` (e.g. VᵀKV): `None` without
+    /// structural damping, η k for a loss factor alone, `explicit()` (the operation applied to
+    /// H through [`Self::mul`] with [`Coefficient::Structural`]) with a K₄.
+    pub fn structural_term(
+        &self,
+        k: &Mat<f64>,
+        explicit: impl FnOnce() -> Mat<f64>,
+    ) -> Option<Mat<f64>> {
+        match (&self.k4, self.eta) {
+            (None, 0.0) => None,
+            (None, eta) => Some(Mat::from_fn(k.nrows(), k.ncols(), |i, j| eta * k[(i, j)])),
+            (Some(_), _) => Some(explicit()),
+        }
+    }
+
     /// The diagonal of M, K or D (0 where the pattern has no diagonal entry).
     pub fn diagonal(&self, which: Coefficient) -> Vec<f64> {
         let vals = self.values(which);
@@ -459,6 +557,9 @@ impl Pencil {
             m,
             k,
             d: DampingValues::Zero,
+            eta: 0.0,
+            k4: None,
+            split: Split::Proportional(Proportional::default()),
             mass_rows: OnceLock::new(),
         }
     }
@@ -513,7 +614,7 @@ impl Pencil {
         }
     }
 
-    /// re ← K − ω²M, im ← ωD: the values of A(iω) ([`Self::value`] of every entry).
+    /// re ← K − ω²M, im ← ωD + H: the values of A(iω) ([`Self::value`] of every entry).
     pub fn fill_complex(&self, omega: f64, re: &mut [f64], im: &mut [f64]) {
         for (p, (r, i)) in re.iter_mut().zip(im.iter_mut()).enumerate() {
             let v = self.value(omega, p);
@@ -521,8 +622,8 @@ impl Pencil {
         }
     }
 
-    /// Entry `p` of A(iω) on the lower pattern: K − ω²M (as [`Self::fill_real`]) + i ωD, with
-    /// ωD = (ωα)M + (ωβ)K for Rayleigh damping. The factorizations that read the values once
+    /// Entry `p` of A(iω) on the lower pattern: K − ω²M (as [`Self::fill_real`]) + i(ωD + H),
+    /// with ωD = (ωα)M + (ωβ)K for Rayleigh damping and H = ηK + K₄. The factorizations that read the values once
     /// compute them here instead of keeping a copy per frequency.
     #[inline]
     pub fn value(&self, omega: f64, p: usize) -> c64 {
@@ -532,7 +633,8 @@ impl Pencil {
             DampingValues::Rayleigh { alpha, beta } => (omega * alpha) * m + (omega * beta) * k,
             DampingValues::Matrix(d) => omega * d[p],
         };
-        c64::new(k - (omega * omega) * m, im)
+        let h = self.eta * k + self.k4.as_ref().map_or(0.0, |k4| k4[p]);
+        c64::new(k - (omega * omega) * m, im + h)
     }
 
     /// y ← A(iω) x for the symmetric A stored by its lower triangle.
@@ -595,6 +697,13 @@ mod tests {
                 })
             }
             (Coefficient::Damping, Damping::None) => Mat::zeros(mass.nrows(), mass.ncols()),
+            (Coefficient::Structural, _) => {
+                let eta = model.structural.eta;
+                let k4 = model.structural.matrix.as_ref().map(|k4| k4.to_dense());
+                Mat::from_fn(mass.nrows(), mass.ncols(), |i, j| {
+                    eta * stiff[(i, j)] + k4.as_ref().map_or(0.0, |k4| k4[(i, j)])
+                })
+            }
         }
     }
 

@@ -49,6 +49,7 @@ use crate::dense::{scaled_products_into, sym_eigen, MatStack};
 use crate::eigen::{lanczos_step_and_full_pass, project_once, ShiftInvert};
 use crate::factor::{certify, Certificate, CertifyBuffers};
 use crate::pencil::{Coefficient, Pencil};
+use crate::proportional::{Proportional, Remainder};
 use crate::rigid::RigidBody;
 use crate::units::hz_to_omega;
 use crate::{Error, Result};
@@ -75,6 +76,10 @@ pub const CERTIFIED_BACKWARD_ERROR: f64 = 1e-12;
 /// M-norm of the block image it came from: its direction is already in the space to
 /// rounding (deflation; the space is then invariant in that direction).
 const DEFLATE: f64 = 1e-12;
+
+/// A remainder whose relative load on the rigid modes ([`Remainder::rigid_load`]) is above
+/// this does not leave a free body's elastic response to a low-rank update.
+const RIGID_LOAD: f64 = 1e-8;
 
 /// The Ritz decomposition T = ZΘZᵀ and the coefficients ZᵀE₁R₀.
 struct Ritz {
@@ -160,8 +165,11 @@ pub(crate) struct ShiftedSpace<'a> {
     op: ShiftInvert<'a>,
     rigid: Option<&'a RigidBody>,
     sigma: f64,
-    alpha: f64,
-    beta: f64,
+    /// A(iω) = c_k(K − μM) + the remainder (§3.12).
+    proportional: Proportional,
+    /// The damping's low-rank remainder U G(ω) Uᵀ: the space answers U beside the load and
+    /// [`Remainder::correction`] adds it to every response (§3.12).
+    remainder: Option<&'a Remainder>,
     /// P B (N × p), real.
     load: Mat<f64>,
     /// M-orthonormal basis (N × k) and M Q.
@@ -227,11 +235,13 @@ impl Rows {
 }
 
 impl<'a> ShiftedSpace<'a> {
-    /// Factors K − σM (σ < 0) and starts the space from b₀ = (K − σM)⁻¹ `load`, where `load`
-    /// is P B (rigid-free on a free body). The basis holds at most `max_dim` vectors.
+    /// Factors K − σM (σ < 0) and starts the space from b₀ = (K − σM)⁻¹ [`load`, U], where
+    /// `load` is P B (rigid-free on a free body) and U spans the damping's low-rank remainder,
+    /// if any (§3.12). The basis holds at most `max_dim` vectors.
     ///
     /// # Errors
-    /// [`Error::InvalidSetting`] for σ ≥ 0 or a damping that is not proportional; the
+    /// [`Error::InvalidSetting`] for σ ≥ 0, a damping that is not proportional but for a
+    /// low-rank remainder, or a remainder that loads the rigid motion of a free body; the
     /// factorization's errors.
     pub fn new(
         body: &'a crate::body::Body,
@@ -241,27 +251,51 @@ impl<'a> ShiftedSpace<'a> {
         par: Par,
     ) -> Result<Self> {
         let pencil = body.pencil();
-        let Some((alpha, beta)) = pencil.proportional_damping() else {
+        let Some(&proportional) = pencil.proportional() else {
             return Err(Error::InvalidSetting(
-                "the shifted Krylov space needs D = 0 or D = alpha M + beta K".into(),
+                "the shifted Krylov space needs a damping proportional to M and K but for a \
+                 low-rank remainder"
+                    .into(),
             ));
         };
+        let remainder = pencil.remainder();
+        if let (Some(r), Some(rb)) = (remainder, body.rigid()) {
+            let e = r.rigid_load(rb.modes());
+            if !(e <= RIGID_LOAD) {
+                return Err(Error::InvalidSetting(format!(
+                    "the damping's remainder loads the free body's rigid motion ({e:.1e} \
+                     relative): the elastic response has no exact low-rank update"
+                )));
+            }
+        }
         if !(sigma < 0.0) {
             return Err(Error::InvalidSetting(format!(
                 "shift sigma = {sigma}: must be < 0 (K - sigma M positive definite)"
             )));
         }
-        let p = load.ncols();
-        let op = ShiftInvert::new(pencil, body.symbolic()?, sigma, par, p)?;
         let n = pencil.n();
-        let mut b0 = load.clone();
+        let mut b0 = match remainder {
+            Some(r) => {
+                let u = r.loads(n);
+                Mat::from_fn(n, load.ncols() + r.rank(), |i, j| {
+                    if j < load.ncols() {
+                        load[(i, j)]
+                    } else {
+                        u[(i, j - load.ncols())]
+                    }
+                })
+            }
+            None => load.clone(),
+        };
+        let p = b0.ncols();
+        let op = ShiftInvert::new(pencil, body.symbolic()?, sigma, par, p)?;
         let mut space = ShiftedSpace {
             pencil,
             op,
             rigid: body.rigid(),
             sigma,
-            alpha,
-            beta,
+            proportional,
+            remainder,
             load,
             q: Mat::zeros(n, 0),
             mq: Mat::zeros(n, 0),
@@ -341,7 +375,7 @@ impl<'a> ShiftedSpace<'a> {
         self.q.resize_with(n, kn, |i, j| qn[(i, j - k)]);
         self.mq.resize_with(n, kn, |i, j| mqn[(i, j - k)]);
         self.t.resize_with(kn, kn, |_, _| 0.0);
-        self.r0.resize_with(kn, self.load.ncols(), |_, _| 0.0);
+        self.r0.resize_with(kn, self.r0.ncols(), |_, _| 0.0);
         if k == 0 {
             self.r0
                 .as_mut()
@@ -446,11 +480,28 @@ impl<'a> ShiftedSpace<'a> {
         Ok(())
     }
 
-    /// τ = μ(ω) − σ and the factor 1 + iωβ of A(iω) = (1 + iωβ)(K − μM).
+    /// τ = μ(ω) − σ and the factor c_k of A_p(iω) = c_k(K − μM), μ = c_m/c_k (§3.12).
     fn shift(&self, omega: f64) -> (c64, c64) {
-        let scale = c64::new(1.0, omega * self.beta);
-        let mu = c64::new(omega * omega, -omega * self.alpha) / scale;
-        (mu - self.sigma, scale)
+        let (ck, cm) = self.proportional.coefficients(omega);
+        (cm / ck - self.sigma, ck)
+    }
+
+    /// The response's coefficients c = c_b − c_u w (k × p) from the proportional ones of the
+    /// load and of U (`all`, k × (p + r)), with w from the remainder's r × r correction
+    /// (§3.12); `all` itself without a remainder.
+    fn corrected(&self, omega: f64, all: Mat<c64>) -> Mat<c64> {
+        let Some(r) = self.remainder else {
+            return all;
+        };
+        let p = self.load.ncols();
+        let qj = Mat::<f64>::from_fn(r.dofs.len(), all.nrows(), |i, j| self.q[(r.dofs[i], j)]);
+        let at_j = complex_product(qj.as_ref(), all.as_ref());
+        let w = r.correction(
+            omega,
+            r.project(at_j.as_ref().subcols(0, p)).as_ref(),
+            r.project(at_j.as_ref().subcols(p, r.rank())).as_ref(),
+        );
+        all.as_ref().subcols(0, p) - all.as_ref().subcols(p, r.rank()) * &w
     }
 
     /// y(τ) restricted to the rows `rows` of the basis (k × p complex over those rows).
@@ -563,7 +614,10 @@ impl<'a> ShiftedSpace<'a> {
             .map(|&th| (tau * th).norm() / (c64::new(1.0, 0.0) - tau * th).norm())
             .fold(0.0, f64::max);
         let inv = scale.inv();
-        let coefficients = Mat::from_fn(y.nrows(), y.ncols(), |i, c| y[(i, c)] * inv);
+        let coefficients = self.corrected(
+            omega,
+            Mat::from_fn(y.nrows(), y.ncols(), |i, c| y[(i, c)] * inv),
+        );
         let certificate = self.lift(omega, coefficients.as_ref(), par, buffers);
         Ok(Solution {
             coefficients,
@@ -586,7 +640,10 @@ impl<'a> ShiftedSpace<'a> {
             });
         };
         let k = self.dim();
-        let qz = Mat::<f64>::from_fn(rows.len(), k, |i, j| self.q[(rows[i], j)]) * &ritz.z;
+        // the rows asked, then the remainder's J (its correction needs them)
+        let j_rows = self.remainder.map_or(&[][..], |r| &r.dofs[..]);
+        let all_rows: Vec<usize> = rows.iter().chain(j_rows).copied().collect();
+        let qz = Mat::<f64>::from_fn(all_rows.len(), k, |i, j| self.q[(all_rows[i], j)]) * &ritz.z;
         let (taus, scales): (Vec<c64>, Vec<c64>) = freqs_hz
             .iter()
             .map(|&f| {
@@ -595,7 +652,20 @@ impl<'a> ShiftedSpace<'a> {
             })
             .unzip();
         let row = |f: usize, d: &mut [c64]| resolvent(ritz, taus[f], scales[f], d);
-        let h = MatStack::scaled_products(qz.as_ref(), ritz.c.as_ref(), taus.len(), row);
+        let mut h = MatStack::scaled_products(qz.as_ref(), ritz.c.as_ref(), taus.len(), row);
+        if let Some(r) = self.remainder {
+            let (q, p) = (rows.len(), self.load.ncols());
+            h = MatStack::from_fn(q, p, taus.len(), |f| {
+                let all = h.get(f);
+                let at_j = all.subrows(q, r.dofs.len());
+                let w = r.correction(
+                    hz_to_omega(freqs_hz[f]),
+                    r.project(at_j.subcols(0, p)).as_ref(),
+                    r.project(at_j.subcols(p, r.rank())).as_ref(),
+                );
+                all.submatrix(0, 0, q, p) - all.submatrix(0, p, q, r.rank()) * &w
+            });
+        }
         let answered = match self.estimated.take() {
             Some((dim, f, e)) if dim == k && f == freqs_hz => e,
             _ => self.estimates(freqs_hz),
@@ -675,6 +745,14 @@ impl<'a> ShiftedSpace<'a> {
     }
 }
 
+/// A C for real A and complex C, as A Re C + i A Im C.
+fn complex_product(a: MatRef<'_, f64>, c: MatRef<'_, c64>) -> Mat<c64> {
+    let (re, im) = (a * c.map(|x| x.re), a * c.map(|x| x.im));
+    Mat::from_fn(a.nrows(), c.ncols(), |i, j| {
+        c64::new(re[(i, j)], im[(i, j)])
+    })
+}
+
 /// d_j = s / (1 − τ θ_j): the Ritz values' resolvent at the shift τ, times s.
 fn resolvent(ritz: &Ritz, tau: c64, s: c64, d: &mut [c64]) {
     for (d, &theta) in d.iter_mut().zip(&ritz.theta) {
@@ -687,21 +765,118 @@ mod tests {
     use super::*;
     use crate::body::Body;
     use crate::fe::{bar_model, paper_scene, BoxSpec};
-    use crate::model::Damping;
+    use crate::model::{Damping, Model, Structural};
+    use crate::sparse::Csc;
     use crate::sweep::{FreqStats, Response as Kind, SolveMethod, Solver, SweepOptions};
     use proptest::prelude::*;
     use std::sync::Mutex;
 
     /// The paper bar, coarsely meshed (free), with `damping`.
     fn bar(damping: Damping) -> (Body, Vec<usize>) {
+        bar_with(|m| m.damping = damping)
+    }
+
+    /// The paper bar, coarsely meshed (free), changed by `change`.
+    fn bar_with(change: impl FnOnce(&mut Model)) -> (Body, Vec<usize>) {
         let spec = BoxSpec {
             elements: [1, 2, 24],
             ..BoxSpec::paper_bar()
         };
         let mut model = bar_model(&spec).unwrap();
-        model.damping = damping;
+        change(&mut model);
         let inputs = paper_scene(&spec).inputs;
         (Body::new(&model).unwrap(), inputs)
+    }
+
+    /// a M + b K + the entries `extra` (full storage, both triangles given).
+    fn combined(model: &Model, a: f64, b: f64, extra: &[(usize, usize, f64)]) -> Csc {
+        let mut t = crate::sparse::Triplets::default();
+        for (x, s) in [(&model.mass, a), (&model.stiffness, b)] {
+            for j in 0..x.ncols() {
+                let rows = x.symbolic().row_idx_of_col_raw(j);
+                for (&i, &v) in rows.iter().zip(x.val_of_col(j)) {
+                    t.push(i, j, s * v);
+                }
+            }
+        }
+        extra.iter().for_each(|&(i, j, v)| t.push(i, j, v));
+        t.into_csc(model.n(), false)
+    }
+
+    /// β K plus two axial dashpots c (e_a − e_b)(e_a − e_b)ᵀ along the bar's axis z: from
+    /// node 0 to the far node on its line, and from that line's middle node to the next
+    /// line's far node... both between z DoFs of nodes on one line parallel to z, so that
+    /// rigid motion does not load them.
+    fn with_dashpots(model: &Model, beta: f64, c: f64) -> Csc {
+        let nodes = model.nodes.as_ref().expect("the bar has nodes");
+        let line = |x: [f64; 3]| {
+            let mut on: Vec<usize> = (0..nodes.len())
+                .filter(|&i| nodes[i][0] == x[0] && nodes[i][1] == x[1])
+                .collect();
+            on.sort_by(|&a, &b| nodes[a][2].total_cmp(&nodes[b][2]));
+            on
+        };
+        let first = line(nodes[0]);
+        let other = line(nodes[nodes.len() - 1]);
+        let mut extra = Vec::new();
+        for (a, b) in [
+            (first[0], first[first.len() - 1]),
+            (other[other.len() / 2], other[0]),
+        ] {
+            let (a, b) = (3 * a + 2, 3 * b + 2);
+            extra.extend([(a, a, c), (b, b, c), (a, b, -c), (b, a, -c)]);
+        }
+        combined(model, 0.0, beta, &extra)
+    }
+
+    /// Every damping the space answers (docs/design.md §3.12) gives certified responses equal
+    /// to factored ones, none of them factored: an explicit D that is α M + β K, a loss factor
+    /// η (alone and with Rayleigh damping), K₄ = ηK as a matrix, and dashpots on β K (a
+    /// rank-2 remainder).
+    #[test]
+    fn every_proportional_or_low_rank_damping_is_answered_by_the_space() {
+        let freqs = [3.0, 117.0, 410.5, 640.0, 999.0];
+        let rayleigh_file = |m: &mut Model| {
+            m.damping = Damping::Matrix(combined(m, 3.0, 2e-6, &[]));
+        };
+        let eta = |m: &mut Model| {
+            m.structural = Structural {
+                eta: 0.02,
+                matrix: None,
+            }
+        };
+        let rayleigh_eta = |m: &mut Model| {
+            m.damping = Damping::Rayleigh {
+                alpha: 3.0,
+                beta: 2e-6,
+            };
+            eta(m);
+        };
+        let k4 = |m: &mut Model| {
+            m.structural = Structural {
+                eta: 0.0,
+                matrix: Some(combined(m, 0.0, 0.02, &[])),
+            }
+        };
+        let dashpots = |m: &mut Model| m.damping = Damping::Matrix(with_dashpots(m, 1e-6, 50.0));
+        let cases: [(&str, &dyn Fn(&mut Model)); 5] = [
+            ("D = 3 M + 2e-6 K as a matrix", &rayleigh_file),
+            ("eta 0.02", &eta),
+            ("Rayleigh and eta 0.02", &rayleigh_eta),
+            ("K4 = 0.02 K as a matrix", &k4),
+            ("dashpots on 1e-6 K", &dashpots),
+        ];
+        for (what, change) in cases {
+            let (body, inputs) = bar_with(change);
+            let d = krylov_vs_factored_body(&body, &inputs, &freqs);
+            assert!(d <= 1e-8, "{what}: relative difference {d:.2e}");
+            let low_rank = body.pencil().remainder().map_or(0, |r| r.rank());
+            assert_eq!(
+                low_rank,
+                if what.starts_with("dashpots") { 2 } else { 0 },
+                "{what}"
+            );
+        }
     }
 
     /// The elastic responses at `freqs` and their stats, by `method`.
@@ -736,6 +911,12 @@ mod tests {
     /// responses and factored ones; every response must come from the space.
     fn krylov_vs_factored(damping: Damping, freqs: &[f64]) -> f64 {
         let (body, inputs) = bar(damping);
+        krylov_vs_factored_body(&body, &inputs, freqs)
+    }
+
+    /// [`krylov_vs_factored`] for a body.
+    fn krylov_vs_factored_body(body: &Body, inputs: &[usize], freqs: &[f64]) -> f64 {
+        let (body, inputs) = (body, inputs);
         let (x, stats) = responses(&body, &inputs, freqs, SolveMethod::Auto);
         let (x0, _) = responses(&body, &inputs, freqs, SolveMethod::Factored);
         for s in &stats {
@@ -798,6 +979,16 @@ mod tests {
             alpha: 0.0,
             beta: 1e-5,
         });
+        rows_at_equal_lifted(&body, &inputs);
+        // with a low-rank remainder, corrected in both
+        let (body, inputs) =
+            bar_with(|m| m.damping = Damping::Matrix(with_dashpots(m, 1e-5, 30.0)));
+        assert!(body.pencil().remainder().is_some());
+        rows_at_equal_lifted(&body, &inputs);
+    }
+
+    /// [`rows_at_equal_the_lifted_responses`] for one body.
+    fn rows_at_equal_lifted(body: &Body, inputs: &[usize]) {
         let load = body.elastic_load(&inputs);
         let sigma = -crate::units::hz_to_lambda(50.0);
         let freqs = [30.0, 333.0, 777.0, 990.0];

@@ -1006,14 +1006,14 @@ impl<'a> Solver<'a> {
 /// Whether a solver of `body` for `response` with `opts` answers frequencies from a
 /// shifted Krylov space ([`SolveMethod::Auto`], docs/design.md §3.10): the factors are kept
 /// in memory and whole in this process ([`crate::factor::held_whole`]), the damping is
-/// proportional, and the response is elastic or the body
+/// proportional but for a low-rank remainder (§3.12), and the response is elastic or the body
 /// constrained (a free body's total response keeps its rigid part, which the space leaves
 /// out).
 pub(crate) fn space_applies(body: &Body, response: Response, opts: &SweepOptions) -> bool {
     opts.method == SolveMethod::Auto
         && opts.out_of_core.is_none()
         && crate::factor::held_whole(opts.backend)
-        && body.pencil().proportional_damping().is_some()
+        && body.pencil().proportional().is_some()
         && (response == Response::Elastic || body.rigid().is_none())
 }
 

@@ -282,6 +282,7 @@ fn measure(model: &Model, scene: &Scene, backend: Backend) -> Result<Row> {
     // real path: the same model without damping
     let undamped = Model {
         damping: Damping::None,
+        structural: Default::default(),
         ..model.clone()
     };
     let pencil_r = Pencil::new(&undamped);

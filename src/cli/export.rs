@@ -22,7 +22,7 @@ use std::path::PathBuf;
 pub enum Format {
     /// EXUDYN's ObjectFFRFreducedOrder (flexible_body.npz + export.toml).
     Exudyn,
-    /// Nastran OUTPUT4 ASCII file of Mr, Dr, Kr, Br, Cr (rom.op4); V not needed.
+    /// Nastran OUTPUT4 ASCII file of Mr, Dr, Kr, Br, Cr and K4r (rom.op4); V not needed.
     Op4,
     /// Nastran DMIG bulk data of Mr, Kr, Dr by grid/component (dmig.bdf + coordinates.csv);
     /// V not needed.
@@ -82,7 +82,12 @@ pub fn export(a: &ExportArgs) -> Result<()> {
             println!(
                 "op4              {}: {} (ASCII, real double, 1P,3E23.16), order {}",
                 op4::ROM_FILE,
-                op4::ROM_MATRICES.map(|(n, _)| n).join(" "),
+                op4::ROM_MATRICES
+                    .iter()
+                    .take(rom.matrices().len())
+                    .map(|(n, _)| *n)
+                    .collect::<Vec<_>>()
+                    .join(" "),
                 rom.order()
             );
             eprintln!("wrote {}", a.out.display());

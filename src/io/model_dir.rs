@@ -10,6 +10,9 @@
 //! [rayleigh]                # D = alpha*M + beta*K when no damping file
 //! alpha = 0.0
 //! beta = 1e-5
+//! # structural_damping = "K4.mtx"  # optional structural damping matrix K4
+//! [structural]              # optional loss factor: A(iω) = (1 + i eta)K + iK4 − ω²M + iωD
+//! eta = 0.02
 //! [scene]                   # CLI flags override
 //! inputs = [0, 1, 2]
 //! outputs = [0, 1, 2]
@@ -56,7 +59,7 @@ use crate::io::file::read_regular_text;
 use crate::io::import::{self, Direction, Dof};
 use crate::io::joints::{self, RemotePointToml};
 use crate::io::{atomic, matrix_market};
-use crate::model::{Damping, Model, ValidationReport};
+use crate::model::{Damping, Model, Structural, ValidationReport};
 use crate::scene::Scene;
 use crate::{Error, Result};
 use serde::{Deserialize, Serialize};
@@ -90,6 +93,12 @@ pub struct Manifest {
     /// Rayleigh coefficients (used when there is no damping file).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rayleigh: Option<Rayleigh>,
+    /// Optional structural damping matrix file K₄ (A(iω) = K + i(ηK + K₄) − ω²M + iωD).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub structural_damping: Option<String>,
+    /// `[structural]`: a uniform loss factor η.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub structural: Option<StructuralToml>,
     /// The default scene.
     pub scene: SceneToml,
     /// Where an imported model came from.
@@ -295,6 +304,14 @@ pub struct Rayleigh {
     /// β (s).
     #[serde(default)]
     pub beta: f64,
+}
+
+/// `[structural]`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StructuralToml {
+    /// The loss factor η ≥ 0 on K (e.g. 0.02; twice the modal damping ratio at resonance).
+    pub eta: f64,
 }
 
 /// `[scene]`.
@@ -554,6 +571,15 @@ pub fn load(dir: &Path) -> Result<Loaded> {
             )))
         }
     };
+    let structural = Structural {
+        eta: man.structural.as_ref().map_or(0.0, |s| s.eta),
+        matrix: man
+            .structural_damping
+            .as_ref()
+            .map(|f| matrix_market::read_sparse(&dir.join(f)))
+            .transpose()?,
+    };
+    let model = model.with_structural(structural).map_err(named)?;
     let joints = !man.remote_points.is_empty()
         || man.scene.input_matrix.is_some()
         || man.scene.output_matrix.is_some();
@@ -760,6 +786,16 @@ pub fn write_with_source(
                 (Some("D.mtx".to_string()), None)
             }
         };
+        let structural_damping = match &model.structural.matrix {
+            Some(k4) => {
+                matrix_market::write_coordinate(&tmp.join("K4.mtx"), k4.as_ref(), true)?;
+                Some("K4.mtx".to_string())
+            }
+            None => None,
+        };
+        let structural = (model.structural.eta != 0.0).then_some(StructuralToml {
+            eta: model.structural.eta,
+        });
         if let Some(nodes) = &model.nodes {
             let mut s = String::with_capacity(nodes.len() * 40);
             s.push_str("x,y,z\n");
@@ -776,6 +812,8 @@ pub fn write_with_source(
             nodes: model.nodes.as_ref().map(|_| "nodes.csv".into()),
             dofs_per_node: Some(model.dofs_per_node),
             rayleigh,
+            structural_damping,
+            structural,
             scene: SceneToml {
                 inputs: scene
                     .inputs

@@ -41,6 +41,9 @@ struct Manifest {
     #[serde(default)]
     timings_s: Vec<(String, f64)>,
     has_basis: bool,
+    /// K4r.mtx holds the structural damping K₄r (docs/design.md §3.12).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    structural_damping: bool,
     #[serde(default)]
     serep_cond: Option<f64>,
     /// Craig–Bampton numerics (absent for other methods and older directories).
@@ -162,6 +165,7 @@ fn write_dir(dir: &Path, rom: &Rom, body: Option<&Body>) -> Result<()> {
                 .map(|t| (t.phase.clone(), t.seconds))
                 .collect(),
             has_basis: rom.basis.is_some(),
+            structural_damping: rom.k4r.is_some(),
             serep_cond: rom.serep_cond(),
             craig_bampton: rom.craig_bampton().cloned(),
             sampling: rom.sampling().map(|r| SamplingToml {
@@ -300,6 +304,23 @@ pub fn read(dir: &Path) -> Result<Rom> {
         ));
     }
     let basis = if man.has_basis { Some(rd("V")?) } else { None };
+    let k4r = if man.structural_damping {
+        let k4r = rd("K4r")?;
+        if k4r.nrows() != n || k4r.ncols() != n {
+            return Err(Error::parse(
+                &path,
+                0,
+                format!(
+                    "K4r.mtx is {}x{}, not order x order = {n}x{n}",
+                    k4r.nrows(),
+                    k4r.ncols()
+                ),
+            ));
+        }
+        Some(k4r)
+    } else {
+        None
+    };
     if let Some(v) = &basis {
         if v.ncols() != n || man.full_n.is_some_and(|full| v.nrows() != full) {
             return Err(Error::parse(
@@ -322,6 +343,7 @@ pub fn read(dir: &Path) -> Result<Rom> {
         mr,
         dr,
         kr,
+        k4r,
         br,
         cr,
         dofs: man.dofs,

@@ -49,8 +49,8 @@ impl Definiteness {
     }
 }
 
-/// The Galerkin projection of docs/design.md §3.4: Mr = VᵀMV, Kr = VᵀKV, Dr = VᵀDV (all
-/// symmetrized), Br = Vᵀ P B (P: inertia relief on a free body, identity otherwise),
+/// The Galerkin projection of docs/design.md §3.4: Mr = VᵀMV, Kr = VᵀKV, Dr = VᵀDV,
+/// K₄r = VᵀHV (all symmetrized), Br = Vᵀ P B (P: inertia relief on a free body, identity otherwise),
 /// Cr = C V. Cost O(nnz·n + N·n²); MV is formed once as a sparse × dense product.
 pub struct Projected {
     /// Vᵀ M V.
@@ -59,6 +59,8 @@ pub struct Projected {
     pub dr: Mat<f64>,
     /// Vᵀ K V.
     pub kr: Mat<f64>,
+    /// Vᵀ H V (H = ηK + K₄) when the body has structural damping.
+    pub k4r: Option<Mat<f64>>,
     /// Vᵀ P B.
     pub br: Mat<f64>,
     /// C V.
@@ -74,8 +76,18 @@ pub fn project(body: &Body, scene: &Scene, v: MatRef<'_, f64>) -> Projected {
     let dr = pencil.damping_term(&mr, &kr, || {
         sym(v.transpose() * pencil.mul(Coefficient::Damping, v))
     });
+    let k4r = pencil.structural_term(&kr, || {
+        sym(v.transpose() * pencil.mul(Coefficient::Structural, v))
+    });
     let br = v.transpose() * body.elastic_load(&scene.inputs);
     let outputs = &scene.outputs;
     let cr = Mat::from_fn(outputs.len(), v.ncols(), |o, j| v[(outputs[o], j)]);
-    Projected { mr, dr, kr, br, cr }
+    Projected {
+        mr,
+        dr,
+        kr,
+        k4r,
+        br,
+        cr,
+    }
 }

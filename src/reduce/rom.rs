@@ -127,6 +127,9 @@ pub struct Rom {
     pub dr: Mat<f64>,
     /// Reduced stiffness (n×n, symmetric).
     pub kr: Mat<f64>,
+    /// Reduced structural damping K₄r = VᵀHV, H = ηK + K₄ (n×n, symmetric), when the body has
+    /// structural damping: Hr(iω) = Cr(Kr + iK₄r − ω²Mr + iωDr)⁻¹Br (docs/design.md §3.12).
+    pub k4r: Option<Mat<f64>>,
     /// Reduced input matrix Vᵀ P B (n×p).
     pub br: Mat<f64>,
     /// Reduced output matrix C V (q×n).
@@ -172,6 +175,7 @@ impl Rom {
             mr: pr.mr,
             dr: pr.dr,
             kr: pr.kr,
+            k4r: pr.k4r,
             br: pr.br,
             cr: pr.cr,
             dofs,
@@ -185,15 +189,20 @@ impl Rom {
         }
     }
 
-    /// The five matrices by their file names: Mr, Dr, Kr, Br, Cr.
-    pub fn matrices(&self) -> [(&'static str, &Mat<f64>); 5] {
-        [
+    /// The matrices by their file names: Mr, Dr, Kr, Br, Cr, then K4r when the ROM has
+    /// structural damping.
+    pub fn matrices(&self) -> Vec<(&'static str, &Mat<f64>)> {
+        let mut all = vec![
             ("Mr", &self.mr),
             ("Dr", &self.dr),
             ("Kr", &self.kr),
             ("Br", &self.br),
             ("Cr", &self.cr),
-        ]
+        ];
+        if let Some(k4r) = &self.k4r {
+            all.push(("K4r", k4r));
+        }
+        all
     }
 
     /// Order n.
@@ -292,13 +301,15 @@ impl Rom {
         Ok(())
     }
 
-    /// X̃(iω) = (Kr − ω²Mr + iωDr)⁻¹ Br (n × inputs): the reduced state response, `w` = ω.
+    /// X̃(iω) = (Kr + iK₄r − ω²Mr + iωDr)⁻¹ Br (n × inputs): the reduced state response,
+    /// `w` = ω.
     pub fn reduced_response(&self, w: f64) -> Mat<c64> {
         let n = self.order();
+        let h = |i, j| self.k4r.as_ref().map_or(0.0, |h: &Mat<f64>| h[(i, j)]);
         let a = Mat::<c64>::from_fn(n, n, |i, j| {
             c64::new(
                 self.kr[(i, j)] - w * w * self.mr[(i, j)],
-                w * self.dr[(i, j)],
+                w * self.dr[(i, j)] + h(i, j),
             )
         });
         let b = Mat::<c64>::from_fn(n, self.br.ncols(), |i, j| c64::new(self.br[(i, j)], 0.0));

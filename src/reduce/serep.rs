@@ -199,6 +199,7 @@ pub fn reduce(
         mr: congruence(&modal.mr),
         dr: congruence(&modal.dr),
         kr: congruence(&modal.kr),
+        k4r: modal.k4r.as_ref().map(congruence),
         br: pinv.transpose() * &modal.br,
         cr: &modal.cr * &pinv,
     };

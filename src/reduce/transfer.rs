@@ -11,7 +11,8 @@
 //! [η·√(g f) + √(g_δ f) + √(g f_δ) + √(g_δ f_δ)] / (1 − η) + γ·√(g f) of the exact Hr (Frobenius),
 //! where g = ‖G|D|^{-1/2}‖²_F, f = ‖|D|^{-1/2}F‖²_F, the δ terms bound the rounding of G and F
 //! and γ that of the sum. A frequency whose bound exceeds [`MODAL_RTOL`]·‖Hr‖_F is solved by
-//! the LU, as is every frequency of a ROM without the modal form (Mr not positive definite).
+//! the LU, as is every frequency of a ROM without the modal form (Mr not positive definite,
+//! or structural damping K₄r: Hr = Cr(Kr + iK₄r − ω²Mr + iωDr)⁻¹Br, §3.12).
 
 use super::spectrum::rom_modes;
 use super::Rom;
@@ -123,8 +124,12 @@ const ETA_BLOCK: usize = 256;
 const U: f64 = f64::EPSILON / 2.0;
 
 impl Modal {
-    /// `None` when Mr is not positive definite or its eigenproblem fails.
+    /// `None` when Mr is not positive definite or its eigenproblem fails, and for a ROM with
+    /// structural damping (its modal form has no bound here yet: the LU answers).
     fn new(rom: &Rom) -> Option<Self> {
+        if rom.k4r.is_some() {
+            return None;
+        }
         let (lambda, phi) = rom_modes(rom).ok()?;
         let n = lambda.len();
         let (alpha, beta) = proportional_fit(rom.mr.as_ref(), rom.kr.as_ref(), rom.dr.as_ref());

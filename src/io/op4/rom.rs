@@ -1,4 +1,4 @@
-//! The ROM as an OP4 file, [`write_rom`]: `rom.op4` holding Mr, Dr, Kr (form 6, symmetric,
+//! The ROM as an OP4 file, [`write_rom`]: `rom.op4` holding Mr, Dr, Kr, K₄r (form 6, symmetric,
 //! both triangles as NASTRAN stores them) and Br, Cr (form 2, rectangular), ASCII, real double
 //! precision (type 2), dense column records, `1P,3E23.16` — the layout NASTRAN's `OUTPUT4`
 //! writes by default, read back bit for bit (the writer: [`super::writer`]).
@@ -13,10 +13,18 @@ use std::path::Path;
 /// The file [`write_rom`] writes.
 pub const ROM_FILE: &str = "rom.op4";
 
-/// The OP4 names of the ROM's matrices, in the order they are written, with their forms.
-pub const ROM_MATRICES: [(&str, i32); 5] = [("MR", 6), ("DR", 6), ("KR", 6), ("BR", 2), ("CR", 2)];
+/// The OP4 names of the ROM's matrices, in the order they are written, with their forms
+/// (K4R, the structural damping, only when the ROM has it).
+pub const ROM_MATRICES: [(&str, i32); 6] = [
+    ("MR", 6),
+    ("DR", 6),
+    ("KR", 6),
+    ("BR", 2),
+    ("CR", 2),
+    ("K4R", 6),
+];
 
-/// Writes the ROM's Mr, Dr, Kr, Br, Cr as `MR DR KR BR CR` into `dir/rom.op4` (see the
+/// Writes the ROM's Mr, Dr, Kr, Br, Cr (and K₄r) as `MR DR KR BR CR (K4R)` into `dir/rom.op4` (see the
 /// module doc; a zero matrix is a header and the end record). `dir` is created atomically.
 ///
 /// # Errors

@@ -2,7 +2,8 @@
 //!
 //! The residual of the ROM's reduced solution lifted to the full model,
 //! Res(s) = PB − A(s) V X̃(s) with X̃ = Ar(s)⁻¹ Br and A(s) = s²M + sD + K, is
-//! Res(s) = Z c(s) with Z = [PB, MV, DV, KV] (N × (p + 3n)) and c = [I; −s²X̃; −sX̃; −X̃].
+//! Res(s) = Z c(s) with Z = [PB, MV, DV, KV] (N × (p + 3n)) and c = [I; −s²X̃; −sX̃; −X̃];
+//! with structural damping H (§3.12) Z gains HV and c gains −iX̃.
 //! With the thin QR Z = Q R (done once per ROM), ‖Res(s)‖_F = ‖R c(s)‖_F — the QR form of
 //! the Gram identity ‖Res‖² = tr(cᴴ ZᵀZ c), without its loss of half the digits. The indicator
 //! is Δ(s) = ‖Res(s)‖_F / ‖PB‖_F; each evaluation costs O((p + 3n)² p), independent of N.
@@ -37,16 +38,15 @@ impl Indicator {
         let mv = pencil.mul(Coefficient::Mass, v.as_ref());
         let kv = pencil.mul(Coefficient::Stiffness, v.as_ref());
         let dv = pencil.damping_term(&mv, &kv, || pencil.mul(Coefficient::Damping, v.as_ref()));
-        let w = p + 3 * n;
+        let hv = pencil.structural_term(&kv, || pencil.mul(Coefficient::Structural, v.as_ref()));
+        let blocks = [Some(&mv), Some(&dv), Some(&kv), hv.as_ref()];
+        let blocks: Vec<&Mat<f64>> = blocks.into_iter().flatten().collect();
+        let w = p + blocks.len() * n;
         let z = Mat::<f64>::from_fn(n_full, w, |i, j| {
             if j < p {
                 pb[(i, j)]
-            } else if j < p + n {
-                mv[(i, j - p)]
-            } else if j < p + 2 * n {
-                dv[(i, j - p - n)]
             } else {
-                kv[(i, j - p - 2 * n)]
+                blocks[(j - p) / n][(i, (j - p) % n)]
             }
         });
         let norm_pb = z.as_ref().subcols(0, p).norm_l2();
@@ -59,16 +59,18 @@ impl Indicator {
         let w = 2.0 * std::f64::consts::PI * f_hz;
         let n = rom.order();
         let x = rom.reduced_response(w);
-        // c = [I; −s²X̃; −sX̃; −X̃] with s = iω: −s² = ω², −s = −iω
-        let c = Mat::<c64>::from_fn(self.p + 3 * n, self.p, |i, j| {
+        // c = [I; −s²X̃; −sX̃; −X̃; −iX̃] with s = iω: −s² = ω², −s = −iω
+        let factors = [
+            c64::new(w * w, 0.0),
+            c64::new(0.0, -w),
+            c64::new(-1.0, 0.0),
+            c64::new(0.0, -1.0),
+        ];
+        let c = Mat::<c64>::from_fn(self.r.ncols(), self.p, |i, j| {
             if i < self.p {
                 c64::new(if i == j { 1.0 } else { 0.0 }, 0.0)
-            } else if i < self.p + n {
-                x[(i - self.p, j)] * (w * w)
-            } else if i < self.p + 2 * n {
-                x[(i - self.p - n, j)] * c64::new(0.0, -w)
             } else {
-                -x[(i - self.p - 2 * n, j)]
+                x[((i - self.p) % n, j)] * factors[(i - self.p) / n]
             }
         });
         let rc = Mat::<c64>::from_fn(self.r.nrows(), self.r.ncols(), |i, j| {
