@@ -31,7 +31,7 @@ LAYERS = [
                  "engine::cluster", "grid", "random"]),
     ("model", ["model", "scene", "coupling", "io::atomic", "io::binary", "io::file",
                "io::matrix_market", "io::npz", "io::import", "io::op4", "io::text", "io"]),
-    ("pencil", ["pencil", "rigid", "fe", "coupled"]),
+    ("pencil", ["pencil", "proportional", "rigid", "fe", "coupled"]),
     ("factor", ["factor"]),
     ("body", ["body", "io::model_dir", "io::joints"]),
     ("engine", ["sweep", "engine", "frf", "eigen", "shifted_space"]),

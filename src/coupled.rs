@@ -27,6 +27,8 @@ use crate::coupling::{
     RemotePoint, SparseRow,
 };
 use crate::model::{Damping, Model, Structural};
+use crate::pencil::Pencil;
+use crate::proportional::Split;
 use crate::rigid::{centroid, rigid_modes, rigid_modes_about};
 use crate::{Error, Result};
 use faer::Mat;
@@ -261,28 +263,12 @@ pub fn couple(
         .map_err(|e| Error::Factor(format!("coupled model: {e:?}")))?,
         None => change.t,
     };
-    let damping = match &model.damping {
-        Damping::Matrix(d) => Damping::Matrix(congruence(d, &t)?),
-        other => other.clone(),
-    };
     let stiffness = congruence(&model.stiffness, &t)?;
+    let mass = congruence(&model.mass, &t)?;
     let nnz = [model.stiffness.compute_nnz(), stiffness.compute_nnz()];
-    let (mut coupled, _) = Model::new(
-        model.name.clone(),
-        congruence(&model.mass, &t)?,
-        stiffness,
-        damping,
-        None,
-        dpn,
-    )?;
-    let structural = Structural {
-        eta: model.structural.eta,
-        matrix: match &model.structural.matrix {
-            Some(k4) => Some(congruence(k4, &t)?),
-            None => None,
-        },
-    };
-    coupled = coupled.with_structural(structural)?;
+    let (damping, structural) = carried_damping(model, &t, &mass, &stiffness)?;
+    let (coupled, _) = Model::new(model.name.clone(), mass, stiffness, damping, None, dpn)?;
+    let mut coupled = coupled.with_structural(structural)?;
     if let Some(nodes) = nodes {
         coupled = coupled.with_rigid_modes(rigid_modes_in(
             nodes, dpn, points, &rigid, &kept, &rows, &pivots,
@@ -297,6 +283,89 @@ pub fn couple(
         n: n1,
         t,
     })
+}
+
+/// D' and H' of the coupled model (docs/design.md §3.12): an explicit D or K₄ that splits
+/// into a proportional part and a low-rank remainder keeps the split exactly, as
+/// αM' + βK' + TᵀET (and γM' + η₄K' + TᵀFT), instead of TᵀDT, whose rounding in the dense
+/// blocks' cancellations would hide the proportional part from the coupled pencil's fit; any
+/// other damping is carried by congruence.
+fn carried_damping(
+    model: &Model,
+    t: &crate::sparse::Csc,
+    mass: &crate::sparse::Csc,
+    stiffness: &crate::sparse::Csc,
+) -> Result<(Damping, Structural)> {
+    let eta = model.structural.eta;
+    let explicit = matches!(model.damping, Damping::Matrix(_)) || model.structural.matrix.is_some();
+    let by_congruence = |x: &Option<&crate::sparse::Csc>| x.map(|x| congruence(x, t)).transpose();
+    let pencil = explicit.then(|| Pencil::new(model));
+    let (p, remainder) = match pencil.as_ref().map(|p| p.split()) {
+        Some(Split::Proportional(p)) => (*p, None),
+        Some(Split::LowRank(p, r)) => (*p, Some(r.matrices(model.n()))),
+        _ => {
+            let damping = match &model.damping {
+                Damping::Matrix(d) => Damping::Matrix(congruence(d, t)?),
+                other => other.clone(),
+            };
+            let matrix = by_congruence(&model.structural.matrix.as_ref())?;
+            return Ok((damping, Structural { eta, matrix }));
+        }
+    };
+    let (e, f) = remainder.unwrap_or((None, None));
+    let (e, f) = (by_congruence(&e.as_ref())?, by_congruence(&f.as_ref())?);
+    let damping = match (e, &model.damping) {
+        (None, Damping::Matrix(_)) if p.alpha == 0.0 && p.beta == 0.0 => Damping::None,
+        (None, Damping::Matrix(_)) => Damping::Rayleigh {
+            alpha: p.alpha,
+            beta: p.beta,
+        },
+        (Some(e), Damping::Matrix(_)) => {
+            Damping::Matrix(combination(p.alpha, mass, p.beta, stiffness, Some(&e)))
+        }
+        (_, other) => other.clone(),
+    };
+    let matrix = match (f, model.structural.matrix.is_some()) {
+        (_, false) => None,
+        (None, true) if p.gamma == 0.0 => {
+            return Ok((
+                damping,
+                Structural {
+                    eta: p.eta,
+                    matrix: None,
+                },
+            ))
+        }
+        (f, true) => Some(combination(
+            p.gamma,
+            mass,
+            p.eta - eta,
+            stiffness,
+            f.as_ref(),
+        )),
+    };
+    Ok((damping, Structural { eta, matrix }))
+}
+
+/// a M + b K + E, entry by entry in that order (full storage).
+fn combination(
+    a: f64,
+    m: &crate::sparse::Csc,
+    b: f64,
+    k: &crate::sparse::Csc,
+    e: Option<&crate::sparse::Csc>,
+) -> crate::sparse::Csc {
+    let mut out = crate::sparse::Triplets::default();
+    for (x, s) in [(Some(m), a), (Some(k), b), (e, 1.0)] {
+        let Some(x) = x else { continue };
+        for j in 0..x.ncols() {
+            let rows = x.symbolic().row_idx_of_col_raw(j);
+            for (&i, &v) in rows.iter().zip(x.val_of_col(j)) {
+                out.push(i, j, s * v);
+            }
+        }
+    }
+    out.into_csc(m.nrows(), false)
 }
 
 /// Largest dense elimination block r × |support| of the functionals (8 bytes an entry:

@@ -42,8 +42,9 @@ use faer::{c64, Mat, MatRef};
 pub const ROUNDING: f64 = 1e-12;
 
 /// The thresholds of the robust fit, loosest first: after each, the fit is redone on the
-/// entries within it.
-const THRESHOLDS: [f64; 4] = [1e-2, 1e-5, 1e-8, ROUNDING];
+/// entries within it. The last is repeated: a remainder entry a little above rounding that
+/// the previous fit kept bends it by about that much, and the refit without it is exact.
+const THRESHOLDS: [f64; 7] = [1e-2, 1e-5, 1e-8, 1e-10, ROUNDING, ROUNDING, ROUNDING];
 
 /// A singular value of the remainder [E F] on J below this fraction of the largest is
 /// rounding (of the fit or of the file's digits), not damping.
@@ -106,6 +107,25 @@ impl Remainder {
             }
         }
         u
+    }
+
+    /// E = U Ê Uᵀ and F = U F̂ Uᵀ as sparse N × N matrices (full storage, on J × J); `None`
+    /// for a part that is zero.
+    pub fn matrices(&self, n: usize) -> (Option<crate::sparse::Csc>, Option<crate::sparse::Csc>) {
+        let full = |core: &Mat<f64>| {
+            if core.norm_l2() == 0.0 {
+                return None;
+            }
+            let x = &self.basis * core * self.basis.transpose();
+            let mut t = crate::sparse::Triplets::default();
+            for (b, &j) in self.dofs.iter().enumerate() {
+                for (a, &i) in self.dofs.iter().enumerate() {
+                    t.push(i, j, 0.5 * (x[(a, b)] + x[(b, a)]));
+                }
+            }
+            Some(t.into_csc(n, false))
+        };
+        (full(&self.viscous), full(&self.structural))
     }
 
     /// Uᵀ X for X given by its rows at J (|J| × c).

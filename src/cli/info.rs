@@ -4,6 +4,7 @@ use super::args::human_bytes;
 use sparsemor::factor::{Analysis, Backend};
 use sparsemor::io::model_dir;
 use sparsemor::pencil::Pencil;
+use sparsemor::proportional::{Proportional, Split};
 use sparsemor::rigid::{rigid_modes, RigidBody};
 use sparsemor::Result;
 use std::path::Path;
@@ -39,6 +40,10 @@ pub fn info(dir: &Path) -> Result<()> {
     println!("dofs per node    {}", model.dofs_per_node);
     println!("damping          {}", describe_damping(&model.damping));
     let pencil = Pencil::new(&model);
+    if let Some(text) = describe_structural(&model.structural) {
+        println!("structural       {text}");
+    }
+    println!("damping path     {}", describe_split(pencil.split()));
     let v0 = match (&model.rigid_modes, &model.nodes) {
         (Some(v0), _) => {
             println!("nodes            none: a coupled model, rigid modes from its couplings");
@@ -123,6 +128,59 @@ pub fn info(dir: &Path) -> Result<()> {
         t_order + s.seconds
     );
     Ok(())
+}
+
+fn describe_structural(s: &sparsemor::model::Structural) -> Option<String> {
+    match (s.eta, &s.matrix) {
+        (0.0, None) => None,
+        (eta, None) => Some(format!("loss factor eta = {eta:e}: H = eta K")),
+        (eta, Some(k4)) => Some(format!(
+            "H = {eta:e} K + K4 (K4 {} entries)",
+            k4.compute_nnz()
+        )),
+    }
+}
+
+/// How the damping is answered (docs/design.md §3.12), with the fitted coefficients.
+fn describe_split(split: &Split) -> String {
+    let coefficients = |p: &Proportional| {
+        format!(
+            "alpha = {:e}, beta = {:e}, eta = {:e}{}",
+            p.alpha,
+            p.beta,
+            p.eta,
+            if p.gamma != 0.0 {
+                format!(", gamma = {:e}", p.gamma)
+            } else {
+                String::new()
+            }
+        )
+    };
+    match split {
+        Split::Proportional(p) => format!(
+            "proportional ({}): one shifted Krylov space answers every frequency",
+            coefficients(p)
+        ),
+        Split::LowRank(p, r) => format!(
+            "proportional ({}) + a rank-{} remainder on {} DoFs (dampers): one shifted Krylov \
+             space and a {}x{} correction per frequency",
+            coefficients(p),
+            r.rank(),
+            r.dofs.len(),
+            r.rank(),
+            r.rank()
+        ),
+        Split::General(p, dofs) => format!(
+            "not proportional: the remainder after the fit ({}) touches {} DoFs; every \
+             frequency is factored",
+            coefficients(p),
+            if *dofs == usize::MAX {
+                "most".to_string()
+            } else {
+                dofs.to_string()
+            }
+        ),
+    }
 }
 
 fn describe_damping(d: &sparsemor::model::Damping) -> String {

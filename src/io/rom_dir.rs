@@ -289,7 +289,7 @@ pub fn read(dir: &Path) -> Result<Rom> {
     // index out of range; found by the `rom_dir` fuzz target); Craig–Bampton's modal
     // amplitudes follow its boundary DoFs
     let modal = match &provenance {
-        Provenance::CraigBampton(r) => r.fixed_interface_hz.len(),
+        Provenance::CraigBampton(r) => r.fixed_interface_hz.len() + r.residual_vectors,
         _ => 0,
     };
     if man.dofs.len() + modal != n {

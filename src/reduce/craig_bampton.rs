@@ -17,6 +17,12 @@
 //! ([`project`], §3.4); its coordinates are the n_b boundary DoFs ([`Rom::dofs`]) followed
 //! by the c modal amplitudes.
 //!
+//! With a damping whose remainder after its proportional part lives on few DoFs (dashpots,
+//! §3.12), the fixed-interface modes alone have no static response to the dampers' forces;
+//! the basis then gains the residual vectors R = [0; K_ii⁻¹ U_i] of the remainder's force
+//! patterns U (its rows on the interior), M_ii-orthogonalized against Φ_c and each other
+//! (Nastran's residual vectors for viscous elements), after the modes.
+//!
 //! Entry point: [`reduce`].
 
 use super::interface::Interface;
@@ -141,7 +147,19 @@ pub fn reduce(body: &Body, scene: &Scene, opts: &CraigBamptonOptions) -> Result<
     for (j, &d) in boundary.iter().enumerate() {
         v[(d, j)] = 1.0;
     }
-    let statics = constraint_modes(&inner_body, &k_ib, &interior, v.as_mut(), par)?;
+    // the dampers' force patterns on the interior, solved with the same K_ii factor
+    let mut dampers = body.pencil().remainder().map(|r| {
+        let u = r.loads(n_full);
+        Mat::<f64>::from_fn(n_i, r.rank(), |k, j| u[(interior[k], j)])
+    });
+    let statics = constraint_modes(
+        &inner_body,
+        &k_ib,
+        &interior,
+        v.as_mut(),
+        dampers.as_mut(),
+        par,
+    )?;
     let statics_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let (fixed_interface_hz, mode_residuals) = if c == 0 {
@@ -157,6 +175,20 @@ pub fn reduce(body: &Body, scene: &Scene, opts: &CraigBamptonOptions) -> Result<
         (hz.collect(), modes.residuals)
     };
     let eigen_s = t.elapsed().as_secs_f64();
+    let residual_vectors = match dampers {
+        Some(r) => {
+            let r = residual_vectors(&inner_body, r, v.as_ref(), &interior, boundary.len());
+            let k = v.ncols();
+            v.resize_with(n_full, k + r.ncols(), |_, _| 0.0);
+            for j in 0..r.ncols() {
+                for (i, &d) in interior.iter().enumerate() {
+                    v[(d, k + j)] = r[(i, j)];
+                }
+            }
+            r.ncols()
+        }
+        None => 0,
+    };
     let t = Instant::now();
     let pr = project(body, scene, v.as_ref());
     let proj_s = t.elapsed().as_secs_f64();
@@ -174,6 +206,7 @@ pub fn reduce(body: &Body, scene: &Scene, opts: &CraigBamptonOptions) -> Result<
             factorization: statics.factorization.into(),
             pivot_ratio: statics.pivot_ratio,
             static_residual: statics.residual,
+            residual_vectors,
         }),
         n_full,
         pr,
@@ -256,12 +289,14 @@ struct Statics {
 
 /// Ψ = −K_ii⁻¹ K_ib into the interior rows of the first n_b columns of `v`: one
 /// factorization of K_ii (Cholesky, or LBLᵀ when K_ii is not positive definite), solves in
-/// column blocks of [`BLOCK`], and the relative residual of every column.
+/// column blocks of [`BLOCK`], and the relative residual of every column; `extra` (interior
+/// rows) is overwritten with K_ii⁻¹ `extra` by the same factor.
 fn constraint_modes(
     inner: &Body,
     k_ib: &Csc,
     interior: &[usize],
     mut v: MatMut<'_, f64>,
+    extra: Option<&mut Mat<f64>>,
     par: Par,
 ) -> Result<Statics> {
     let pencil = inner.pencil();
@@ -325,9 +360,62 @@ fn constraint_modes(
             }
         }
     }
+    if let Some(x) = extra {
+        for start in (0..x.ncols()).step_by(block.max(1)) {
+            let w = block.min(x.ncols() - start);
+            let mut part = x.as_mut().subcols_mut(start, w);
+            match &mut lblt {
+                None => chol.solve_block(part.as_mut(), par),
+                Some(num) => {
+                    let mut z = Mat::<c64>::from_fn(n_i, w, |i, j| c64::new(part[(i, j)], 0.0));
+                    num.solve(z.as_mut(), par);
+                    part.copy_from(Mat::<f64>::from_fn(n_i, w, |i, j| z[(i, j)].re));
+                }
+            }
+        }
+    }
     Ok(Statics {
         factorization: if spd { "cholesky" } else { "lblt" },
         pivot_ratio: lblt.as_ref().map(|n| n.pivot_ratio()),
         residual,
     })
+}
+
+/// The residual vectors `r` (interior rows, K_ii⁻¹U_i) M_ii-orthogonalized against the
+/// fixed-interface modes (the columns of `v` from `first_mode` on, on the interior rows) and
+/// M_ii-orthonormalized among themselves (Gram–Schmidt twice), dropping a vector left with
+/// less than 1e-8 of its M_ii-norm: the directions the modes do not hold.
+fn residual_vectors(
+    inner: &Body,
+    r: Mat<f64>,
+    v: faer::MatRef<'_, f64>,
+    interior: &[usize],
+    first_mode: usize,
+) -> Mat<f64> {
+    let n_i = interior.len();
+    let pencil = inner.pencil();
+    let modes = v.ncols() - first_mode;
+    let mut basis = Mat::<f64>::from_fn(n_i, modes, |i, j| v[(interior[i], first_mode + j)]);
+    let mut m_basis = pencil.mul(Coefficient::Mass, basis.as_ref());
+    let first = basis.ncols();
+    for j in 0..r.ncols() {
+        let mut x = r.col(j).to_owned();
+        let norm0 = {
+            let mx = pencil.mul(Coefficient::Mass, x.as_mat());
+            (x.transpose() * mx.col(0)).max(0.0).sqrt()
+        };
+        for _ in 0..2 {
+            let c = m_basis.transpose() * &x;
+            x -= &basis * &c;
+        }
+        let mx = pencil.mul(Coefficient::Mass, x.as_mat());
+        let norm = (x.transpose() * mx.col(0)).max(0.0).sqrt();
+        if !(norm > 1e-8 * norm0) {
+            continue;
+        }
+        let k = basis.ncols();
+        basis.resize_with(n_i, k + 1, |i, _| x[i] / norm);
+        m_basis.resize_with(n_i, k + 1, |i, _| mx[(i, 0)] / norm);
+    }
+    basis.subcols(first, basis.ncols() - first).to_owned()
 }

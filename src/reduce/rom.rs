@@ -85,6 +85,14 @@ pub struct CraigBamptonReport {
     pub pivot_ratio: Option<f64>,
     /// Largest relative residual ‖K_ii ψ_j + K_ib e_j‖ / ‖K_ib e_j‖ of the constraint modes.
     pub static_residual: f64,
+    /// Residual vectors of the dampers: the fixed-interface static responses to the damping
+    /// remainder's force patterns (docs/design.md §3.8, §3.12), coordinates after the modes.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub residual_vectors: usize,
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 /// Where a ROM came from: the method and what it was built from.
