@@ -1,5 +1,7 @@
 //! Responses of a body with proportional damping at any frequency from one real
-//! factorization (docs/design.md §3.10).
+//! factorization (docs/design.md §3.10); with a loss factor, fitted coefficients of an
+//! explicit D, and a low-rank remainder answered beside the load (§3.12), the same holds with
+//! A_p(iω) = c_k(K − μM), μ = c_m/c_k, and an r × r correction per frequency.
 //!
 //! With D = αM + βK (or D = 0), A(iω) = (1 + iωβ)(K − μM) with μ(ω) = (ω² − iωα)/(1 + iωβ):
 //! every frequency is a shift of one real pencil. With a real σ < 0 (K − σM is positive
@@ -627,7 +629,8 @@ impl<'a> ShiftedSpace<'a> {
     }
 
     /// The response at the rows `rows` (the outputs) at each of `freqs_hz`, from the space
-    /// without lifting it to N rows: C Q Z (I − τΘ)⁻¹ ZᵀE₁R₀ / (1 + iωβ), O(q k p) per
+    /// without lifting it to N rows: C Q Z (I − τΘ)⁻¹ ZᵀE₁R₀ / c_k (and the remainder's
+    /// correction, §3.12), O(q k p) per
     /// frequency after one q × k product. `None` where the estimated residual is above
     /// 100 × [`GROW_TO`] (grow the space for those frequencies first). Not certified: the
     /// sampling loop uses it to find where the ROM's error is largest, and certifies the

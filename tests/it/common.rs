@@ -81,7 +81,7 @@ pub fn random_scene(n: usize) -> Scene {
     }
 }
 
-/// Dense H(iω) = C (K − ω²M + iωD)⁻¹ B.
+/// Dense H(iω) = C (K + iH − ω²M + iωD)⁻¹ B, H = ηK + K₄ the structural damping.
 pub fn dense_h(model: &Model, f: f64, inputs: &[usize], outputs: &[usize]) -> Mat<c64> {
     let w = 2.0 * std::f64::consts::PI * f;
     let (m, k) = (dense(&model.mass), dense(&model.stiffness));
@@ -92,8 +92,11 @@ pub fn dense_h(model: &Model, f: f64, inputs: &[usize], outputs: &[usize]) -> Ma
         }),
         Damping::Matrix(d) => dense(d),
     };
+    let eta = model.structural.eta;
+    let k4 = model.structural.matrix.as_ref().map(dense);
+    let h = |i, j| eta * k[(i, j)] + k4.as_ref().map_or(0.0, |k4: &Mat<f64>| k4[(i, j)]);
     let a = Mat::<c64>::from_fn(m.nrows(), m.ncols(), |i, j| {
-        c64::new(k[(i, j)] - w * w * m[(i, j)], w * d[(i, j)])
+        c64::new(k[(i, j)] - w * w * m[(i, j)], w * d[(i, j)] + h(i, j))
     });
     let mut b = Mat::<c64>::zeros(m.nrows(), inputs.len());
     for (j, &i) in inputs.iter().enumerate() {
@@ -198,7 +201,7 @@ pub fn dense_eigenvalues_shift_invert(model: &Model, sigma: f64) -> Vec<f64> {
     lam
 }
 
-/// Dense elastic transfer function of a free body with Rayleigh damping, by the *deflated*
+/// Dense elastic transfer function of a free body with Rayleigh (and structural) damping, by the *deflated*
 /// pencil Ã = A(iω) + c M V0 M0⁻¹ V0ᵀ M: its rigid eigenvalue is lifted to c = (2π·100 Hz)²
 /// (near the first elastic one), so it is well conditioned down to ω = 0, and it acts on
 /// elastic vectors (V0ᵀMx = 0) as A does: H1 = C Ã⁻¹ P B with P = I − M V0 M0⁻¹ V0ᵀ. A
@@ -222,10 +225,14 @@ pub fn dense_h1_deflated(
     let m0_inv = m0.partial_piv_lu().inverse();
     let lift = &mv0 * &m0_inv * mv0.transpose() * (2.0 * std::f64::consts::PI * 100.0).powi(2);
     let n = m.nrows();
+    // structural damping H = ηK + K₄ (zero on rigid motion, as the lift needs)
+    let eta = model.structural.eta;
+    let k4 = model.structural.matrix.as_ref().map(dense);
+    let h = |i, j| eta * k[(i, j)] + k4.as_ref().map_or(0.0, |k4: &Mat<f64>| k4[(i, j)]);
     let a = Mat::<c64>::from_fn(n, n, |i, j| {
         c64::new(
             k[(i, j)] - w * w * m[(i, j)] + lift[(i, j)],
-            w * (alpha * m[(i, j)] + beta * k[(i, j)]),
+            w * (alpha * m[(i, j)] + beta * k[(i, j)]) + h(i, j),
         )
     });
     let mut b = Mat::<f64>::zeros(n, inputs.len());

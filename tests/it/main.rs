@@ -4,6 +4,7 @@
 mod cli;
 mod common;
 mod craig_bampton;
+mod damping;
 mod dense;
 mod distributed;
 mod eigen;
