@@ -862,7 +862,8 @@ mod tests {
             }
         };
         let dashpots = |m: &mut Model| m.damping = Damping::Matrix(with_dashpots(m, 1e-6, 50.0));
-        let cases: [(&str, &dyn Fn(&mut Model)); 5] = [
+        type Change<'a> = &'a dyn Fn(&mut Model);
+        let cases: [(&str, Change); 5] = [
             ("D = 3 M + 2e-6 K as a matrix", &rayleigh_file),
             ("eta 0.02", &eta),
             ("Rayleigh and eta 0.02", &rayleigh_eta),
@@ -919,9 +920,8 @@ mod tests {
 
     /// [`krylov_vs_factored`] for a body.
     fn krylov_vs_factored_body(body: &Body, inputs: &[usize], freqs: &[f64]) -> f64 {
-        let (body, inputs) = (body, inputs);
-        let (x, stats) = responses(&body, &inputs, freqs, SolveMethod::Auto);
-        let (x0, _) = responses(&body, &inputs, freqs, SolveMethod::Factored);
+        let (x, stats) = responses(body, inputs, freqs, SolveMethod::Auto);
+        let (x0, _) = responses(body, inputs, freqs, SolveMethod::Factored);
         for s in &stats {
             assert!(s.from_space(), "{} Hz was factored", s.freq_hz);
             assert!(s.space_dim < body.n() / 2, "dimension {}", s.space_dim);
@@ -992,10 +992,10 @@ mod tests {
 
     /// [`rows_at_equal_the_lifted_responses`] for one body.
     fn rows_at_equal_lifted(body: &Body, inputs: &[usize]) {
-        let load = body.elastic_load(&inputs);
+        let load = body.elastic_load(inputs);
         let sigma = -crate::units::hz_to_lambda(50.0);
         let freqs = [30.0, 333.0, 777.0, 990.0];
-        let mut space = ShiftedSpace::new(&body, load, sigma, body.n(), Par::Seq).unwrap();
+        let mut space = ShiftedSpace::new(body, load, sigma, body.n(), Par::Seq).unwrap();
         let rows = [0, 7, body.n() - 1];
         // one set of buffers for every frequency, as a sweep worker keeps them
         let mut buffers = SolutionBuffers::default();

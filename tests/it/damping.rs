@@ -235,7 +235,7 @@ fn directories_carry_structural_damping() {
     for (bad, want) in [("-0.1", "eta = -0.1"), ("nan", "eta = NaN")] {
         let text = text.replace("eta = 0.02", &format!("eta = {bad}"));
         std::fs::write(dir.join("model.toml"), text).unwrap();
-        let e = model_dir::read(&dir).err().expect("refused").to_string();
+        let e = model_dir::read(&dir).expect_err("refused").to_string();
         assert!(e.contains("model.toml") && e.contains(want), "{e}");
     }
 }
