@@ -522,7 +522,8 @@ impl<'a> ShiftedSpace<'a> {
     }
 
     /// The estimated relative residual ‖(I − τS)x − b₀‖_M/‖b₀‖_M (worst column) of the
-    /// Galerkin response at each of `freqs_hz`, from the Lanczos relation (module doc);
+    /// Galerkin response at each of `freqs_hz`, from the Lanczos relation (module doc); with a
+    /// low-rank remainder, of the corrected response, bounded by ‖e_b‖ + Σ_j ‖e_{u,j}‖|w_j|;
     /// infinite before the space was decomposed by [`Self::grow_for`]. The last block's
     /// coefficients at all of them come from one pair of products
     /// ([`scaled_products_into`]).
@@ -551,19 +552,58 @@ impl<'a> ShiftedSpace<'a> {
         let left = &root * last;
         let b = left.nrows();
         let norms: Vec<f64> = (0..p).map(|c| self.r0.col(c).norm_l2()).collect();
+        // with a remainder, the rows J of the solutions too: the corrected response's residual
+        // is e_b − e_u w (§3.12), so U's residuals count |w| times
+        let j_rows = self.remainder.map_or(&[][..], |r| &r.dofs[..]);
+        let qzj =
+            Mat::<f64>::from_fn(j_rows.len(), self.dim(), |i, j| self.q[(j_rows[i], j)]) * &ritz.z;
+        let a = Mat::<f64>::from_fn(b + j_rows.len(), self.dim(), |i, j| {
+            if i < b {
+                left[(i, j)]
+            } else {
+                qzj[(i - b, j)]
+            }
+        });
+        let m = a.nrows();
+        let loads = self.load.ncols();
         let mut out = vec![0.0f64; taus.len()];
         let row = |f: usize, d: &mut [c64]| resolvent(ritz, taus[f], c64::new(1.0, 0.0), d);
         scaled_products_into(
-            left.as_ref(),
+            a.as_ref(),
             ritz.c.as_ref(),
             row,
             &mut out,
             1,
             |f, _, yr, yi, worst| {
-                for (c, &bn) in norms.iter().enumerate().filter(|(_, &bn)| bn > 0.0) {
-                    let col = c * b..(c + 1) * b;
+                let residual = |c: usize| {
+                    let col = c * m..c * m + b;
                     let q: f64 = yr[col.clone()].iter().chain(&yi[col]).map(|y| y * y).sum();
-                    worst[0] = worst[0].max(taus[f].norm() * q.sqrt() / bn);
+                    taus[f].norm() * q.sqrt()
+                };
+                let Some(r) = self.remainder else {
+                    for (c, &bn) in norms.iter().enumerate().filter(|(_, &bn)| bn > 0.0) {
+                        worst[0] = worst[0].max(residual(c) / bn);
+                    }
+                    return;
+                };
+                let omega = hz_to_omega(freqs_hz[f]);
+                let inv = self.shift(omega).1.inv();
+                let z = Mat::<c64>::from_fn(j_rows.len(), p, |i, c| {
+                    c64::new(yr[c * m + b + i], yi[c * m + b + i]) * inv
+                });
+                let w = r.correction(
+                    omega,
+                    r.project(z.as_ref().subcols(0, loads)).as_ref(),
+                    r.project(z.as_ref().subcols(loads, r.rank())).as_ref(),
+                );
+                let u: Vec<f64> = (loads..p).map(residual).collect();
+                for c in (0..loads).filter(|&c| norms[c] > 0.0) {
+                    let spread: f64 = u
+                        .iter()
+                        .enumerate()
+                        .map(|(j, e)| e * w[(j, c)].norm())
+                        .sum();
+                    worst[0] = worst[0].max((residual(c) + spread) / norms[c]);
                 }
             },
         );
