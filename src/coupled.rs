@@ -15,6 +15,11 @@
 //! V0' = S V0 (a point's rows are its own rigid motion): the body stays free or constrained
 //! as it was, with its inertia relief (§3.2) on the new DoFs.
 //!
+//! Every remote point's six DoFs, named in the scene or not, are kept as rows over z
+//! ([`Coupled::point_rows`]: a rigid point's are coordinates of z₁, a distributing point's its
+//! weighted least-squares rows W T₁; either times T₂), and [`Joints`] keeps T and the model
+//! before coupling: the exports write each point as an interface node (docs/design.md §3.9).
+//!
 //! Cost: each functional's pivot DoF is expressed through all DoFs of its support, so M' and
 //! K' gain a dense block over the union of a functional's support (a distributing point over
 //! s DoFs adds up to s² entries); [`Coupled::nnz`] reports it, and [`couple`] refuses a
@@ -85,6 +90,26 @@ pub struct Coupled {
     /// q = T z (N × N'): a state of the coupled model (a ROM's basis) as a state of the
     /// original model.
     pub t: crate::sparse::Csc,
+    /// Each remote point's six DoFs (x, y, z, rx, ry, rz) as rows over z, whether the scene
+    /// names them or not ([`point_rows`]): the point's motion in a state z.
+    pub point_rows: Vec<[SparseRow; 6]>,
+}
+
+/// What the exports need of a coupled model beyond its matrices (docs/design.md §3.9,
+/// §3.11): the model it came from, with its mesh nodes and M, and how to carry a state and
+/// the points' motion back to it.
+#[derive(Clone, Debug)]
+pub struct Joints {
+    /// The model before coupling.
+    pub original: Model,
+    /// Its remote points.
+    pub points: Vec<RemotePoint>,
+    /// What each DoF of the coupled model is ([`Coupled::coordinates`]).
+    pub coordinates: Vec<Coordinate>,
+    /// q = T z ([`Coupled::t`]).
+    pub t: crate::sparse::Csc,
+    /// The points' six rows over z ([`Coupled::point_rows`]).
+    pub point_rows: Vec<[SparseRow; 6]>,
 }
 
 /// The coupled model of `model` with remote `points` and the scene's `inputs` and `outputs`
@@ -249,6 +274,24 @@ pub fn couple(
     let rows: Vec<SparseRow> = unique.iter().map(|(r, _)| r.clone()).collect();
     check_size(&rows)?;
     let change = functionals_as_coordinates(&rows, n1, "the scene's inputs and outputs")?;
+    // every point's six DoFs as rows over z₁ (a rigid point's are coordinates of z₁), then
+    // over z through T₂
+    let over_z1 = (0..points.len())
+        .map(|k| match rigid.iter().position(|&j| j == k) {
+            Some(slot) => Ok(std::array::from_fn(|dir| SparseRow {
+                idx: vec![n1 - 6 * rigid.len() + 6 * slot + dir],
+                val: vec![1.0],
+            })),
+            None => {
+                let w = match distributing.remove(&k) {
+                    Some(w) => w,
+                    None => distributing_rows(&points[k], nodes_or_none, dpn)?,
+                };
+                Ok(w.map(|r| in_z1(&r)))
+            }
+        })
+        .collect::<Result<Vec<[SparseRow; 6]>>>()?;
+    let point_rows = point_rows(&over_z1, &change.t)?;
     let pivots = change.coordinates;
     for ((_, label), &p) in unique.iter().zip(&pivots) {
         coordinates[p] = label.clone();
@@ -282,6 +325,7 @@ pub fn couple(
         nnz,
         n: n1,
         t,
+        point_rows,
     })
 }
 
@@ -366,6 +410,59 @@ fn combination(
         }
     }
     out.into_csc(m.nrows(), false)
+}
+
+/// The rows `over_z1` (functionals of z₁) as functionals of z, z₁ = T₂ z (module doc): a
+/// point's six DoFs in the coupled model's coordinates, c T₂ for each row c. T₂ differs from
+/// the identity only in its pivot rows, so a row gains entries only over the functionals'
+/// support.
+///
+/// # Errors
+/// [`Error::Factor`] when T₂ᵀ cannot be stored.
+fn point_rows(over_z1: &[[SparseRow; 6]], t2: &crate::sparse::Csc) -> Result<Vec<[SparseRow; 6]>> {
+    // the rows of T₂ as columns of T₂ᵀ
+    let rows_of_t2 = t2
+        .as_ref()
+        .transpose()
+        .to_col_major()
+        .map_err(|e| Error::Factor(format!("coupled model: {e:?}")))?;
+    let times_t2 = |c: &SparseRow| {
+        let mut acc = BTreeMap::<usize, f64>::new();
+        for (&i, &v) in c.idx.iter().zip(&c.val) {
+            for (&j, &t) in rows_of_t2
+                .row_idx_of_col_raw(i)
+                .iter()
+                .zip(rows_of_t2.val_of_col(i))
+            {
+                *acc.entry(j).or_insert(0.0) += v * t;
+            }
+        }
+        SparseRow {
+            idx: acc.keys().copied().collect(),
+            val: acc.values().copied().collect(),
+        }
+    };
+    Ok(over_z1
+        .iter()
+        .map(|rows| std::array::from_fn(|d| times_t2(&rows[d])))
+        .collect())
+}
+
+impl Coupled {
+    /// The coupled model and its [`Joints`] to `original` with `points` (the arguments
+    /// [`couple`] was given).
+    pub fn split(self, original: Model, points: Vec<RemotePoint>) -> (Model, Joints) {
+        (
+            self.model,
+            Joints {
+                original,
+                points,
+                coordinates: self.coordinates,
+                t: self.t,
+                point_rows: self.point_rows,
+            },
+        )
+    }
 }
 
 /// Largest dense elimination block r × |support| of the functionals (8 bytes an entry:

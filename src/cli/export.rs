@@ -60,18 +60,11 @@ pub struct ExportArgs {
 
 pub fn export(a: &ExportArgs) -> Result<()> {
     atomic::check_dir_free(&a.out)?;
-    let loaded = model_dir::load(&a.model)?;
-    let coupled = matches!(loaded.names, model_dir::DofNames::Coupled(_));
+    // a coupled model (remote points or scene matrices, docs/design.md §3.11) comes with its
+    // joints: the original model and q = T z, so the exports write the mesh nodes' shapes TΦ
+    // and each remote point as one more interface node
+    let (loaded, joints) = model_dir::load_with_joints(&a.model)?;
     let (model, scene) = (loaded.model, loaded.scene);
-    if coupled && !matches!(a.format, Format::Op4) {
-        // its DoFs are no longer node DoFs: the node-based exports would misname them
-        return Err(Error::InvalidSetting(format!(
-            "{}: a coupled model (remote points or scene matrices, docs/design.md §3.11): this \
-             export, with a remote point as its interface node, is not built yet; \
-             `--format op4` writes the ROM's matrices",
-            a.model.display()
-        )));
-    }
     let rom = rom_dir::read(&a.rom)?;
     rom.check_model(model.n())
         .map_err(|e| Error::InvalidSetting(format!("{}: {e}", a.rom.display())))?;
@@ -94,9 +87,10 @@ pub fn export(a: &ExportArgs) -> Result<()> {
             return Ok(());
         }
         Format::Dmig => {
-            dmig::write(&a.out, &rom, &model, dof_map.as_deref())?;
-            let keys = dmig::coordinates(&rom, &model, dof_map.as_deref())?;
-            let spoints = keys.iter().filter(|c| c.dof.is_none()).count();
+            let j = joints.as_ref();
+            dmig::write(&a.out, &rom, &model, dof_map.as_deref(), j)?;
+            let keys = dmig::coordinates(&rom, &model, dof_map.as_deref(), j)?;
+            let spoints = keys.iter().filter(|c| c.component == 0).count();
             println!(
                 "dmig             {}: MAAX, KAAX{} over {} grid components and {spoints} scalar points; rows in {}",
                 dmig::BULK_FILE,
@@ -108,6 +102,19 @@ pub fn export(a: &ExportArgs) -> Result<()> {
                 keys.len() - spoints,
                 dmig::MAP_FILE
             );
+            if let Some(j) = j {
+                let ids = dmig::point_grids(
+                    &dmig::grids(&j.original, dof_map.as_deref())?,
+                    j.points.len(),
+                )?;
+                for (p, id) in j.points.iter().zip(ids) {
+                    println!(
+                        "point {} -> grid {id} (GRID* in {})",
+                        p.name,
+                        dmig::BULK_FILE
+                    );
+                }
+            }
             eprintln!("wrote {}", a.out.display());
             return Ok(());
         }
@@ -145,10 +152,22 @@ pub fn export(a: &ExportArgs) -> Result<()> {
             })
         }
     };
+    drop(body);
+    // a coupled model's basis on the original DoFs, TΦ, and its points as interface nodes
+    let (model, flex, points) = match &joints {
+        Some(j) => {
+            let (on_mesh, points) = flex.on_original(j)?;
+            (&j.original, on_mesh, points)
+        }
+        None => (&model, flex, Vec::new()),
+    };
+    let node_ids = || -> Result<Vec<u64>> {
+        dmig::point_grids(&dmig::grids(model, dof_map.as_deref())?, points.len())
+    };
     match a.format {
         Format::Mbdyn => {
-            mbdyn::write(&a.out, &model, &flex, dof_map.as_deref())?;
-            let rb = rigid::inertia(&model)?;
+            mbdyn::write(&a.out, model, &flex, dof_map.as_deref(), &points)?;
+            let rb = rigid::inertia(model)?;
             println!(
                 "mbdyn            {}: total mass {:.6e}, centre of mass [{:.6e}, {:.6e}, {:.6e}]",
                 mbdyn::FEM_FILE,
@@ -157,10 +176,13 @@ pub fn export(a: &ExportArgs) -> Result<()> {
                 rb.center[1],
                 rb.center[2]
             );
+            for (p, id) in points.iter().zip(node_ids()?) {
+                println!("point {} -> node {id}", p.name);
+            }
         }
         Format::Sid => {
-            sid::write(&a.out, &model, &flex, dof_map.as_deref())?;
-            let rb = rigid::inertia(&model)?;
+            sid::write(&a.out, model, &flex, dof_map.as_deref(), &points)?;
+            let rb = rigid::inertia(model)?;
             println!(
                 "sid              {}: total mass {:.6e}, centre of mass [{:.6e}, {:.6e}, {:.6e}], \
                  {} nodes; inertia invariants only (no geometric stiffening)",
@@ -169,10 +191,27 @@ pub fn export(a: &ExportArgs) -> Result<()> {
                 rb.center[0],
                 rb.center[1],
                 rb.center[2],
-                model.nodes.as_ref().map_or(0, Vec::len)
+                model.nodes.as_ref().map_or(0, Vec::len) + points.len()
             );
+            for (p, id) in points.iter().zip(node_ids()?) {
+                println!("point {} -> node {id}", p.name);
+            }
         }
-        _ => exudyn::write(&a.out, &model, &flex, check.as_ref())?,
+        _ => {
+            let coordinates = joints.as_ref().map(|j| j.coordinates.as_slice());
+            exudyn::write(&a.out, model, &flex, check.as_ref(), &points, coordinates)?;
+            for p in &points {
+                println!(
+                    "point {} -> MarkerSuperElementRigid over {} mesh nodes at [{:.6e}, {:.6e}, \
+                     {:.6e}] (point_nodes, point_weights in flexible_body.npz)",
+                    p.name,
+                    p.nodes.len(),
+                    p.position[0],
+                    p.position[1],
+                    p.position[2]
+                );
+            }
+        }
     }
     println!(
         "elastic basis    {} modes from {} columns of V",

@@ -8,13 +8,22 @@
 //! map of an imported model (the FE code's node numbers), else node i (0-based row of
 //! `nodes.csv`) is grid i + 1 with components 1..dofs_per_node — and a modal coordinate
 //! (Craig–Bampton's fixed-interface modes) by a scalar point numbered above the model's
-//! largest grid, declared by `SPOINT` entries. Column entries are large-field `DMIG*`
+//! largest grid, declared by `SPOINT` entries.
+//!
+//! A ROM of a coupled model (docs/design.md §3.11; [`coordinates`] with its [`Joints`]) keys
+//! a coordinate that is an original DoF by that DoF's grid, a remote point's `POINT:DIR` by
+//! component DIR (1–6) of a grid for the point — numbered after the largest grid, in point
+//! order, and defined by a `GRID*` entry at the point's position in `dmig.bdf` (the grid a
+//! joint of the Nastran assembly attaches to) — and a functional given as a matrix row or
+//! column (`FILE row k`) by a scalar point, after the points' grids; the modal coordinates'
+//! scalar points follow. Column entries are large-field `DMIG*`
 //! (16-character fields); each value takes whichever Nastran real form keeps the most digits
 //! in 16 characters (fixed `-1234567.8901234`, or the exponent without its `E`,
 //! `1.234567890123-4`): 14–15 significant digits for 1 ≤ |v| < 1e14, 12–13 with a one-digit
 //! exponent, 11 with two, 10 with three. Sixteen digits do not fit a bulk data field; the
 //! exact values are in the OP4 export ([`crate::io::op4`]).
 
+use crate::coupled::{self, Joints};
 use crate::io::atomic;
 use crate::io::import::Dof;
 use crate::model::Model;
@@ -40,6 +49,23 @@ pub struct Coordinate {
     pub component: u8,
     /// The model DoF of a physical coordinate; `None` for a modal one (a scalar point).
     pub dof: Option<usize>,
+    /// The remote point whose grid this is (a coupled model's `POINT:DIR`), by index.
+    pub point: Option<usize>,
+}
+
+/// The grid ids of `count` remote points: after the largest of `grids`, in point order
+/// (module doc).
+///
+/// # Errors
+/// [`Error::InvalidSetting`] when they run past [`MAX_ID`].
+pub fn point_grids(grids: &[(u64, u8)], count: usize) -> Result<Vec<u64>> {
+    let max = grids.iter().map(|p| p.0).max().unwrap_or(0);
+    if max + count as u64 > MAX_ID {
+        return Err(Error::InvalidSetting(format!(
+            "{count} remote points' grids above grid {max} run past Nastran's largest id {MAX_ID}"
+        )));
+    }
+    Ok((1..=count as u64).map(|k| max + k).collect())
 }
 
 /// The grid and component (1–6) of every DoF of the model (see the module doc).
@@ -74,37 +100,75 @@ pub fn grids(model: &Model, dof_map: Option<&[Dof]>) -> Result<Vec<(u64, u8)>> {
     Ok(g)
 }
 
-/// The Nastran key of each ROM coordinate, in the ROM's order (see the module doc).
+/// The Nastran key of each ROM coordinate, in the ROM's order (see the module doc). For a
+/// coupled model, `joints` relates its DoFs to the original model's, whose grids (by
+/// `dof_map`) key them.
 ///
 /// # Errors
-/// [`Error::InvalidSetting`] when a ROM DoF is not a DoF of the model, the scalar points run
-/// past [`MAX_ID`], or as [`grids`].
-pub fn coordinates(rom: &Rom, model: &Model, dof_map: Option<&[Dof]>) -> Result<Vec<Coordinate>> {
-    let g = grids(model, dof_map)?;
-    let max = g.iter().map(|p| p.0).max().unwrap_or(0);
-    let modal = rom.order().saturating_sub(rom.dofs.len());
-    if max + modal as u64 > MAX_ID {
-        return Err(Error::InvalidSetting(format!(
-            "{modal} scalar points above grid {max} run past Nastran's largest id {MAX_ID}"
-        )));
-    }
+/// [`Error::InvalidSetting`] when a ROM DoF is not a DoF of the model, the points' grids or
+/// the scalar points run past [`MAX_ID`], or as [`grids`].
+pub fn coordinates(
+    rom: &Rom,
+    model: &Model,
+    dof_map: Option<&[Dof]>,
+    joints: Option<&Joints>,
+) -> Result<Vec<Coordinate>> {
+    let g = grids(joints.map_or(model, |j| &j.original), dof_map)?;
+    let points = point_grids(&g, joints.map_or(0, |j| j.points.len()))?;
+    let max = points
+        .last()
+        .copied()
+        .unwrap_or_else(|| g.iter().map(|p| p.0).max().unwrap_or(0));
+    let out_of_range = |d: usize| Error::DofOutOfRange {
+        what: "ROM dofs".into(),
+        dof: d,
+        n: joints.map_or(g.len(), |j| j.coordinates.len()),
+    };
+    let mut spoints = 0u64;
     let mut out = Vec::with_capacity(rom.order());
     for &d in &rom.dofs {
-        let &(id, component) = g.get(d).ok_or_else(|| Error::DofOutOfRange {
-            what: "ROM dofs".into(),
-            dof: d,
-            n: g.len(),
-        })?;
+        let original = match joints {
+            None => Some(d),
+            Some(j) => match j.coordinates.get(d).ok_or_else(|| out_of_range(d))? {
+                coupled::Coordinate::Dof(q) => Some(*q),
+                coupled::Coordinate::Point { point, dir } => {
+                    out.push(Coordinate {
+                        id: points[*point],
+                        component: *dir as u8 + 1,
+                        dof: Some(d),
+                        point: Some(*point),
+                    });
+                    continue;
+                }
+                coupled::Coordinate::Row(_) => None,
+            },
+        };
+        let (id, component) = match original {
+            Some(q) => *g.get(q).ok_or_else(|| out_of_range(d))?,
+            None => {
+                spoints += 1;
+                (max + spoints, 0)
+            }
+        };
         out.push(Coordinate {
             id,
             component,
             dof: Some(d),
+            point: None,
         });
     }
-    out.extend((0..modal).map(|k| Coordinate {
-        id: max + 1 + k as u64,
+    let modal = rom.order().saturating_sub(rom.dofs.len()) as u64;
+    if max + spoints + modal > MAX_ID {
+        return Err(Error::InvalidSetting(format!(
+            "{} scalar points above grid {max} run past Nastran's largest id {MAX_ID}",
+            spoints + modal
+        )));
+    }
+    out.extend((1..=modal).map(|k| Coordinate {
+        id: max + spoints + k,
         component: 0,
         dof: None,
+        point: None,
     }));
     Ok(out)
 }
@@ -220,17 +284,24 @@ fn matrix(out: &mut String, name: &str, a: MatRef<'_, f64>, keys: &[Coordinate])
 /// The DMIG names [`write`] uses for Mr, Kr and Dr.
 pub const NAMES: [&str; 3] = ["MAAX", "KAAX", "BAAX"];
 
-/// Writes `dmig.bdf` and `coordinates.csv` (see the module doc) into the new directory `dir`.
+/// Writes `dmig.bdf` and `coordinates.csv` (see the module doc) into the new directory `dir`;
+/// `joints` for a ROM of a coupled model (its points' grids are defined in `dmig.bdf`).
 ///
 /// # Errors
 /// [`Error::InvalidSetting`] if `dir` exists and is not empty (naming it), as
-/// [`coordinates`], or for a matrix value that is not finite; I/O errors.
-pub fn write(dir: &Path, rom: &Rom, model: &Model, dof_map: Option<&[Dof]>) -> Result<()> {
+/// [`coordinates`], or for a matrix value or point position that is not finite; I/O errors.
+pub fn write(
+    dir: &Path,
+    rom: &Rom,
+    model: &Model,
+    dof_map: Option<&[Dof]>,
+    joints: Option<&Joints>,
+) -> Result<()> {
     rom.check_model(model.n())?;
-    let keys = coordinates(rom, model, dof_map)?;
+    let keys = coordinates(rom, model, dof_map, joints)?;
     let spoints: Vec<u64> = keys
         .iter()
-        .filter(|c| c.dof.is_none())
+        .filter(|c| c.component == 0)
         .map(|c| c.id)
         .collect();
     let damped = rom.dr.col_iter().any(|c| c.iter().any(|&v| v != 0.0));
@@ -248,8 +319,39 @@ pub fn write(dir: &Path, rom: &Rom, model: &Model, dof_map: Option<&[Dof]>) -> R
         "$ case control: M2GG = MAAX, K2GG = KAAX{}; rows and columns: {MAP_FILE}",
         if damped { ", B2GG = BAAX" } else { "" }
     );
+    if let Some(j) = joints {
+        let g = grids(&j.original, dof_map)?;
+        for (p, id) in j.points.iter().zip(point_grids(&g, j.points.len())?) {
+            let x = p
+                .position
+                .map(|v| real_field(v, 16))
+                .into_iter()
+                .collect::<Option<Vec<String>>>()
+                .ok_or_else(|| {
+                    Error::InvalidSetting(format!(
+                        "remote point {}: its position {:?} is not finite",
+                        p.name, p.position
+                    ))
+                })?;
+            let _ = writeln!(bdf, "$ remote point {}: grid {id}", p.name);
+            let _ = writeln!(
+                bdf,
+                "GRID*   {}{}{}{}\n*       {}",
+                f16(&id.to_string()),
+                f16(""),
+                f16(&x[0]),
+                f16(&x[1]),
+                f16(&x[2])
+            );
+        }
+    }
     if let (Some(first), Some(last)) = (spoints.first(), spoints.last()) {
-        let _ = writeln!(bdf, "$ modal coordinates: scalar points {first}..{last}");
+        let what = if keys.iter().any(|c| c.component == 0 && c.dof.is_some()) {
+            "functionals and modal coordinates"
+        } else {
+            "modal coordinates"
+        };
+        let _ = writeln!(bdf, "$ {what}: scalar points {first}..{last}");
         let _ = if first == last {
             writeln!(bdf, "SPOINT  {first:<8}")
         } else {
@@ -263,9 +365,11 @@ pub fn write(dir: &Path, rom: &Rom, model: &Model, dof_map: Option<&[Dof]>) -> R
     }
     let mut csv = String::from("row,id,component,kind,model_dof\n");
     for (r, c) in keys.iter().enumerate() {
-        let _ = match c.dof {
-            Some(d) => writeln!(csv, "{r},{},{},grid,{d}", c.id, c.component),
-            None => writeln!(csv, "{r},{},0,spoint,", c.id),
+        let _ = match (c.dof, c.point, c.component) {
+            (Some(d), Some(_), _) => writeln!(csv, "{r},{},{},point,{d}", c.id, c.component),
+            (Some(d), None, 0) => writeln!(csv, "{r},{},0,spoint,{d}", c.id),
+            (Some(d), None, _) => writeln!(csv, "{r},{},{},grid,{d}", c.id, c.component),
+            (None, _, _) => writeln!(csv, "{r},{},0,spoint,", c.id),
         };
     }
     atomic::write_dir(dir, |tmp| {

@@ -16,15 +16,23 @@
 //!
 //! Φ is the rigid-free elastic basis of [`crate::reduce::flexible`]: the modal node carries
 //! the rigid motion. The rigid-body properties come from M and the node coordinates
-//! ([`crate::rigid::inertia`]: one pass over M's entries). Record group 11 (lumped nodal masses,
+//! ([`crate::rigid::inertia`]: one pass over M's entries).
+//!
+//! **Remote points** (a ROM of a coupled model, docs/design.md §3.11; [`PointNode`]): each
+//! point is one more FEM node after the mesh nodes, labelled after the largest grid id in
+//! point order ([`crate::io::dmig::point_grids`]), at the point's position, its six mode
+//! components the point's three translations and three small rotations R_p Φ — the node an
+//! MBDyn joint (e.g. a `total joint` to a structural node at the point) attaches to. It is
+//! massless: the rigid-body inertia and the generalized matrices are the original body's
+//! (Φ on the mesh nodes is TΦ, [`crate::reduce::flexible`]). Record group 11 (lumped nodal masses,
 //! from which MBDyn builds the coupling invariants) is not written: the models carry
 //! consistent masses, and a lumped diagonal would be a different body.
 
 use crate::io::atomic;
-use crate::io::dmig::grids;
+use crate::io::dmig::{grids, point_grids};
 use crate::io::import::Dof;
 use crate::model::Model;
-use crate::reduce::flexible::ElasticBasis;
+use crate::reduce::flexible::{ElasticBasis, PointNode};
 use crate::rigid::inertia;
 use crate::{Error, Result};
 use faer::MatRef;
@@ -43,20 +51,23 @@ fn matrix(s: &mut String, a: MatRef<'_, f64>) {
     }
 }
 
-/// Writes `body.fem` (see the module doc) for the elastic basis `flex` of a ROM of `model`
-/// into the new directory `dir`.
+/// Writes `body.fem` (see the module doc) for the elastic basis `flex` of a ROM of `model`,
+/// with `points` as more nodes after the mesh nodes, into the new directory `dir`.
 ///
 /// # Errors
-/// [`Error::InvalidSetting`] if `dir` exists and is not empty (naming it), as [`inertia`]
-/// and [`grids`], or when Φ does not have the model's N rows; I/O errors.
+/// [`Error::InvalidSetting`] if `dir` exists and is not empty (naming it), as [`inertia`],
+/// [`grids`] and [`point_grids`], or when Φ does not have the model's N rows or a point's
+/// shapes are not 6 × r; I/O errors.
 pub fn write(
     dir: &Path,
     model: &Model,
     flex: &ElasticBasis,
     dof_map: Option<&[Dof]>,
+    points: &[PointNode],
 ) -> Result<()> {
     let rb = inertia(model)?;
     let labels = grids(model, dof_map)?;
+    let point_ids = point_grids(&labels, points.len())?;
     let nodes = model.nodes.as_deref().unwrap_or_default();
     let dpn = model.dofs_per_node;
     let phi = flex.phi.as_ref();
@@ -70,6 +81,17 @@ pub fn write(
     }
     let rom = &flex.rom;
     let modes = phi.ncols();
+    if let Some(p) = points
+        .iter()
+        .find(|p| (p.shapes.nrows(), p.shapes.ncols()) != (6, modes))
+    {
+        return Err(Error::InvalidSetting(format!(
+            "remote point {}: its shapes are {} × {}, not 6 × {modes}",
+            p.name,
+            p.shapes.nrows(),
+            p.shapes.ncols()
+        )));
+    }
     let e = |v: f64| format!("{v:.16e}");
     let mut s = String::new();
     let _ = writeln!(
@@ -88,14 +110,15 @@ pub fn write(
     let _ = writeln!(
         s,
         "** RECORD GROUP 1, HEADER\n**   REVISION, NODES, NORMAL, ATTACHMENT, CONSTRAINT, REJECTED MODES\nREV0 {} {modes} 0 0 0\n**",
-        nodes.len()
+        nodes.len() + points.len()
     );
     let _ = writeln!(s, "** RECORD GROUP 2, FINITE ELEMENT NODE LIST");
-    for chunk in (0..nodes.len()).collect::<Vec<_>>().chunks(6) {
-        let line: Vec<String> = chunk
-            .iter()
-            .map(|&p| labels[p * dpn].0.to_string())
-            .collect();
+    let ids: Vec<u64> = (0..nodes.len())
+        .map(|p| labels[p * dpn].0)
+        .chain(point_ids)
+        .collect();
+    for chunk in ids.chunks(6) {
+        let line: Vec<String> = chunk.iter().map(u64::to_string).collect();
         let _ = writeln!(s, "{}", line.join(" "));
     }
     for (g, what) in [(3, "DISPLACEMENTS"), (4, "VELOCITIES")] {
@@ -106,7 +129,7 @@ pub fn write(
     }
     for (k, axis) in ["X", "Y", "Z"].iter().enumerate() {
         let _ = writeln!(s, "**\n** RECORD GROUP {}, NODAL {axis} COORDINATES", 5 + k);
-        for p in nodes {
+        for p in nodes.iter().chain(points.iter().map(|p| &p.position)) {
             let _ = writeln!(s, "{}", e(p[k]));
         }
     }
@@ -117,6 +140,10 @@ pub fn write(
             let line: Vec<String> = (0..6)
                 .map(|a| e(if a < dpn { phi[(p * dpn + a, k)] } else { 0.0 }))
                 .collect();
+            let _ = writeln!(s, "{}", line.join(" "));
+        }
+        for p in points {
+            let line: Vec<String> = (0..6).map(|a| e(p.shapes[(a, k)])).collect();
             let _ = writeln!(s, "{}", line.join(" "));
         }
     }

@@ -53,7 +53,7 @@
 //! interrupted write never leaves a directory that looks complete.
 
 use crate::body::Body;
-use crate::coupled::{self, Coordinate, Functional};
+use crate::coupled::{self, Coordinate, Functional, Joints};
 use crate::coupling::Kind;
 use crate::io::file::read_regular_text;
 use crate::io::import::{self, Direction, Dof};
@@ -470,6 +470,16 @@ pub struct Loaded {
 /// Any file error names the file (and line); validation errors name `model.toml` and the
 /// field.
 pub fn load(dir: &Path) -> Result<Loaded> {
+    load_with_joints(dir).map(|(loaded, _)| loaded)
+}
+
+/// [`load`], and for a coupled model (docs/design.md §3.11) its [`Joints`]: the model before
+/// coupling and the change of variables, which the exports with remote points as interface
+/// nodes need (§3.9).
+///
+/// # Errors
+/// As [`load`].
+pub fn load_with_joints(dir: &Path) -> Result<(Loaded, Option<Joints>)> {
     let man = read_manifest(dir)?;
     let manifest = dir.join(MANIFEST);
     let named = |e| match e {
@@ -583,11 +593,11 @@ pub fn load(dir: &Path) -> Result<Loaded> {
     let joints = !man.remote_points.is_empty()
         || man.scene.input_matrix.is_some()
         || man.scene.output_matrix.is_some();
-    let (model, scene, names, notes) = if joints {
+    let (model, scene, names, notes, joints) = if joints {
         let mut notes = notes;
-        let (model, scene, names) =
-            with_joints(dir, &man, &model, &names, &mut notes).map_err(named)?;
-        (model, scene, names, notes)
+        let (model, scene, names, joints) =
+            with_joints(dir, &man, model, &names, &mut notes).map_err(named)?;
+        (model, scene, names, notes, Some(joints))
     } else {
         let scene = Scene {
             inputs: names
@@ -598,21 +608,23 @@ pub fn load(dir: &Path) -> Result<Loaded> {
                 .map_err(named)?,
             band_hz: man.scene.band_hz,
         };
-        (model, scene, names, notes)
+        (model, scene, names, notes, None)
     };
     scene.validate(model.n(), "scene").map_err(named)?;
-    Ok(Loaded {
+    let loaded = Loaded {
         model,
         scene,
         report,
         names,
         notes,
-    })
+    };
+    Ok((loaded, joints))
 }
 
 /// The coupled model of a directory with `[[remote_points]]` or a scene matrix
-/// (docs/design.md §3.11): its scene as DoFs of the coupled model and its DoF names
-/// ([`DofNames::Coupled`]); what the coupling did is added to `notes`.
+/// (docs/design.md §3.11): its scene as DoFs of the coupled model, its DoF names
+/// ([`DofNames::Coupled`]) and its [`Joints`] to `model`; what the coupling did is added to
+/// `notes`.
 ///
 /// # Errors
 /// As [`joints::points`], [`joints::matrix_functionals`] and [`coupled::couple`], and a scene
@@ -620,10 +632,10 @@ pub fn load(dir: &Path) -> Result<Loaded> {
 fn with_joints(
     dir: &Path,
     man: &Manifest,
-    model: &Model,
+    model: Model,
     names: &DofNames,
     notes: &mut Vec<String>,
-) -> Result<(Model, Scene, DofNames)> {
+) -> Result<(Model, Scene, DofNames, Joints)> {
     let points = joints::points(&man.remote_points, model.nodes.as_deref().unwrap_or(&[]))?;
     let functionals = |refs: &[DofRef], matrix: &Option<String>, what: &str| {
         let mut list = refs
@@ -653,7 +665,7 @@ fn with_joints(
         &man.scene.output_matrix,
         "[scene] outputs",
     )?;
-    let cp = coupled::couple(model, &points, &inputs, &outputs)?;
+    let cp = coupled::couple(&model, &points, &inputs, &outputs)?;
     for p in &points {
         notes.push(format!(
             "remote point {}: {} over {} nodes at ({:.6e}, {:.6e}, {:.6e})",
@@ -690,11 +702,12 @@ fn with_joints(
         .map(|(i, c)| (label(c), i));
     let names = DofNames::Coupled(named.collect());
     let scene = Scene {
-        inputs: cp.inputs,
-        outputs: cp.outputs,
+        inputs: cp.inputs.clone(),
+        outputs: cp.outputs.clone(),
         band_hz: man.scene.band_hz,
     };
-    Ok((cp.model, scene, names))
+    let (coupled, joints) = cp.split(model, points);
+    Ok((coupled, scene, names, joints))
 }
 
 /// A file named in `[import] files`, relative to `dir`, keeping a `K=`/`M=` prefix.

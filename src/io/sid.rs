@@ -71,6 +71,15 @@
 //! Φ), `psi` zero (a solid's nodes carry no rotational DoFs), `AP` the unit matrix written
 //! entry by entry (order 0; its order-1 term skew(psi) is zero).
 //!
+//! **Remote points** (a ROM of a coupled model, docs/design.md §3.11; [`PointNode`]): each
+//! point is one more node after the mesh nodes, numbered after the largest grid id in point
+//! order ([`crate::io::dmig::point_grids`]), at the point's position, with `phi` its three
+//! translations and `psi` its three small rotations in each mode (R_p Φ), and `AP` = I +
+//! Σ_k skew(psi_k) q_k (order 1: the node frame turned by the point's rotation, skew(a) b =
+//! a × b). The point is massless: the invariants are the original body's, from its M, its
+//! mesh nodes and the mesh nodes' shapes TΦ ([`crate::reduce::flexible`]); the joint of the
+//! multibody model attaches to the point's node.
+//!
 //! **Not written** (zero blocks or order 0 only, and why): the geometric stiffening terms —
 //! `ksigma` (structure 0), the order-1 parts of `phi` and `Ct` and the stress part of
 //! `Oe1` — need the stress states of unit loads, which a model of M and K does not hold;
@@ -82,10 +91,10 @@
 //! body spinning fast in the multibody code softens more than the real one.
 
 use crate::io::atomic;
-use crate::io::dmig::grids;
+use crate::io::dmig::{grids, point_grids};
 use crate::io::import::Dof;
 use crate::model::Model;
-use crate::reduce::flexible::ElasticBasis;
+use crate::reduce::flexible::{ElasticBasis, PointNode};
 use crate::rigid::{inertia, Inertia};
 use crate::{Error, Result};
 use faer::{Mat, MatRef};
@@ -412,14 +421,21 @@ fn taylor(s: &mut String, indent: usize, name: &str, t: &Taylor, nq: usize) {
 }
 
 /// The text of the SID_FEM file (see the module doc) for the elastic basis `flex` of a ROM
-/// of `model`.
+/// of `model`, with `points` as more nodes after the mesh nodes (none for a model without
+/// remote points).
 ///
 /// # Errors
-/// As [`invariants`] and [`grids`]; [`Error::InvalidSetting`] when an invariant is not
-/// finite.
-pub fn text(model: &Model, flex: &ElasticBasis, dof_map: Option<&[Dof]>) -> Result<String> {
+/// As [`invariants`], [`grids`] and [`point_grids`]; [`Error::InvalidSetting`] when an
+/// invariant or a point's shape is not finite, or a point's shapes are not 6 × r.
+pub fn text(
+    model: &Model,
+    flex: &ElasticBasis,
+    dof_map: Option<&[Dof]>,
+    points: &[PointNode],
+) -> Result<String> {
     let inv = invariants(model, flex)?;
     let labels = grids(model, dof_map)?;
+    let point_ids = point_grids(&labels, points.len())?;
     let nodes = model.nodes.as_deref().unwrap_or_default();
     let phi = flex.phi.as_ref();
     let r = phi.ncols();
@@ -436,12 +452,23 @@ pub fn text(model: &Model, flex: &ElasticBasis, dof_map: Option<&[Dof]>) -> Resu
             )));
         }
     }
+    for p in points {
+        let finite = p.shapes.col_iter().all(|c| c.iter().all(|v| v.is_finite()))
+            && p.position.iter().all(|v| v.is_finite());
+        if (p.shapes.nrows(), p.shapes.ncols()) != (6, phi.ncols()) || !finite {
+            return Err(Error::InvalidSetting(format!(
+                "remote point {}: its shapes must be 6 × {} and finite, with a finite position",
+                p.name,
+                phi.ncols()
+            )));
+        }
+    }
     let mut s = String::new();
     let _ = writeln!(
         s,
         "{:5} {:3}    :No. nodes, No. modes: sparsemor {} {} ROM of model '{}', elastic basis, \
          inertia invariants only, no geometric stiffening",
-        nodes.len(),
+        nodes.len() + points.len(),
         r,
         env!("CARGO_PKG_VERSION"),
         flex.rom.method(),
@@ -474,6 +501,27 @@ pub fn text(model: &Model, flex: &ElasticBasis, dof_map: Option<&[Dof]>) -> Resu
         taylor(&mut s, 21, "AP", &Taylor::zeroth(Mat::identity(3, 3)), r);
         let _ = writeln!(s, "                end node");
     }
+    for (p, id) in points.iter().zip(point_ids) {
+        line(&mut s, 16, "new node", &format!("{id:8}"));
+        line(&mut s, 21, "rframe", "    body ref");
+        let sh = &p.shapes;
+        let rows = |at: usize| Mat::from_fn(3, r, |a, k| sh[(at + a, k)]);
+        let column = |k: usize| Mat::from_fn(3, 1, |a, _| sh[(a, k)]);
+        let origin = Taylor::first(
+            Mat::from_fn(3, 1, |a, _| p.position[a]),
+            (0..r).map(column).collect(),
+        );
+        taylor(&mut s, 21, "origin", &origin, r);
+        taylor(&mut s, 21, "phi", &Taylor::zeroth(rows(0)), r);
+        taylor(&mut s, 21, "psi", &Taylor::zeroth(rows(3)), r);
+        let skew = |k: usize| {
+            let t = [sh[(3, k)], sh[(4, k)], sh[(5, k)]];
+            Mat::from_fn(3, 3, |a, b| cross(t, unit(b))[a])
+        };
+        let ap = Taylor::first(Mat::identity(3, 3), (0..r).map(skew).collect());
+        taylor(&mut s, 21, "AP", &ap, r);
+        let _ = writeln!(s, "                end node");
+    }
     let _ = writeln!(s, "           end frame");
     for (name, t) in &blocks {
         taylor(&mut s, 11, name, t, r);
@@ -484,7 +532,7 @@ pub fn text(model: &Model, flex: &ElasticBasis, dof_map: Option<&[Dof]>) -> Resu
 }
 
 /// Writes `body.SID_FEM` (see the module doc) for the elastic basis `flex` of a ROM of
-/// `model` into the new directory `dir`.
+/// `model`, with `points` as interface nodes, into the new directory `dir`.
 ///
 /// # Errors
 /// [`Error::InvalidSetting`] if `dir` exists and is not empty (naming it), as [`text`]; I/O
@@ -494,7 +542,8 @@ pub fn write(
     model: &Model,
     flex: &ElasticBasis,
     dof_map: Option<&[Dof]>,
+    points: &[PointNode],
 ) -> Result<()> {
-    let s = text(model, flex, dof_map)?;
+    let s = text(model, flex, dof_map, points)?;
     atomic::write_dir(dir, |tmp| atomic::write_bytes(&tmp.join(SID_FILE), s))
 }

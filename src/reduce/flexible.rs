@@ -18,11 +18,29 @@
 //! transfer functions are scored again on the projected ROM ([`ElasticBasis::rom`]) and
 //! compared with the ROM's own ε (docs/design.md §3.7).
 //!
-//! Entry point: [`elastic_basis`].
+//! **Coupled models** (§3.11). A ROM of a coupled model lives in its coordinates z, q = T z,
+//! with M' = TᵀMT, K' = TᵀKT, D' = TᵀDT and T V0' = V0. Its elastic basis Φ (in z) carried
+//! to the original DoFs, TΦ, is an elastic basis of the original body with the same ROM:
+//!
+//! ```text
+//! (TΦ)ᵀ M (TΦ) = Φᵀ M' Φ = I,   (TΦ)ᵀ K (TΦ) = Λ,   V0ᵀ M (TΦ) = V0'ᵀ M' Φ = 0
+//! ```
+//!
+//! so the flexible-body exports write the mesh nodes' shapes from TΦ and the body's inertia
+//! from the original M and node coordinates, unchanged by the couplings (the remote points
+//! are massless). Each remote point becomes one more interface node: its six DoFs (x, y, z,
+//! rx, ry, rz) in mode k are R_p Φ_k, R_p the point's six rows over z
+//! ([`crate::coupled::Coupled::point_rows`]: a rigid point's DoFs are coordinates of z₁, a
+//! distributing point's the weighted least-squares rigid motion of its nodes).
+//! [`ElasticBasis::on_original`] does both.
+//!
+//! Entry points: [`elastic_basis`], [`ElasticBasis::on_original`].
 
 use super::projection::project;
 use super::rom::Rom;
 use crate::body::Body;
+use crate::coupled::Joints;
+use crate::coupling::Kind;
 use crate::dense::{sym_eigen, sym_eigenvalues};
 use crate::pencil::Coefficient;
 use crate::scene::Scene;
@@ -133,4 +151,92 @@ pub fn elastic_basis(body: &Body, scene: &Scene, rom: &Rom) -> Result<ElasticBas
         ),
         phi,
     })
+}
+
+/// A remote point as an interface node of a flexible-body export (module doc, docs/design.md
+/// §3.9, §3.11): massless, at the point's position, moving in mode k as the point does.
+#[derive(Clone, Debug)]
+pub struct PointNode {
+    /// The point's name.
+    pub name: String,
+    /// Its position (the node's coordinates).
+    pub position: [f64; 3],
+    /// Rigid (RBE2) or distributing (RBE3).
+    pub kind: Kind,
+    /// The mesh nodes it is tied to (indices into the original model's nodes, increasing).
+    pub nodes: Vec<usize>,
+    /// One weight per node of `nodes` (1 for a rigid point and for equal weights).
+    pub weights: Vec<f64>,
+    /// Its six DoFs (x, y, z, rx, ry, rz) in each mode: 6 × r, R_p Φ.
+    pub shapes: Mat<f64>,
+}
+
+impl ElasticBasis {
+    /// The basis of a ROM of a coupled model carried to the model it came from (module doc):
+    /// Φ ← TΦ (N × r, the original DoFs; frequencies and the projected ROM unchanged) and
+    /// one [`PointNode`] per remote point with shapes R_p Φ.
+    ///
+    /// # Errors
+    /// [`Error::InvalidSetting`] when Φ does not have the coupled model's N' rows or a
+    /// point's rows run past them.
+    pub fn on_original(&self, joints: &Joints) -> Result<(ElasticBasis, Vec<PointNode>)> {
+        let t = &joints.t;
+        let (n, np, r) = (t.nrows(), t.ncols(), self.phi.ncols());
+        if self.phi.nrows() != np {
+            return Err(Error::InvalidSetting(format!(
+                "the elastic basis has {} rows, the coupled model has N' = {np}",
+                self.phi.nrows()
+            )));
+        }
+        // TΦ, one column of T at a time
+        let mut phi = Mat::<f64>::zeros(n, r);
+        for j in 0..np {
+            for (&i, &v) in t.row_idx_of_col_raw(j).iter().zip(t.val_of_col(j)) {
+                for k in 0..r {
+                    phi[(i, k)] += v * self.phi[(j, k)];
+                }
+            }
+        }
+        let mut points = Vec::with_capacity(joints.points.len());
+        for (p, rows) in joints.points.iter().zip(&joints.point_rows) {
+            if let Some(&i) = rows.iter().flat_map(|row| &row.idx).find(|&&i| i >= np) {
+                return Err(Error::InvalidSetting(format!(
+                    "remote point {}: its rows reach DoF {i}, the coupled model has N' = {np}",
+                    p.name
+                )));
+            }
+            let shapes = Mat::from_fn(6, r, |d, k| {
+                let row = &rows[d];
+                row.idx
+                    .iter()
+                    .zip(&row.val)
+                    .map(|(&i, &v)| v * self.phi[(i, k)])
+                    .sum()
+            });
+            let mut order: Vec<usize> = (0..p.nodes.len()).collect();
+            order.sort_by_key(|&k| p.nodes[k]);
+            points.push(PointNode {
+                name: p.name.clone(),
+                position: p.position,
+                kind: p.kind,
+                nodes: order.iter().map(|&k| p.nodes[k]).collect(),
+                weights: order
+                    .iter()
+                    .map(|&k| p.weights.get(k).copied().unwrap_or(1.0))
+                    .collect(),
+                shapes,
+            });
+        }
+        Ok((
+            ElasticBasis {
+                phi,
+                eigenfrequencies_hz: self.eigenfrequencies_hz.clone(),
+                dropped: self.dropped,
+                dropped_rel_norms: self.dropped_rel_norms.clone(),
+                rigid_coupling: self.rigid_coupling,
+                rom: self.rom.clone(),
+            },
+            points,
+        ))
+    }
 }

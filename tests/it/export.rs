@@ -23,7 +23,7 @@ use std::path::Path;
 use std::process::Command;
 
 /// True when `python3 -c "import <modules>"` works; prints why a test is skipped otherwise.
-fn python_has(modules: &str) -> bool {
+pub(crate) fn python_has(modules: &str) -> bool {
     let ok = Command::new("python3")
         .args(["-c", &format!("import {modules}")])
         .output()
@@ -35,7 +35,7 @@ fn python_has(modules: &str) -> bool {
 }
 
 /// Runs a Python program; returns its stdout, failing the test with its stderr.
-fn python(args: &[&str]) -> String {
+pub(crate) fn python(args: &[&str]) -> String {
     let out = Command::new("python3").args(args).output().unwrap();
     let text = String::from_utf8_lossy(&out.stdout).into_owned();
     assert!(
@@ -268,7 +268,7 @@ fn elastic_basis_needs_the_kept_basis() {
 fn exudyn_check(label: &str, model: &Model, scene: &Scene, rom: &Rom, freq_hz: f64, dir: &Path) {
     let body = Body::new(model).unwrap();
     let eb = elastic_basis(&body, scene, rom).unwrap();
-    exudyn::write(dir, model, &eb, None).unwrap();
+    exudyn::write(dir, model, &eb, None, &[], None).unwrap();
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/exudyn_flexible_body.py");
     let f = format!("{freq_hz}");
     let out = python(&[

@@ -59,7 +59,7 @@ fn cb_rom(model: &Model, scene: &Scene) -> Rom {
 }
 
 /// True when python3 has pyNastran; prints why a check is skipped otherwise.
-fn has_pynastran() -> bool {
+pub(crate) fn has_pynastran() -> bool {
     let ok = Command::new("python3")
         .args(["-c", "import pyNastran, numpy"])
         .output()
@@ -70,7 +70,7 @@ fn has_pynastran() -> bool {
     ok
 }
 
-fn python(script: &str, args: &[&Path]) -> String {
+pub(crate) fn python(script: &str, args: &[&Path]) -> String {
     let out = Command::new("python3")
         .arg("-c")
         .arg(script)
@@ -105,7 +105,7 @@ fn rel(a: &Mat<f64>, b: &Mat<f64>) -> f64 {
 }
 
 /// `name r c` then `i j value.hex()` lines, as the Python side prints matrices.
-fn parse_matrices(text: &str) -> HashMap<String, Mat<f64>> {
+pub(crate) fn parse_matrices(text: &str) -> HashMap<String, Mat<f64>> {
     let mut out = HashMap::new();
     let mut cur: Option<(String, Mat<f64>)> = None;
     for line in text.lines() {
@@ -281,7 +281,7 @@ fn dmig_export_reads_back_in_pynastran() {
 
     let (model, scene) = model_scene();
     let rom = cb_rom(&model, &scene);
-    let keys = dmig::coordinates(&rom, &model, None).unwrap();
+    let keys = dmig::coordinates(&rom, &model, None, None).unwrap();
     let modal = rom.order() - rom.dofs.len();
     assert_eq!(modal, 4);
     let max_grid = (model.n() / 3) as u64;
@@ -299,7 +299,7 @@ fn dmig_export_reads_back_in_pynastran() {
     }
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("dmig");
-    dmig::write(&dir, &rom, &model, None).unwrap();
+    dmig::write(&dir, &rom, &model, None, None).unwrap();
     let csv = std::fs::read_to_string(dir.join(dmig::MAP_FILE)).unwrap();
     let lines: Vec<&str> = csv.lines().collect();
     assert_eq!(lines[0], "row,id,component,kind,model_dof");
@@ -410,7 +410,7 @@ fn dense_rigid_body(model: &Model) -> (f64, [f64; 3], [[f64; 3]; 3]) {
 }
 
 /// The numbers after `** RECORD GROUP g` up to the next `**` line.
-fn group(text: &str, g: usize) -> Vec<f64> {
+pub(crate) fn group(text: &str, g: usize) -> Vec<f64> {
     let head = format!("** RECORD GROUP {g},");
     let mut lines = text.lines().skip_while(|l| !l.starts_with(&head)).skip(1);
     let mut out = Vec::new();
@@ -469,7 +469,7 @@ fn mbdyn_export_rigid_body_and_modal_matrices() {
 
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("mbdyn");
-    mbdyn::write(&dir, &model, &flex, None).unwrap();
+    mbdyn::write(&dir, &model, &flex, None, &[]).unwrap();
     let text = std::fs::read_to_string(dir.join(mbdyn::FEM_FILE)).unwrap();
     let r = flex.phi.ncols();
     let nn = nodes.len();

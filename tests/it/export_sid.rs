@@ -26,22 +26,22 @@ fn model_flex() -> (Model, ElasticBasis) {
 
 /// One parsed taylor block.
 #[derive(Debug)]
-struct Block {
-    order: usize,
-    nq: usize,
-    structure: usize,
-    m0: Mat<f64>,
-    m1: Vec<Mat<f64>>,
+pub(crate) struct Block {
+    pub(crate) order: usize,
+    pub(crate) nq: usize,
+    pub(crate) structure: usize,
+    pub(crate) m0: Mat<f64>,
+    pub(crate) m1: Vec<Mat<f64>>,
 }
 
 /// What the reader found.
-struct Parsed {
-    header: (usize, usize),
-    mass: f64,
-    nelastq: usize,
-    freqs: Vec<f64>,
-    nodes: Vec<(u64, HashMap<String, Block>)>,
-    body: HashMap<String, Block>,
+pub(crate) struct Parsed {
+    pub(crate) header: (usize, usize),
+    pub(crate) mass: f64,
+    pub(crate) nelastq: usize,
+    pub(crate) freqs: Vec<f64>,
+    pub(crate) nodes: Vec<(u64, HashMap<String, Block>)>,
+    pub(crate) body: HashMap<String, Block>,
 }
 
 fn num(s: &str) -> f64 {
@@ -119,7 +119,7 @@ fn block<'a>(lines: &mut impl Iterator<Item = &'a str>, name: &str) -> Block {
     }
 }
 
-fn parse(text: &str) -> Parsed {
+pub(crate) fn parse(text: &str) -> Parsed {
     let mut lines = text.lines();
     let first: Vec<&str> = lines.next().unwrap().split_whitespace().collect();
     let header = (first[0].parse().unwrap(), first[1].parse().unwrap());
@@ -269,7 +269,7 @@ fn sid_export_parses_back_and_matches_dense_invariants() {
     let r = phi.ncols();
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("sid");
-    sid::write(&dir, &model, &flex, None).unwrap();
+    sid::write(&dir, &model, &flex, None, &[]).unwrap();
     let text = std::fs::read_to_string(dir.join(sid::SID_FILE)).unwrap();
     let p = parse(&text);
     let inv = sid::invariants(&model, &flex).unwrap();

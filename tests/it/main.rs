@@ -10,6 +10,7 @@ mod distributed;
 mod eigen;
 mod export;
 mod export_nastran;
+mod export_points;
 mod export_sid;
 mod extremes;
 mod factor_ldlt;

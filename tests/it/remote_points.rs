@@ -15,10 +15,10 @@ use sparsemor::scene::Scene;
 use sparsemor::sweep::{no_progress, SweepOptions};
 use std::path::{Path, PathBuf};
 
-const BETA: f64 = 2e-5;
+pub(crate) const BETA: f64 = 2e-5;
 
 /// The 90-DoF bar (1 × 2 × 4 hexahedra, 0.02 × 0.03 × 0.2 m), free, Rayleigh damped.
-fn bar() -> Model {
+pub(crate) fn bar() -> Model {
     let mut m = bar_model(&BoxSpec::small()).unwrap();
     m.damping = sparsemor::model::Damping::Rayleigh {
         alpha: 0.0,
@@ -29,7 +29,7 @@ fn bar() -> Model {
 
 /// A directory with the bar's files and a `model.toml` whose remote points and scene are
 /// `joints` (TOML text after the common keys).
-fn directory(name: &str, joints: &str) -> PathBuf {
+pub(crate) fn directory(name: &str, joints: &str) -> PathBuf {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
         .join("remote_points")
         .join(name);
@@ -50,7 +50,7 @@ fn directory(name: &str, joints: &str) -> PathBuf {
 }
 
 /// A Matrix Market `coordinate real general` file of the dense matrix `a` (nonzeros only).
-fn write_mtx(path: &Path, a: &Mat<f64>) {
+pub(crate) fn write_mtx(path: &Path, a: &Mat<f64>) {
     let mut s = String::from("%%MatrixMarket matrix coordinate real general\n");
     let entries: Vec<_> = (0..a.ncols())
         .flat_map(|j| (0..a.nrows()).map(move |i| (i, j)))
@@ -64,7 +64,7 @@ fn write_mtx(path: &Path, a: &Mat<f64>) {
 }
 
 /// The nodes of `model` with z = `z`.
-fn face(model: &Model, z: f64) -> Vec<usize> {
+pub(crate) fn face(model: &Model, z: f64) -> Vec<usize> {
     let nodes = model.nodes.as_ref().unwrap();
     (0..nodes.len())
         .filter(|&i| (nodes[i][2] - z).abs() < 1e-9)
@@ -73,7 +73,7 @@ fn face(model: &Model, z: f64) -> Vec<usize> {
 
 /// G(r) = [I, −[r]×]: a node's translation under the rigid motion (t, θ) of a point at offset
 /// −r from it.
-fn g(r: [f64; 3]) -> Mat<f64> {
+pub(crate) fn g(r: [f64; 3]) -> Mat<f64> {
     let mut g = Mat::<f64>::zeros(3, 6);
     for a in 0..3 {
         g[(a, a)] = 1.0;
@@ -401,9 +401,10 @@ proptest::proptest! {
 }
 
 /// The command on a coupled directory: `info` reports the points and the size change,
-/// `reduce --method linefit --tol` and `evaluate` run, and the node-based exports refuse it by name.
+/// `reduce --method linefit --tol` and `evaluate` run, and every export writes the remote
+/// points as interface nodes and names them.
 #[test]
-fn the_command_reduces_a_coupled_directory_and_exports_refuse_it() {
+fn the_command_reduces_and_exports_a_coupled_directory() {
     use crate::cli::{ok, run};
     let dir = directory(
         "command",
@@ -423,6 +424,9 @@ fn the_command_reduces_a_coupled_directory_and_exports_refuse_it() {
     ] {
         assert!(info.contains(needle), "{needle:?} not in\n{info}");
     }
+    for sub in ["rom", "romv", "ex_sid", "ex_mbdyn", "ex_exudyn", "ex_dmig"] {
+        let _ = std::fs::remove_dir_all(dir.join(sub));
+    }
     ok(
         &dir,
         &[
@@ -430,15 +434,63 @@ fn the_command_reduces_a_coupled_directory_and_exports_refuse_it() {
         ],
     );
     ok(&dir, &["evaluate", ".", "rom"]);
+    ok(
+        &dir,
+        &[
+            "reduce",
+            ".",
+            "--method",
+            "linefit",
+            "--tol",
+            "1e-3",
+            "--keep-basis",
+            "--out",
+            "romv",
+        ],
+    );
+    for (format, needles) in [
+        ("sid", ["point base -> node 31", "point tip -> node 32"]),
+        ("mbdyn", ["point base -> node 31", "point tip -> node 32"]),
+        (
+            "exudyn",
+            [
+                "point base -> MarkerSuperElementRigid over 6 mesh nodes",
+                "point tip -> MarkerSuperElementRigid over 6 mesh nodes",
+            ],
+        ),
+        ("dmig", ["point base -> grid 31", "point tip -> grid 32"]),
+    ] {
+        let out = ok(
+            &dir,
+            &[
+                "export",
+                "romv",
+                "--model",
+                ".",
+                "--format",
+                format,
+                "--points",
+                "20",
+                "--out",
+                &format!("ex_{format}"),
+            ],
+        );
+        for n in needles {
+            assert!(out.contains(n), "{format}: {n:?} not in\n{out}");
+        }
+    }
+    let sid = std::fs::read_to_string(dir.join("ex_sid").join("body.SID_FEM")).unwrap();
+    assert!(sid.starts_with("   32 "), "{}", &sid[..80]);
+    // without the basis: the ROM directory and the fix are named, nothing is written
     let out = run(
         &dir,
         &[
-            "export", "rom", "--model", ".", "--format", "dmig", "--out", "ex",
+            "export", "rom", "--model", ".", "--format", "sid", "--out", "ex",
         ],
     );
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
-        !out.status.success() && err.contains("a coupled model"),
+        !out.status.success() && err.contains("--keep-basis"),
         "{err}"
     );
     assert!(
