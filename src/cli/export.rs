@@ -92,13 +92,14 @@ pub fn export(a: &ExportArgs) -> Result<()> {
             let keys = dmig::coordinates(&rom, &model, dof_map.as_deref(), j)?;
             let spoints = keys.iter().filter(|c| c.component == 0).count();
             println!(
-                "dmig             {}: MAAX, KAAX{} over {} grid components and {spoints} scalar points; rows in {}",
+                "dmig             {}: MAAX, KAAX{}{} over {} grid components and {spoints} scalar points; rows in {}",
                 dmig::BULK_FILE,
                 if rom.dr.col_iter().any(|c| c.iter().any(|&v| v != 0.0)) {
                     ", BAAX"
                 } else {
                     ""
                 },
+                if rom.k4r.is_some() { ", K4AAX" } else { "" },
                 keys.len() - spoints,
                 dmig::MAP_FILE
             );
@@ -118,7 +119,20 @@ pub fn export(a: &ExportArgs) -> Result<()> {
             eprintln!("wrote {}", a.out.display());
             return Ok(());
         }
-        Format::Exudyn | Format::Mbdyn | Format::Sid => {}
+        Format::Exudyn | Format::Mbdyn | Format::Sid => {
+            if rom.k4r.is_some() {
+                // a flexible body in the time domain: hysteretic damping has no time-domain form
+                return Err(Error::InvalidSetting(format!(
+                    "{}: the ROM has structural (hysteretic) damping K4r, which {:?} cannot \
+                     carry (a multibody body runs in the time domain, where a loss factor has \
+                     no equivalent); `--format op4` or `--format dmig` write it, or reduce the \
+                     model without [structural] / structural_damping (an equivalent viscous \
+                     damping, e.g. [rayleigh] beta = eta / omega at a frequency of interest)",
+                    a.rom.display(),
+                    a.format
+                )));
+            }
+        }
     }
     let body = Body::new(&model)?;
     let rom_scene = Scene {

@@ -1,7 +1,8 @@
 //! Nastran DMIG bulk data of a ROM (docs/design.md §3.9, §4): `dmig.bdf` holds the ROM's Mr
-//! as `MAAX`, Kr as `KAAX` and, when it is not zero, Dr as `BAAX` (symmetric, IFO = 6, real
-//! double precision, TIN = 2; one triangle), for a Nastran run to add with
-//! `M2GG = MAAX`, `K2GG = KAAX`, `B2GG = BAAX`; and `coordinates.csv`, which row is which.
+//! as `MAAX`, Kr as `KAAX`, when it is not zero Dr as `BAAX`, and with structural damping
+//! K₄r as `K4AAX` (symmetric, IFO = 6, real double precision, TIN = 2; one triangle), for a
+//! Nastran run to add with `M2GG = MAAX`, `K2GG = KAAX`, `B2GG = BAAX`, `K42GG = K4AAX`; and
+//! `coordinates.csv`, which row is which.
 //!
 //! The ROM's coordinates are keyed by grid and component: a physical coordinate (an interface,
 //! retained or boundary DoF) by the grid of its node and its component 1–6 — through the DoF
@@ -281,8 +282,8 @@ fn matrix(out: &mut String, name: &str, a: MatRef<'_, f64>, keys: &[Coordinate])
     Ok(())
 }
 
-/// The DMIG names [`write`] uses for Mr, Kr and Dr.
-pub const NAMES: [&str; 3] = ["MAAX", "KAAX", "BAAX"];
+/// The DMIG names [`write`] uses for Mr, Kr, Dr and K₄r.
+pub const NAMES: [&str; 4] = ["MAAX", "KAAX", "BAAX", "K4AAX"];
 
 /// Writes `dmig.bdf` and `coordinates.csv` (see the module doc) into the new directory `dir`;
 /// `joints` for a ROM of a coupled model (its points' grids are defined in `dmig.bdf`).
@@ -316,8 +317,13 @@ pub fn write(
     );
     let _ = writeln!(
         bdf,
-        "$ case control: M2GG = MAAX, K2GG = KAAX{}; rows and columns: {MAP_FILE}",
-        if damped { ", B2GG = BAAX" } else { "" }
+        "$ case control: M2GG = MAAX, K2GG = KAAX{}{}; rows and columns: {MAP_FILE}",
+        if damped { ", B2GG = BAAX" } else { "" },
+        if rom.k4r.is_some() {
+            ", K42GG = K4AAX"
+        } else {
+            ""
+        }
     );
     if let Some(j) = joints {
         let g = grids(&j.original, dof_map)?;
@@ -362,6 +368,9 @@ pub fn write(
     matrix(&mut bdf, NAMES[1], rom.kr.as_ref(), &keys)?;
     if damped {
         matrix(&mut bdf, NAMES[2], rom.dr.as_ref(), &keys)?;
+    }
+    if let Some(k4r) = &rom.k4r {
+        matrix(&mut bdf, NAMES[3], k4r.as_ref(), &keys)?;
     }
     let mut csv = String::from("row,id,component,kind,model_dof\n");
     for (r, c) in keys.iter().enumerate() {

@@ -934,3 +934,74 @@ fn dofs_given_as_node_dir_or_index_give_the_same_rom() {
     );
     assert!(!work.join("C").exists());
 }
+
+/// A model with a loss factor (docs/design.md §3.12): `info` names the damping path, the ROM
+/// directory holds K4r.mtx, OP4 and DMIG carry it (K4R, K4AAX with K42GG), and the
+/// time-domain exports refuse it by name.
+#[test]
+fn structural_damping_from_model_toml_to_the_exports() {
+    let dir = scratch("structural");
+    let model = dir.join("bar");
+    std::fs::create_dir_all(&model).unwrap();
+    for f in ["M.mtx", "K.mtx", "nodes.csv"] {
+        std::fs::copy(bar().join(f), model.join(f)).unwrap();
+    }
+    let toml = std::fs::read_to_string(bar().join("model.toml")).unwrap();
+    assert!(toml.contains("\n[scene]"));
+    let toml = toml.replacen("\n[scene]", "\n[structural]\neta = 0.02\n\n[scene]", 1);
+    std::fs::write(model.join("model.toml"), toml).unwrap();
+    let info = ok(&dir, &["info", "bar"]);
+    assert!(
+        info.contains("loss factor eta = 2e-2") && info.contains("damping path     proportional"),
+        "{info}"
+    );
+    ok(
+        &dir,
+        &[
+            "reduce",
+            "bar",
+            "--method",
+            "linefit",
+            "--ref-freqs",
+            "100,400,700,950",
+            "--extra-interface",
+            "2",
+            "--keep-basis",
+            "--out",
+            "rom",
+        ],
+    );
+    assert!(dir.join("rom/K4r.mtx").is_file());
+    let rom_toml = std::fs::read_to_string(dir.join("rom/rom.toml")).unwrap();
+    assert!(rom_toml.contains("structural_damping = true"), "{rom_toml}");
+    ok(
+        &dir,
+        &[
+            "export", "rom", "--model", "bar", "--format", "op4", "--out", "op4",
+        ],
+    );
+    let op4 = std::fs::read_to_string(dir.join("op4/rom.op4")).unwrap();
+    assert!(op4.contains("K4R"), "no K4R in rom.op4");
+    let dmig = ok(
+        &dir,
+        &[
+            "export", "rom", "--model", "bar", "--format", "dmig", "--out", "dmig",
+        ],
+    );
+    assert!(dmig.contains("K4AAX"), "{dmig}");
+    let bdf = std::fs::read_to_string(dir.join("dmig/dmig.bdf")).unwrap();
+    assert!(
+        bdf.contains("K42GG = K4AAX") && bdf.contains("DMIG    K4AAX"),
+        "{bdf}"
+    );
+    for format in ["sid", "mbdyn", "exudyn"] {
+        fails(
+            &dir,
+            &[
+                "export", "rom", "--model", "bar", "--format", format, "--out", format,
+            ],
+            &["structural (hysteretic) damping K4r", "--format op4"],
+        );
+        assert!(!dir.join(format).exists(), "{format}: a directory was left");
+    }
+}
