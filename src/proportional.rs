@@ -332,9 +332,26 @@ struct Fit {
     outliers: Vec<usize>,
 }
 
-/// The robust fit of x ≈ a m + b k (module doc). `Err` with the last fit when fewer than
-/// half of the entries stay within the thresholds (no proportional part to speak of).
+/// The robust fit of x ≈ a m + b k (module doc), or a = b = 0 when that leaves fewer entries
+/// out (a matrix that is zero but for a few dampers: its nonzero entries alone would fit a
+/// spurious b). `Err` with the last fit when fewer than half of the entries stay within the
+/// thresholds (no proportional part to speak of).
 fn fit(m: &[f64], k: &[f64], x: &[f64]) -> Result<Fit, Fit> {
+    let nonzero: Vec<usize> = (0..x.len()).filter(|&q| x[q] != 0.0).collect();
+    let zero = || Fit {
+        a: 0.0,
+        b: 0.0,
+        outliers: nonzero.clone(),
+    };
+    match robust_fit(m, k, x) {
+        Ok(f) if f.outliers.len() <= nonzero.len() => Ok(f),
+        Err(f) if 2 * nonzero.len() >= x.len() => Err(f),
+        _ => Ok(zero()),
+    }
+}
+
+/// [`fit`]'s robust least squares (module doc).
+fn robust_fit(m: &[f64], k: &[f64], x: &[f64]) -> Result<Fit, Fit> {
     let total = x.len();
     let mut inliers: Vec<usize> = (0..total).collect();
     let mut fitted = Fit::default();
@@ -477,6 +494,36 @@ mod tests {
             assert!(alpha != 0.0 || p.alpha == 0.0);
             assert!(beta != 0.0 || p.beta == 0.0);
         }
+    }
+
+    /// A structural damping matrix that is zero but for one damper: no proportional part
+    /// (not the b its few nonzero entries alone would fit), a rank-1 remainder.
+    #[test]
+    fn a_matrix_of_a_damper_alone_has_no_proportional_part() {
+        let (cp, ri, m, k) = bar();
+        let pattern = Pattern {
+            col_ptr: &cp,
+            row_idx: &ri,
+        };
+        let mut k4 = vec![0.0; k.len()];
+        let at = |i: usize, j: usize| (cp[j]..cp[j + 1]).find(|&q| ri[q] == i).unwrap();
+        let (a, b, c) = (ri[cp[3] + 2], 3, 1.0e3);
+        k4[at(a, a)] += c;
+        k4[at(b, b)] += c;
+        k4[at(a, b)] -= c;
+        let Split::LowRank(p, r) = split(
+            pattern,
+            &m,
+            &k,
+            Viscous::Rayleigh(0.0, 1e-6),
+            0.02,
+            Some(&k4),
+        ) else {
+            panic!("not low rank");
+        };
+        assert_eq!((p.gamma, p.eta, p.beta), (0.0, 0.02, 1e-6));
+        assert_eq!((r.rank(), r.dofs.clone()), (1, vec![b, a]));
+        assert!(r.viscous.norm_l2() == 0.0);
     }
 
     #[test]
