@@ -39,6 +39,31 @@
 #define SPARSEMOR_VERSION_PATCH 0
 
 /**
+ * `SparsemorDampingInfo::kind`: no damping (D = 0, H = 0): A(iω) = K − ω²M is real.
+ */
+#define SPARSEMOR_DAMPING_NONE 0
+
+/**
+ * `SparsemorDampingInfo::kind`: proportional to rounding, D = αM + βK and K₄ = γM + η₄K
+ * (Rayleigh damping, a loss factor, a D file written as αM + βK): one shifted real pencil
+ * answers every frequency (docs/design.md §3.10, §3.12).
+ */
+#define SPARSEMOR_DAMPING_PROPORTIONAL 1
+
+/**
+ * `SparsemorDampingInfo::kind`: proportional but for a remainder of rank
+ * `remainder_rank` on `remainder_dofs` DoFs (dashpots, bushings, a damped joint): the
+ * shifted pencil plus a Sherman–Morrison–Woodbury correction (§3.12).
+ */
+#define SPARSEMOR_DAMPING_LOW_RANK 2
+
+/**
+ * `SparsemorDampingInfo::kind`: a remainder on many DoFs (material-wise damping): every
+ * frequency is factored.
+ */
+#define SPARSEMOR_DAMPING_GENERAL 3
+
+/**
  * `SparsemorCsc::storage`: both triangles are stored (full symmetric storage).
  */
 #define SPARSEMOR_STORAGE_FULL 0
@@ -92,6 +117,15 @@
  * basis mapped back by q = T z, so q ≈ V x_r is a state of the original model.
  */
 #define SPARSEMOR_MATRIX_V 5
+
+/**
+ * `sparsemor_rom_copy_matrix`: reduced structural damping K4r = VᵀHV (n×n, symmetric),
+ * H = ηK + K₄, of a ROM whose model has structural damping
+ * (`sparsemor_rom_has_structural_damping`): Hr(iω) = Cr(Kr + iK4r − ω²Mr + iωDr)⁻¹Br
+ * (docs/design.md §3.12). A ROM without it has no K4r: `SPARSEMOR_STATUS_NOT_AVAILABLE`
+ * (its Hr is the one without the iK4r term).
+ */
+#define SPARSEMOR_MATRIX_K4R 6
 
 /**
  * `sparsemor_rom_method`: line-fitting.
@@ -208,9 +242,9 @@ typedef enum SparsemorStatus {
  * computed by the first call that factors and reused by every later one; docs/design.md §2),
  * and its scene (inputs, outputs, band). Created by `sparsemor_model_new`, released by
  * `sparsemor_model_free`. Read-only functions may share one handle across threads;
- * `sparsemor_model_set_scene`, `sparsemor_model_add_remote_point` and
- * `sparsemor_model_set_scene_general` must not run concurrently with anything else on the
- * handle.
+ * `sparsemor_model_set_scene`, `sparsemor_model_add_remote_point`,
+ * `sparsemor_model_set_scene_general` and `sparsemor_model_set_structural_damping` must not
+ * run concurrently with anything else on the handle.
  */
 typedef struct SparsemorModel SparsemorModel;
 
@@ -222,7 +256,8 @@ typedef struct SparsemorModel SparsemorModel;
 typedef struct SparsemorOptions SparsemorOptions;
 
 /**
- * Opaque reduced-model handle: Mr q̈ + Dr q̇ + Kr q = Br u, y = Cr q and the diagnostics
+ * Opaque reduced-model handle: Mr q̈ + Dr q̇ + Kr q = Br u, y = Cr q (in the frequency
+ * domain with + iK4r q when the model has structural damping) and the diagnostics
  * of its construction. Made by `sparsemor_reduce_linefit`, `sparsemor_reduce_serep` or
  * `sparsemor_reduce_craig_bampton`,
  * released by `sparsemor_rom_free`. Independent of the model handle it came from.
@@ -267,6 +302,49 @@ typedef struct SparsemorCsc {
      */
     uint32_t storage;
 } SparsemorCsc;
+
+/**
+ * How a model's damping is answered (docs/design.md §3.12), from
+ * `sparsemor_model_damping_info`: A(iω) = (1 + iη + iωβ)K − (ω² − iωα − iγ)M + the
+ * remainder iωE + iF.
+ *
+ * For `SPARSEMOR_DAMPING_GENERAL` with `remainder_dofs == SIZE_MAX` the fit was rejected
+ * (more than half of D's or K₄'s entries off αM + βK, γM + η₄K, e.g. a K₄ that is zero
+ * but for a few dampers): α, β, η, γ are then its last attempt and do not describe the
+ * damping; every frequency is factored with the exact A(iω).
+ */
+typedef struct SparsemorDampingInfo {
+    /**
+     * `SPARSEMOR_DAMPING_NONE`, `_PROPORTIONAL`, `_LOW_RANK` or `_GENERAL`.
+     */
+    uint32_t kind;
+    /**
+     * Viscous, mass-proportional α (1/s) of the proportional part.
+     */
+    double alpha;
+    /**
+     * Viscous, stiffness-proportional β (s).
+     */
+    double beta;
+    /**
+     * Structural loss factor on K: the model's η plus the K-proportional part of K₄.
+     */
+    double eta;
+    /**
+     * Structural, mass-proportional γ (the M-proportional part of K₄).
+     */
+    double gamma;
+    /**
+     * Rank r of the low-rank remainder (`_LOW_RANK`; 0 otherwise).
+     */
+    size_t remainder_rank;
+    /**
+     * DoFs the remainder touches: |J| for `_LOW_RANK` and `_GENERAL` (`SIZE_MAX` for
+     * `_GENERAL` when the fit left more than half of the entries out: no proportional part
+     * to speak of); 0 otherwise.
+     */
+    size_t remainder_dofs;
+} SparsemorDampingInfo;
 
 /**
  * Progress callback: called after each finished frequency of a sweep with the number of
@@ -460,6 +538,46 @@ enum SparsemorStatus sparsemor_version(uint32_t *major,
                                        uint32_t *minor,
                                        uint32_t *patch,
                                        uint32_t *abi);
+
+/**
+ * Gives the model structural (hysteretic) damping H = `eta`·K + K₄:
+ * A(iω) = K + iH − ω²M + iωD (docs/design.md §3.1, §3.12), replacing any it had (a model
+ * directory's `[structural]`, an earlier call); `eta` = 0 with `k4` = NULL removes it.
+ *
+ * - `eta`: the loss factor on K (Nastran's G, ANSYS's DMPSTR), finite and >= 0.
+ * - `k4`: NULL, or the structural damping matrix K₄ (Nastran's K4): N×N, symmetric, finite
+ *   (the `SparsemorCsc` checks, both storages).
+ *
+ * Everything else of the handle stays: M, K, D, the nodes and rigid part, the scene, the
+ * remote points and a general scene (`sparsemor_model_set_scene_general`), which is coupled
+ * again from the new body (K₄' = TᵀHT; the same points, functionals and band), exactly as
+ * setting the scene after this call would. A ROM made afterwards carries
+ * K₄r = VᵀHV (`SPARSEMOR_MATRIX_K4R`) and Hr(iω) = Cr(Kr + iK₄r − ω²Mr + iωDr)⁻¹Br; ROMs
+ * made before are not changed. On failure the handle is unchanged.
+ *
+ * Cost: the body is prepared again (its matrices rebuilt in full storage once, the rigid
+ * part detected again), and so is a general scene's coupled body; the next call that
+ * factors repeats the symbolic analysis.
+ *
+ * # Safety
+ * `model` a live handle not used concurrently; `k4` NULL or a valid `SparsemorCsc` whose
+ * arrays have the lengths it claims.
+ */
+enum SparsemorStatus sparsemor_model_set_structural_damping(struct SparsemorModel *model,
+                                                            double eta,
+                                                            const struct SparsemorCsc *k4);
+
+/**
+ * How the damping of the model the reductions work on (the coupled one while a general
+ * scene is set) is answered (docs/design.md §3.12; see `SparsemorDampingInfo`): its kind,
+ * the proportional part α, β, η, γ and the remainder's rank and DoFs. Computed when the
+ * body was prepared; this call only reads it.
+ *
+ * # Safety
+ * `model` a live handle; `info_out` writable.
+ */
+enum SparsemorStatus sparsemor_model_damping_info(const struct SparsemorModel *model,
+                                                  struct SparsemorDampingInfo *info_out);
 
 /**
  * Length in bytes of the last error message of this thread, including the terminating NUL;
@@ -886,8 +1004,9 @@ enum SparsemorStatus sparsemor_rom_n_inputs(const struct SparsemorRom *rom, size
 enum SparsemorStatus sparsemor_rom_n_outputs(const struct SparsemorRom *rom, size_t *n_out);
 
 /**
- * Shape of a ROM matrix (`SPARSEMOR_MATRIX_*`): Mr, Dr, Kr n×n; Br n×p; Cr q×n; V N×n.
- * `rows_out`, `cols_out` may each be NULL.
+ * Shape of a ROM matrix (`SPARSEMOR_MATRIX_*`): Mr, Dr, Kr, K4r n×n; Br n×p; Cr q×n; V
+ * N×n. `rows_out`, `cols_out` may each be NULL. V without keep-basis and K4r of a ROM without
+ * structural damping: `SPARSEMOR_STATUS_NOT_AVAILABLE`.
  *
  * # Safety
  * `rom` a live handle; non-NULL outs writable.
@@ -903,7 +1022,8 @@ enum SparsemorStatus sparsemor_rom_matrix_shape(const struct SparsemorRom *rom,
  *
  * `*required_len` (when not NULL) receives rows·cols. `buf == NULL && buf_len == 0` only
  * queries that length. A shorter buffer fails with `SPARSEMOR_STATUS_BUFFER_TOO_SMALL` and
- * leaves `buf` untouched. V without keep-basis: `SPARSEMOR_STATUS_NOT_AVAILABLE`.
+ * leaves `buf` untouched. V without keep-basis and K4r of a ROM without structural damping:
+ * `SPARSEMOR_STATUS_NOT_AVAILABLE`.
  *
  * # Safety
  * `rom` a live handle; `buf` NULL or valid for `buf_len` doubles; `required_len` NULL or
@@ -914,6 +1034,17 @@ enum SparsemorStatus sparsemor_rom_copy_matrix(const struct SparsemorRom *rom,
                                                double *buf,
                                                size_t buf_len,
                                                size_t *required_len);
+
+/**
+ * Whether the ROM has structural damping (`*has_out`, 0/1): a reduced K4r = VᵀHV,
+ * H = ηK + K₄, and the transfer function Hr(iω) = Cr(Kr + iK4r − ω²Mr + iωDr)⁻¹Br
+ * (docs/design.md §3.12). When 1, `SPARSEMOR_MATRIX_K4R` copies K4r.
+ *
+ * # Safety
+ * `rom` a live handle; `has_out` writable.
+ */
+enum SparsemorStatus sparsemor_rom_has_structural_damping(const struct SparsemorRom *rom,
+                                                          int32_t *has_out);
 
 /**
  * The full-model DoF of each physical ROM coordinate (line-fitting interface, SEREP retained

@@ -23,6 +23,7 @@
 //! Entry points, in the order of use: `sparsemor_version`, `sparsemor_model_new`,
 //! `sparsemor_model_set_scene` (DoFs) or `sparsemor_model_add_remote_point` and
 //! `sparsemor_model_set_scene_general` (remote points, a sparse B and C),
+//! `sparsemor_model_set_structural_damping` and `sparsemor_model_damping_info` (§3.12),
 //! `sparsemor_options_new` and `sparsemor_options_set_*`,
 //! `sparsemor_reduce_linefit` / `sparsemor_reduce_serep`, `sparsemor_rom_*` queries,
 //! `sparsemor_rom_transfer_error`, `sparsemor_*_free`.
@@ -33,6 +34,7 @@
 // CSC validation walks the arrays by index.
 #![allow(clippy::needless_range_loop)]
 
+mod damping;
 mod error;
 mod model;
 mod options;
@@ -41,6 +43,7 @@ mod rom;
 mod scene;
 mod util;
 
+pub use damping::*;
 pub use error::{sparsemor_last_error_length, sparsemor_last_error_message, SparsemorStatus};
 pub use model::*;
 pub use options::*;

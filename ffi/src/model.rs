@@ -51,11 +51,12 @@ pub struct SparsemorCsc {
 /// computed by the first call that factors and reused by every later one; docs/design.md §2),
 /// and its scene (inputs, outputs, band). Created by `sparsemor_model_new`, released by
 /// `sparsemor_model_free`. Read-only functions may share one handle across threads;
-/// `sparsemor_model_set_scene`, `sparsemor_model_add_remote_point` and
-/// `sparsemor_model_set_scene_general` must not run concurrently with anything else on the
-/// handle.
+/// `sparsemor_model_set_scene`, `sparsemor_model_add_remote_point`,
+/// `sparsemor_model_set_scene_general` and `sparsemor_model_set_structural_damping` must not
+/// run concurrently with anything else on the handle.
 pub struct SparsemorModel {
-    /// The original body, as created (never replaced by a coupled one).
+    /// The original body, as created (never replaced by a coupled one; prepared again by
+    /// `sparsemor_model_set_structural_damping`).
     pub(crate) body: Body,
     /// The scene of `sparsemor_model_set_scene` on the original body (unused while a general
     /// scene is set).
@@ -201,7 +202,7 @@ pub(crate) unsafe fn csc_arrays<'a>(
 ///
 /// # Safety
 /// The pointers in `c` must be valid for the lengths they claim (`n + 1`, `nnz`).
-unsafe fn csc_from_c(c: &SparsemorCsc, what: &str) -> Result<Csc, Failure> {
+pub(crate) unsafe fn csc_from_c(c: &SparsemorCsc, what: &str) -> Result<Csc, Failure> {
     let n = c.n;
     if n == 0 {
         return Err(Failure::arg(format!("{what}: n = 0; need n >= 1")));

@@ -34,6 +34,12 @@ pub const SPARSEMOR_MATRIX_CR: u32 = 4;
 /// of a general scene (`sparsemor_model_set_scene_general`) it is T V, the coupled model's
 /// basis mapped back by q = T z, so q ≈ V x_r is a state of the original model.
 pub const SPARSEMOR_MATRIX_V: u32 = 5;
+/// `sparsemor_rom_copy_matrix`: reduced structural damping K4r = VᵀHV (n×n, symmetric),
+/// H = ηK + K₄, of a ROM whose model has structural damping
+/// (`sparsemor_rom_has_structural_damping`): Hr(iω) = Cr(Kr + iK4r − ω²Mr + iωDr)⁻¹Br
+/// (docs/design.md §3.12). A ROM without it has no K4r: `SPARSEMOR_STATUS_NOT_AVAILABLE`
+/// (its Hr is the one without the iK4r term).
+pub const SPARSEMOR_MATRIX_K4R: u32 = 6;
 
 /// `sparsemor_rom_method`: line-fitting.
 pub const SPARSEMOR_METHOD_LINEFIT: u32 = 0;
@@ -55,7 +61,8 @@ pub type SparsemorProgressFn = Option<
     unsafe extern "C" fn(done: usize, total: usize, freq_hz: f64, user_data: *mut c_void) -> i32,
 >;
 
-/// Opaque reduced-model handle: Mr q̈ + Dr q̇ + Kr q = Br u, y = Cr q and the diagnostics
+/// Opaque reduced-model handle: Mr q̈ + Dr q̇ + Kr q = Br u, y = Cr q (in the frequency
+/// domain with + iK4r q when the model has structural damping) and the diagnostics
 /// of its construction. Made by `sparsemor_reduce_linefit`, `sparsemor_reduce_serep` or
 /// `sparsemor_reduce_craig_bampton`,
 /// released by `sparsemor_rom_free`. Independent of the model handle it came from.
@@ -393,16 +400,29 @@ fn matrix<'a>(r: &'a SparsemorRom, which: u32) -> Result<(MatRef<'a, f64>, &'sta
                 ))
             }
         },
+        SPARSEMOR_MATRIX_K4R => match rom.k4r.as_ref() {
+            Some(k4r) => (k4r.as_ref(), "K4r"),
+            None => {
+                return Err(Failure::new(
+                    SparsemorStatus::NotAvailable,
+                    "K4r: the ROM has no structural damping (its model had eta = 0 and no K4, so \
+                     its transfer function has no iK4r term): ask \
+                     sparsemor_rom_has_structural_damping first, or give the model structural \
+                     damping (sparsemor_model_set_structural_damping) before the reduction",
+                ))
+            }
+        },
         w => {
             return Err(Failure::arg(format!(
-                "matrix id {w}: use SPARSEMOR_MATRIX_MR, _DR, _KR, _BR, _CR or _V (0..5)"
+                "matrix id {w}: use SPARSEMOR_MATRIX_MR, _DR, _KR, _BR, _CR, _V or _K4R (0..6)"
             )))
         }
     })
 }
 
-/// Shape of a ROM matrix (`SPARSEMOR_MATRIX_*`): Mr, Dr, Kr n×n; Br n×p; Cr q×n; V N×n.
-/// `rows_out`, `cols_out` may each be NULL.
+/// Shape of a ROM matrix (`SPARSEMOR_MATRIX_*`): Mr, Dr, Kr, K4r n×n; Br n×p; Cr q×n; V
+/// N×n. `rows_out`, `cols_out` may each be NULL. V without keep-basis and K4r of a ROM without
+/// structural damping: `SPARSEMOR_STATUS_NOT_AVAILABLE`.
 ///
 /// # Safety
 /// `rom` a live handle; non-NULL outs writable.
@@ -425,7 +445,8 @@ pub unsafe extern "C" fn sparsemor_rom_matrix_shape(
 ///
 /// `*required_len` (when not NULL) receives rows·cols. `buf == NULL && buf_len == 0` only
 /// queries that length. A shorter buffer fails with `SPARSEMOR_STATUS_BUFFER_TOO_SMALL` and
-/// leaves `buf` untouched. V without keep-basis: `SPARSEMOR_STATUS_NOT_AVAILABLE`.
+/// leaves `buf` untouched. V without keep-basis and K4r of a ROM without structural damping:
+/// `SPARSEMOR_STATUS_NOT_AVAILABLE`.
 ///
 /// # Safety
 /// `rom` a live handle; `buf` NULL or valid for `buf_len` doubles; `required_len` NULL or
@@ -463,6 +484,23 @@ pub unsafe extern "C" fn sparsemor_rom_copy_matrix(
             }
         }
         Ok(())
+    })
+}
+
+/// Whether the ROM has structural damping (`*has_out`, 0/1): a reduced K4r = VᵀHV,
+/// H = ηK + K₄, and the transfer function Hr(iω) = Cr(Kr + iK4r − ω²Mr + iωDr)⁻¹Br
+/// (docs/design.md §3.12). When 1, `SPARSEMOR_MATRIX_K4R` copies K4r.
+///
+/// # Safety
+/// `rom` a live handle; `has_out` writable.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_rom_has_structural_damping(
+    rom: *const SparsemorRom,
+    has_out: *mut i32,
+) -> SparsemorStatus {
+    ffi_body!({
+        let r = unsafe { obj(rom, "rom")? };
+        unsafe { write_out(has_out, i32::from(r.rom.k4r.is_some()), "has_out") }
     })
 }
 

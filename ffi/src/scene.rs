@@ -95,7 +95,9 @@ pub struct SparsemorScenePart {
     pub matrix: *const SparsemorSparse,
 }
 
-/// A general scene coupled: the coupled body, its scene of DoFs and q = T z.
+/// A general scene coupled: the coupled body, its scene of DoFs and q = T z, with what it was
+/// coupled from (to couple again when the original body changes:
+/// `sparsemor_model_set_structural_damping`).
 pub(crate) struct CoupledScene {
     pub body: Body,
     pub scene: Scene,
@@ -103,6 +105,68 @@ pub(crate) struct CoupledScene {
     pub t: Csc,
     /// What every DoF of the coupled model is: (`SPARSEMOR_COORDINATE_*`, a, b).
     pub coordinates: Vec<(u32, usize, usize)>,
+    /// The remote points it was coupled with (those added before the scene was set).
+    pub points: Vec<RemotePoint>,
+    /// Its inputs and outputs as given.
+    pub functionals: [Vec<Functional>; 2],
+}
+
+/// Couples `body` (the handle's original one) with `points` and the functionals `ins`,
+/// `outs` into a [`CoupledScene`] with the band `band_hz` (docs/design.md §3.11), in a
+/// call-local pool.
+pub(crate) fn couple_scene(
+    body: &Body,
+    points: &[RemotePoint],
+    ins: Vec<Functional>,
+    outs: Vec<Functional>,
+    band_hz: [f64; 2],
+) -> Result<CoupledScene, Failure> {
+    in_pool(1, || -> Result<CoupledScene, Failure> {
+        let original = body.to_model()?;
+        let cp = couple(&original, points, &ins, &outs)?;
+        let scene = Scene {
+            inputs: cp.inputs,
+            outputs: cp.outputs,
+            band_hz,
+        };
+        scene.validate(cp.n, "scene")?;
+        // the k-th row functional of a part is its matrix's column (row) k
+        let matrix_rows = |list: &[Functional], kind: u32| {
+            list.iter()
+                .filter_map(|f| match f {
+                    Functional::Row(name, _) => Some(name.clone()),
+                    _ => None,
+                })
+                .enumerate()
+                .map(move |(k, name)| (name, (kind, k)))
+                .collect::<Vec<_>>()
+        };
+        let rows: HashMap<String, (u32, usize)> =
+            matrix_rows(&ins, SPARSEMOR_COORDINATE_INPUT_COLUMN)
+                .into_iter()
+                .chain(matrix_rows(&outs, SPARSEMOR_COORDINATE_OUTPUT_ROW))
+                .collect();
+        let coordinates = cp
+            .coordinates
+            .iter()
+            .map(|c| match c {
+                Coordinate::Dof(i) => (SPARSEMOR_COORDINATE_DOF, *i, 0),
+                Coordinate::Point { point, dir } => (SPARSEMOR_COORDINATE_POINT, *point, *dir),
+                Coordinate::Row(name) => {
+                    let (kind, k) = rows[name];
+                    (kind, k, 0)
+                }
+            })
+            .collect();
+        Ok(CoupledScene {
+            body: Body::new(&cp.model)?,
+            scene,
+            t: cp.t,
+            coordinates,
+            points: points.to_vec(),
+            functionals: [ins, outs],
+        })
+    })?
 }
 
 /// The columns of the caller's sparse matrix as sparse vectors, after checking its arrays.
@@ -385,51 +449,7 @@ pub unsafe extern "C" fn sparsemor_model_set_scene_general(
                 "band [{band_lo_hz}, {band_hi_hz}] Hz: need finite 0 <= band_lo_hz < band_hi_hz"
             )));
         }
-        let (body, points) = (&m.body, &m.points);
-        let coupled = in_pool(1, || -> Result<CoupledScene, Failure> {
-            let original = body.to_model()?;
-            let cp = couple(&original, points, &ins, &outs)?;
-            let scene = Scene {
-                inputs: cp.inputs,
-                outputs: cp.outputs,
-                band_hz: [band_lo_hz, band_hi_hz],
-            };
-            scene.validate(cp.n, "scene")?;
-            // the k-th row functional of a part is its matrix's column (row) k
-            let matrix_rows = |list: &[Functional], kind: u32| {
-                list.iter()
-                    .filter_map(|f| match f {
-                        Functional::Row(name, _) => Some(name.clone()),
-                        _ => None,
-                    })
-                    .enumerate()
-                    .map(move |(k, name)| (name, (kind, k)))
-                    .collect::<Vec<_>>()
-            };
-            let rows: HashMap<String, (u32, usize)> =
-                matrix_rows(&ins, SPARSEMOR_COORDINATE_INPUT_COLUMN)
-                    .into_iter()
-                    .chain(matrix_rows(&outs, SPARSEMOR_COORDINATE_OUTPUT_ROW))
-                    .collect();
-            let coordinates = cp
-                .coordinates
-                .iter()
-                .map(|c| match c {
-                    Coordinate::Dof(i) => (SPARSEMOR_COORDINATE_DOF, *i, 0),
-                    Coordinate::Point { point, dir } => (SPARSEMOR_COORDINATE_POINT, *point, *dir),
-                    Coordinate::Row(name) => {
-                        let (kind, k) = rows[name];
-                        (kind, k, 0)
-                    }
-                })
-                .collect();
-            Ok(CoupledScene {
-                body: Body::new(&cp.model)?,
-                scene,
-                t: cp.t,
-                coordinates,
-            })
-        })??;
+        let coupled = couple_scene(&m.body, &m.points, ins, outs, [band_lo_hz, band_hi_hz])?;
         m.coupled = Some(coupled);
         Ok(())
     })

@@ -25,6 +25,12 @@ Progress = Callable[[int, int, float], Optional[bool]]
 
 _PREFIX = "SPARSEMOR_STATUS_"
 STATUS_NAMES = {getattr(lib, n): n[len(_PREFIX):] for n in dir(lib) if n.startswith(_PREFIX)}
+DAMPING_KINDS = {
+    lib.SPARSEMOR_DAMPING_NONE: "none",
+    lib.SPARSEMOR_DAMPING_PROPORTIONAL: "proportional",
+    lib.SPARSEMOR_DAMPING_LOW_RANK: "low_rank",
+    lib.SPARSEMOR_DAMPING_GENERAL: "general",
+}
 METHOD_NAMES = {
     lib.SPARSEMOR_METHOD_LINEFIT: "linefit",
     lib.SPARSEMOR_METHOD_SEREP: "serep",
@@ -284,6 +290,35 @@ class Model:
                                              float(band_hz[0]), float(band_hz[1])))
         self.inputs, self.outputs, self.band_hz = list(i), list(o), tuple(band_hz)
 
+    def set_structural_damping(self, eta: float = 0.0, k4=None,
+                               lower_only: bool = False) -> None:
+        """Structural (hysteretic) damping H = eta K + K4 (docs/design.md §3.12):
+        A(iω) = K + iH − ω²M + iωD, a frequency-domain model. `eta`: the loss factor on K
+        (finite, >= 0; Nastran's G); `k4`: None or a symmetric N×N scipy.sparse matrix
+        (Nastran's K4; `lower_only=True` passes its lower triangle). Replaces any structural
+        damping the model had (eta=0, k4=None removes it); the scene, remote points and a
+        general scene stay (its coupled model gets TᵀK4T). ROMs reduced afterwards carry
+        `Rom.k4r`."""
+        k = None if k4 is None else _Csc(k4, self.n, "k4", lower_only)
+        _check(lib.sparsemor_model_set_structural_damping(self._h, float(eta),
+                                                           ffi.NULL if k is None else k.ptr))
+
+    @property
+    def damping_info(self) -> dict:
+        """How the damping of the model the reductions work on is answered (docs/design.md
+        §3.12): A(iω) = (1 + iη + iωβ)K − (ω² − iωα − iγ)M plus a remainder. `kind`:
+        "none", "proportional" (one shifted real pencil answers every frequency), "low_rank"
+        (plus a correction of rank `remainder_rank` on `remainder_dofs` DoFs) or "general"
+        (every frequency factored; `remainder_dofs` None when the fit found no proportional
+        part); `alpha`, `beta`, `eta`, `gamma` of the proportional part."""
+        r = _out("SparsemorDampingInfo")
+        _check(lib.sparsemor_model_damping_info(self._h, r))
+        i = r[0]
+        dofs = None if i.remainder_dofs == int(ffi.cast("size_t", -1)) else i.remainder_dofs
+        return {"kind": DAMPING_KINDS.get(i.kind, str(i.kind)), "alpha": i.alpha,
+                "beta": i.beta, "eta": i.eta, "gamma": i.gamma,
+                "remainder_rank": i.remainder_rank, "remainder_dofs": dofs}
+
     def add_remote_point(self, nodes: Sequence[int], kind: str = "distributing",
                          position=None, weights=None) -> int:
         """A reference point with six DoFs tied to `nodes` (0-based node indices; the model
@@ -391,8 +426,9 @@ class Model:
 
 
 class Rom:
-    """A reduced model Mr q'' + Dr q' + Kr q = Br u, y = Cr q, with the numerics of its
-    reduction (fit report, conditioning, definiteness, timings, warnings)."""
+    """A reduced model Mr q'' + Dr q' + Kr q = Br u, y = Cr q (in the frequency domain with
+    + iK4r q when the model has structural damping), with the numerics of its reduction (fit
+    report, conditioning, definiteness, timings, warnings)."""
 
     def __init__(self, handle):
         self._h = handle
@@ -431,6 +467,12 @@ class Rom:
     V = property(lambda self: self.matrix(lib.SPARSEMOR_MATRIX_V))
     """The basis V (N × order) in the DoFs of the model as created (for a general scene T V,
     the coupled model's basis mapped back): only when reduced with `keep_basis=True`."""
+
+    @property
+    def k4r(self) -> Optional[np.ndarray]:
+        """The reduced structural damping K4r = VᵀHV, H = ηK + K4 (order × order), of a
+        model with structural damping (docs/design.md §3.12); None without it."""
+        return self._optional(lambda: self.matrix(lib.SPARSEMOR_MATRIX_K4R))
 
     def _copy(self, fn, dtype, ctype: str) -> np.ndarray:
         need = _out("size_t")
@@ -549,9 +591,13 @@ class Rom:
                 for i in range(self._size(lib.sparsemor_rom_warning_count))]
 
     def transfer(self, freq_hz: float) -> np.ndarray:
-        """Hr(iω) = Cr (Kr − ω² Mr + iω Dr)⁻¹ Br (outputs × inputs), dense."""
+        """Hr(iω) = Cr (Kr + iK4r − ω² Mr + iω Dr)⁻¹ Br (outputs × inputs), dense; K4r
+        only with structural damping."""
         w = 2.0 * np.pi * freq_hz
         a = self.Kr - w * w * self.Mr + 1j * w * self.Dr
+        k4r = self.k4r
+        if k4r is not None:
+            a = a + 1j * k4r
         return self.Cr @ np.linalg.solve(a, self.Br.astype(complex))
 
     def transfer_error(self, model: Model, freqs_hz) -> tuple:

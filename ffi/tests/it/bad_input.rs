@@ -695,8 +695,8 @@ fn buffer_too_small_reports_the_required_length() {
 fn unknown_matrix_id_and_missing_basis() {
     let (h, rom) = small_rom();
     unsafe {
-        let st = sparsemor_rom_copy_matrix(rom, 6, null_mut(), 0, null_mut());
-        expect(st, SparsemorStatus::InvalidArgument, "matrix id 6");
+        let st = sparsemor_rom_copy_matrix(rom, 7, null_mut(), 0, null_mut());
+        expect(st, SparsemorStatus::InvalidArgument, "matrix id 7");
         let st = sparsemor_rom_copy_matrix(rom, SPARSEMOR_MATRIX_V, null_mut(), 0, null_mut());
         expect(st, SparsemorStatus::NotAvailable, "V was not kept");
         let mut c = 0.0;

@@ -225,3 +225,51 @@ pub fn rom_matrix(rom: *const SparsemorRom, which: u32) -> (usize, usize, Vec<f6
         (r, c, v)
     }
 }
+
+/// A column-major `rows` × `cols` array as a matrix.
+pub fn col_major(rows: usize, cols: usize, v: &[f64]) -> faer::Mat<f64> {
+    faer::Mat::from_fn(rows, cols, |i, j| v[i + j * rows])
+}
+
+/// Hr(iω) = Cr (Kr + iK4r − ω²Mr + iωDr)⁻¹ Br at `f` Hz from the ROM's matrices as the ABI
+/// hands them out (K4r when `sparsemor_rom_has_structural_damping` says so; docs/design.md
+/// §3.12), by a dense LU.
+pub fn rom_transfer(rom: *const SparsemorRom, f: f64) -> faer::Mat<faer::c64> {
+    use faer::linalg::solvers::Solve;
+    use faer::{c64, Mat};
+    let w = 2.0 * std::f64::consts::PI * f;
+    let get = |which| {
+        let (r, c, v) = rom_matrix(rom, which);
+        col_major(r, c, &v)
+    };
+    let (mr, dr, kr, br, cr) = (
+        get(SPARSEMOR_MATRIX_MR),
+        get(SPARSEMOR_MATRIX_DR),
+        get(SPARSEMOR_MATRIX_KR),
+        get(SPARSEMOR_MATRIX_BR),
+        get(SPARSEMOR_MATRIX_CR),
+    );
+    let n = mr.nrows();
+    let mut has = -1;
+    let st = unsafe { sparsemor_rom_has_structural_damping(rom, &mut has) };
+    assert_eq!(st, SparsemorStatus::Ok, "{}", last_error());
+    let k4r = match has {
+        0 => Mat::zeros(n, n),
+        1 => get(SPARSEMOR_MATRIX_K4R),
+        other => panic!("has_structural_damping wrote {other}"),
+    };
+    let a = Mat::<c64>::from_fn(n, n, |i, j| {
+        c64::new(
+            kr[(i, j)] - w * w * mr[(i, j)],
+            w * dr[(i, j)] + k4r[(i, j)],
+        )
+    });
+    let b = Mat::<c64>::from_fn(n, br.ncols(), |i, j| c64::new(br[(i, j)], 0.0));
+    let x = a.partial_piv_lu().solve(&b);
+    Mat::<c64>::from_fn(cr.nrows(), n, |i, j| c64::new(cr[(i, j)], 0.0)) * x
+}
+
+/// ‖a − b‖_F / ‖b‖_F.
+pub fn rel(a: &faer::Mat<faer::c64>, b: &faer::Mat<faer::c64>) -> f64 {
+    (a - b).norm_l2() / b.norm_l2()
+}

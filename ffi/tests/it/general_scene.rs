@@ -180,44 +180,29 @@ fn distributing_row(
 
 /// H(iω) = C (K + iωβK − ω²M)⁻¹ B, dense.
 fn dense_h(model: &Model, b: &Mat<f64>, c: &Mat<f64>, f: f64) -> Mat<c64> {
+    dense_h_structural(model, None, b, c, f)
+}
+
+/// H(iω) = C (K + i(ωβK + H) − ω²M)⁻¹ B with a dense structural damping H (none: 0).
+fn dense_h_structural(
+    model: &Model,
+    h: Option<&Mat<f64>>,
+    b: &Mat<f64>,
+    c: &Mat<f64>,
+    f: f64,
+) -> Mat<c64> {
     let w = 2.0 * std::f64::consts::PI * f;
     let (k, m) = (
         model.stiffness.as_ref().to_dense(),
         model.mass.as_ref().to_dense(),
     );
     let a = Mat::<c64>::from_fn(k.nrows(), k.ncols(), |i, j| {
-        c64::new(k[(i, j)] - w * w * m[(i, j)], w * BETA * k[(i, j)])
+        let hij = h.map_or(0.0, |h| h[(i, j)]);
+        c64::new(k[(i, j)] - w * w * m[(i, j)], w * BETA * k[(i, j)] + hij)
     });
     let bc = Mat::<c64>::from_fn(b.nrows(), b.ncols(), |i, j| c64::new(b[(i, j)], 0.0));
     let x = a.partial_piv_lu().solve(&bc);
     Mat::<c64>::from_fn(c.nrows(), c.ncols(), |i, j| c64::new(c[(i, j)], 0.0)) * x
-}
-
-fn col_major(rows: usize, cols: usize, v: &[f64]) -> Mat<f64> {
-    Mat::from_fn(rows, cols, |i, j| v[i + j * rows])
-}
-
-/// Hr(iω) from the ROM's matrices as the ABI hands them out.
-fn rom_h(rom: *const SparsemorRom, f: f64) -> Mat<c64> {
-    let w = 2.0 * std::f64::consts::PI * f;
-    let get = |which| {
-        let (r, c, v) = rom_matrix(rom, which);
-        col_major(r, c, &v)
-    };
-    let (mr, dr, kr, br, cr) = (
-        get(SPARSEMOR_MATRIX_MR),
-        get(SPARSEMOR_MATRIX_DR),
-        get(SPARSEMOR_MATRIX_KR),
-        get(SPARSEMOR_MATRIX_BR),
-        get(SPARSEMOR_MATRIX_CR),
-    );
-    let n = mr.nrows();
-    let a = Mat::<c64>::from_fn(n, n, |i, j| {
-        c64::new(kr[(i, j)] - w * w * mr[(i, j)], w * dr[(i, j)])
-    });
-    let b = Mat::<c64>::from_fn(n, br.ncols(), |i, j| c64::new(br[(i, j)], 0.0));
-    let x = a.partial_piv_lu().solve(&b);
-    Mat::<c64>::from_fn(cr.nrows(), n, |i, j| c64::new(cr[(i, j)], 0.0)) * x
 }
 
 /// The scene of these tests: inputs = (point 0's x, B's column); outputs = (DoF 70, point 0's
@@ -276,10 +261,6 @@ fn set_scene(fx: &Fixture) -> SparsemorStatus {
     unsafe { sparsemor_model_set_scene_general(fx.h, &inputs, &outputs, 0.0, 3000.0) }
 }
 
-fn rel(a: &Mat<c64>, b: &Mat<c64>) -> f64 {
-    (a - b).norm_l2() / b.norm_l2()
-}
-
 #[test]
 fn exact_line_fit_reproduces_c_a_inverse_b_of_the_original_model() {
     let fx = fixture();
@@ -309,14 +290,14 @@ fn exact_line_fit_reproduces_c_a_inverse_b_of_the_original_model() {
     assert_eq!(st, SparsemorStatus::Ok, "{}", last_error());
     let mut worst: f64 = 0.0;
     for f in freqs {
-        let e = rel(&rom_h(rom, f), &dense_h(&fx.model, &fx.b, &fx.c, f));
+        let e = rel(&rom_transfer(rom, f), &dense_h(&fx.model, &fx.b, &fx.c, f));
         println!("{f} Hz: ROM vs dense C A^-1 B of the original: {e:.2e}");
         worst = worst.max(e);
     }
     assert!(worst <= 1e-8, "relative difference {worst:e}");
     // and between the reference frequencies the ROM is an approximation, not garbage
     let mid = rel(
-        &rom_h(rom, 1200.0),
+        &rom_transfer(rom, 1200.0),
         &dense_h(&fx.model, &fx.b, &fx.c, 1200.0),
     );
     println!("1200 Hz (not a reference): {mid:.2e}");
@@ -576,4 +557,91 @@ fn bad_scenes_and_points_are_refused_by_name() {
 fn mk_chain() -> (CscArrays, CscArrays) {
     let (m, k) = chain(4);
     (CscArrays::from_dense(4, &m), CscArrays::from_dense(4, &k))
+}
+
+/// Structural damping and a general scene in either order (docs/design.md §3.11, §3.12):
+/// given after the scene, the handle couples the scene again from the new body; given before,
+/// the coupling carries it. Either way an exact line-fit reproduces
+/// C (K + i(ωβK + ηK + K₄) − ω²M)⁻¹ B of the original model (dense solve) at its reference
+/// frequencies, and the two handles' coupled models and ROMs are the same bit for bit.
+#[test]
+fn structural_damping_survives_the_general_scene_in_either_order() {
+    const ETA: f64 = 0.02;
+    let (before, after) = (fixture(), fixture());
+    let n = before.model.n();
+    // K₄ = ηK plus a hysteretic damper c (e_a − e_b)(e_a − e_b)ᵀ between two DoFs
+    let k = before.model.stiffness.as_ref().to_dense();
+    let (a, b) = (20, 23);
+    let c = 0.05 * k[(a, a)];
+    let mut damper = Mat::<f64>::zeros(n, n);
+    damper[(a, a)] = c;
+    damper[(b, b)] = c;
+    damper[(a, b)] = -c;
+    damper[(b, a)] = -c;
+    let k4 = CscArrays::from_csc(&csc_of(&damper));
+    let h = Mat::<f64>::from_fn(n, n, |i, j| ETA * k[(i, j)] + damper[(i, j)]);
+    let set =
+        |fx: &Fixture| unsafe { sparsemor_model_set_structural_damping(fx.h, ETA, &k4.view()) };
+    assert_eq!(set(&before), SparsemorStatus::Ok, "{}", last_error());
+    assert_eq!(set_scene(&before), SparsemorStatus::Ok, "{}", last_error());
+    assert_eq!(set_scene(&after), SparsemorStatus::Ok, "{}", last_error());
+    assert_eq!(set(&after), SparsemorStatus::Ok, "{}", last_error());
+
+    let freqs = [400.0, 2100.0];
+    let o = options();
+    unsafe {
+        assert_eq!(sparsemor_options_set_threads(o, 1), SparsemorStatus::Ok);
+        assert_eq!(
+            sparsemor_options_set_reference_frequencies(o, freqs.as_ptr(), 2),
+            SparsemorStatus::Ok
+        );
+        assert_eq!(
+            sparsemor_options_set_interface_outputs_plus(o, 5),
+            SparsemorStatus::Ok
+        );
+    }
+    let reduce = |fx: &Fixture| {
+        let mut rom = null_mut();
+        let st = unsafe { sparsemor_reduce_linefit(fx.h, o, None, null_mut(), &mut rom) };
+        assert_eq!(st, SparsemorStatus::Ok, "{}", last_error());
+        let mut has = 0;
+        unsafe { sparsemor_rom_has_structural_damping(rom, &mut has) };
+        assert_eq!(has, 1, "the ROM carries K4r");
+        let mut info = SparsemorDampingInfo::default();
+        let st = unsafe { sparsemor_model_damping_info(fx.h, &mut info) };
+        assert_eq!(st, SparsemorStatus::Ok, "{}", last_error());
+        println!("coupled model's damping: {info:?}");
+        assert_ne!(info.kind, SPARSEMOR_DAMPING_NONE);
+        (rom, info)
+    };
+    let ((r1, i1), (r2, i2)) = (reduce(&before), reduce(&after));
+    assert_eq!(i1, i2, "the same coupled model");
+    for which in [
+        SPARSEMOR_MATRIX_MR,
+        SPARSEMOR_MATRIX_DR,
+        SPARSEMOR_MATRIX_KR,
+        SPARSEMOR_MATRIX_K4R,
+        SPARSEMOR_MATRIX_BR,
+        SPARSEMOR_MATRIX_CR,
+    ] {
+        let (a, b) = (rom_matrix(r1, which).2, rom_matrix(r2, which).2);
+        let same = a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits());
+        assert!(same && a.len() == b.len(), "matrix {which} differs");
+    }
+    for f in freqs {
+        let want = dense_h_structural(&before.model, Some(&h), &before.b, &before.c, f);
+        let (e1, e2) = (
+            rel(&rom_transfer(r1, f), &want),
+            rel(&rom_transfer(r2, f), &want),
+        );
+        println!("{f} Hz: ROM vs dense C A^-1 B with H: set before {e1:.2e}, after {e2:.2e}");
+        assert!(e1 <= 1e-8 && e2 <= 1e-8, "{e1:e} {e2:e}");
+    }
+    unsafe {
+        sparsemor_rom_free(r1);
+        sparsemor_rom_free(r2);
+        sparsemor_options_free(o);
+        sparsemor_model_free(before.h);
+        sparsemor_model_free(after.h);
+    }
 }

@@ -9,3 +9,4 @@ mod general_scene;
 mod header;
 mod import;
 mod readme;
+mod structural;
