@@ -18,6 +18,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+#define TEST_NAME "scene.c"
+#include "check.h"
+
 #define NX 2
 #define NY 3
 #define NZ 5
@@ -26,29 +29,6 @@
 #define BETA 1e-4
 #define OUT_DOF 70
 #define PI 3.14159265358979323846
-
-static int failures = 0;
-
-static void fail(const char *what) {
-    fprintf(stderr, "scene.c: FAILED: %s\n", what);
-    failures++;
-}
-
-static const char *last_error(void) {
-    static char buf[4096];
-    buf[0] = 0;
-    sparsemor_last_error_message(buf, sizeof buf);
-    return buf;
-}
-
-#define CHECK(call)                                                                          \
-    do {                                                                                     \
-        SparsemorStatus st_ = (call);                                                        \
-        if (st_ != SPARSEMOR_STATUS_OK) {                                                    \
-            fprintf(stderr, "scene.c: %s -> %d: %s\n", #call, (int)st_, last_error());       \
-            exit(1);                                                                         \
-        }                                                                                    \
-    } while (0)
 
 /* a refused call: the status and a message naming the argument */
 static void expect_refused(SparsemorStatus st, const char *needle, const char *what) {
@@ -84,43 +64,6 @@ static void to_csc(const double *a, size_t rows, size_t cols, Csc *c) {
         }
         c->col_ptr[j + 1] = c->nnz;
     }
-}
-
-/* solves a x = b in place (a n×n column-major, b n×m), partial pivoting; 0 if singular */
-static int solve_complex(double complex *a, double complex *b, size_t n, size_t m) {
-    size_t i, j, k, p;
-    for (k = 0; k < n; k++) {
-        p = k;
-        for (i = k + 1; i < n; i++)
-            if (cabs(a[i + k * n]) > cabs(a[p + k * n])) p = i;
-        if (cabs(a[p + k * n]) == 0.0) return 0;
-        if (p != k) {
-            for (j = 0; j < n; j++) {
-                double complex t = a[k + j * n];
-                a[k + j * n] = a[p + j * n];
-                a[p + j * n] = t;
-            }
-            for (j = 0; j < m; j++) {
-                double complex t = b[k + j * n];
-                b[k + j * n] = b[p + j * n];
-                b[p + j * n] = t;
-            }
-        }
-        for (i = k + 1; i < n; i++) {
-            double complex f = a[i + k * n] / a[k + k * n];
-            if (f == 0.0) continue;
-            for (j = k; j < n; j++) a[i + j * n] -= f * a[k + j * n];
-            for (j = 0; j < m; j++) b[i + j * n] -= f * b[k + j * n];
-        }
-    }
-    for (j = 0; j < m; j++) {
-        for (k = n; k-- > 0;) {
-            double complex s = b[k + j * n];
-            for (i = k + 1; i < n; i++) s -= a[k + i * n] * b[i + j * n];
-            b[k + j * n] = s / a[k + k * n];
-        }
-    }
-    return 1;
 }
 
 /* G(r) = [I, -[r]x]: the translation of a node at offset r under the rigid motion (t, theta) */
@@ -173,16 +116,6 @@ static void rom_h(const double *mr, const double *dr, const double *kr, const do
         }
     free(a);
     free(x);
-}
-
-static double *rom_matrix(SparsemorRom *rom, uint32_t which, size_t *rows, size_t *cols) {
-    size_t need = 0;
-    double *v;
-    CHECK(sparsemor_rom_matrix_shape(rom, which, rows, cols));
-    CHECK(sparsemor_rom_copy_matrix(rom, which, NULL, 0, &need));
-    v = malloc(sizeof(double) * (need ? need : 1));
-    CHECK(sparsemor_rom_copy_matrix(rom, which, v, need, NULL));
-    return v;
 }
 
 int main(void) {

@@ -19,6 +19,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+#define TEST_NAME "structural.c"
+#include "check.h"
+
 #define N 30
 #define TOL 1e-8
 #define BAND_HI 2.0 /* Hz: the chain's resonances at 0.29, 0.90 and 1.51 Hz */
@@ -26,29 +29,6 @@
 #define DAMP_A (N / 3)
 #define DAMP_B (N / 2 + 3)
 #define PI 3.14159265358979323846
-
-static int failures = 0;
-
-static void fail(const char *what) {
-    fprintf(stderr, "structural.c: FAILED: %s\n", what);
-    failures++;
-}
-
-static const char *last_error(void) {
-    static char buf[4096];
-    buf[0] = 0;
-    sparsemor_last_error_message(buf, sizeof buf);
-    return buf;
-}
-
-#define CHECK(call)                                                                          \
-    do {                                                                                     \
-        SparsemorStatus st_ = (call);                                                        \
-        if (st_ != SPARSEMOR_STATUS_OK) {                                                    \
-            fprintf(stderr, "structural.c: %s -> %d: %s\n", #call, (int)st_, last_error());  \
-            exit(1);                                                                         \
-        }                                                                                    \
-    } while (0)
 
 /* a refused call: the status and a message naming the argument */
 static void expect_refused(SparsemorStatus st, SparsemorStatus want, const char *needle,
@@ -98,43 +78,6 @@ static SparsemorCsc view(const Csc *c, uint32_t storage) {
     return v;
 }
 
-/* solves a x = b in place (a n×n column-major, b n×m), partial pivoting; 0 if singular */
-static int solve_complex(double complex *a, double complex *b, size_t n, size_t m) {
-    size_t i, j, k, p;
-    for (k = 0; k < n; k++) {
-        p = k;
-        for (i = k + 1; i < n; i++)
-            if (cabs(a[i + k * n]) > cabs(a[p + k * n])) p = i;
-        if (cabs(a[p + k * n]) == 0.0) return 0;
-        if (p != k) {
-            for (j = 0; j < n; j++) {
-                double complex t = a[k + j * n];
-                a[k + j * n] = a[p + j * n];
-                a[p + j * n] = t;
-            }
-            for (j = 0; j < m; j++) {
-                double complex t = b[k + j * n];
-                b[k + j * n] = b[p + j * n];
-                b[p + j * n] = t;
-            }
-        }
-        for (i = k + 1; i < n; i++) {
-            double complex f = a[i + k * n] / a[k + k * n];
-            if (f == 0.0) continue;
-            for (j = k; j < n; j++) a[i + j * n] -= f * a[k + j * n];
-            for (j = 0; j < m; j++) b[i + j * n] -= f * b[k + j * n];
-        }
-    }
-    for (j = 0; j < m; j++) {
-        for (k = n; k-- > 0;) {
-            double complex s = b[k + j * n];
-            for (i = k + 1; i < n; i++) s -= a[k + i * n] * b[i + j * n];
-            b[k + j * n] = s / a[k + k * n];
-        }
-    }
-    return 1;
-}
-
 /* h (q×p) = rows `outputs` of (k + i hs - w^2 m + i w d)^-1 [e_inputs], all n×n dense */
 static void transfer(const double *m, const double *d, const double *k, const double *hs,
                      size_t n, const double *b, size_t p, const double *c, size_t q, double f,
@@ -154,16 +97,6 @@ static void transfer(const double *m, const double *d, const double *k, const do
         }
     free(a);
     free(x);
-}
-
-static double *rom_matrix(SparsemorRom *rom, uint32_t which, size_t *rows, size_t *cols) {
-    size_t need = 0;
-    double *v;
-    CHECK(sparsemor_rom_matrix_shape(rom, which, rows, cols));
-    CHECK(sparsemor_rom_copy_matrix(rom, which, NULL, 0, &need));
-    v = malloc(sizeof(double) * (need ? need : 1));
-    CHECK(sparsemor_rom_copy_matrix(rom, which, v, need, NULL));
-    return v;
 }
 
 static double rel(const double complex *a, const double complex *b, size_t len) {
