@@ -40,6 +40,9 @@ inside the circle by the chord's sagitta, so tol is not tiny: see remote_points(
            as inputs and outputs ("big_end:x" ... "small_end:rz", 12).
   bracket  base_a, base_b (the base's holes, y = 0.02, 0.06) and upright_a, upright_b (the
            upright's), "rigid" (RBE2); the scene is the 6 DoFs of upright_a and upright_b (12).
+A distributing point's weights (--weights): "uniform" writes none (every node weighs 1);
+"area" writes `weights = [..]`, one per selected node in increasing node order, proportional
+to the node's tributary area on the surface's 6-node triangles (area_weights()).
 The band is found on the uncoupled free body as for the other parts. RBE2 stiffens the body
 (its coupled surfaces stay rigid), so the coupled bracket's eigenfrequencies are higher and
 its band may hold fewer than 13 of them (not measured here); RBE3 adds no stiffness. Without --remote the other parts' output is as it
@@ -49,8 +52,8 @@ Model directory: model.toml, K.mtx and M.mtx (Matrix Market, symmetric, lower tr
 1-based), nodes.csv (x,y,z; vertices then edge midpoints). Node i owns DoFs 3i, 3i+1, 3i+2.
 
 Run:
-  python3 benches/parts.py PART --size H --out DIR [--band F] [--remote]
-  python3 benches/parts.py all --out-root DIR
+  python3 benches/parts.py PART --size H --out DIR [--band F] [--remote] [--weights W]
+  python3 benches/parts.py all --out-root DIR [--weights W]
 
 `all` writes every part at two sizes (about 1e4 and 1e5 DoFs; the crank 2e4 and 1e5, with its
 remote points) into DIR/<part>-<N>, both sizes of a part with the band found on the small one,
@@ -339,23 +342,50 @@ def cylinder_distance(nodes, centre, axis, radius):
 
 
 def surface_nodes(p, t, nodes, centre, axis, radius, length):
-    """The tet10 nodes of the boundary triangles whose vertices lie on the cylinder (exact)."""
+    """The tet10 nodes of the boundary triangles whose vertices lie on the cylinder (exact),
+    increasing, and each one's tributary area (same order; see area_weights())."""
     faces = np.sort(np.hstack([t[[0, 1, 2]], t[[0, 1, 3]], t[[0, 2, 3]], t[[1, 2, 3]]]).T, axis=1)
     faces, count = np.unique(faces, axis=0, return_counts=True)
     faces = faces[count == 1]
     off, axial = cylinder_distance(p.T, centre, axis, radius)
     on = (off <= 1e-9 * radius) & (np.abs(axial) <= length / 2 * (1 + 1e-9))
     faces = faces[on[faces].all(axis=1)]
-    # the vertices, then the edge midpoints, found among the nodes by their coordinates
-    pts = [p.T[np.unique(faces)]]
-    pts += [(p.T[faces[:, a]] + p.T[faces[:, b]]) / 2 for a, b in ((0, 1), (0, 2), (1, 2))]
-    dist, idx = scipy.spatial.cKDTree(nodes).query(np.vstack(pts))
+    # each face's 6 nodes (its vertices, then the midpoints of edges 01, 02, 12), found among
+    # the nodes by their coordinates
+    x = p.T[faces]  # (faces, 3 vertices, 3)
+    pts = [x[:, a] for a in range(3)]
+    pts += [(x[:, a] + x[:, b]) / 2 for a, b in ((0, 1), (0, 2), (1, 2))]
+    dist, idx = scipy.spatial.cKDTree(nodes).query(np.stack(pts, axis=1).reshape(-1, 3))
     assert dist.max() <= 1e-12 * radius, dist.max()
-    return np.unique(idx)
+    idx = idx.reshape(-1, 6)
+    chosen, inverse = np.unique(idx, return_inverse=True)
+    area = 0.5 * np.linalg.norm(np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), axis=1)
+    share = np.hstack([np.repeat(area[:, None] / 12, 3, axis=1),
+                       np.repeat(area[:, None] / 4, 3, axis=1)])
+    tributary = np.zeros(len(chosen))
+    np.add.at(tributary, inverse.ravel(), share.ravel())
+    return chosen, tributary
 
 
-def remote_points(part, p, t, nodes):
+def area_weights(tributary):
+    """RBE3 weights proportional to each node's tributary area, scaled to mean 1.
+
+    A 6-node boundary triangle of area A splits at its edge midpoints into 4 linear triangles
+    of A/4; each node takes a third of every sub-triangle it touches: a corner A/12, an edge
+    midpoint A/4 (the three corners a quarter of the face together, the three midpoints three
+    quarters). Summed over the surface's triangles, every weight is > 0 and the weights add up
+    to the surface's (faceted) area before scaling. Uniform weights give every node the same
+    share whatever area it stands for, and that area depends on the mesh.
+    """
+    return tributary / tributary.mean()
+
+
+def remote_points(part, p, t, nodes, weights="uniform"):
     """The part's remote points, each a bore or hole surface selected by a cylinder.
+
+    weights: "uniform" (none written: every node weighs 1) or "area" (area_weights(), one per
+    selected node in increasing node order, as sparsemor pairs them); distributing points only,
+    a rigid point takes none.
 
     tol is put half-way (geometrically) between the largest distance of a surface node from
     the cylinder (a mid-edge node of a chord, inside the circle by the chord's sagitta) and
@@ -367,7 +397,7 @@ def remote_points(part, p, t, nodes):
     kind, cylinders, _ = REMOTE[part]
     points = []
     for name, centre, axis, radius, length in cylinders:
-        exact = surface_nodes(p, t, nodes, centre, axis, radius, length)
+        exact, tributary = surface_nodes(p, t, nodes, centre, axis, radius, length)
         off, axial = cylinder_distance(nodes, centre, axis, radius)
         within = np.abs(axial) <= length / 2 * (1 + 1e-9)
         inside = np.zeros(len(nodes), dtype=bool)
@@ -383,9 +413,10 @@ def remote_points(part, p, t, nodes):
         if not np.array_equal(chosen, exact):
             raise RuntimeError(f"{name}: the cylinder selects {len(chosen)} nodes, the surface "
                                f"has {len(exact)}")
+        w = area_weights(tributary) if weights == "area" and kind == "distributing" else None
         points.append(dict(name=name, kind=kind, position=centre, axis=axis, radius=radius,
                            length=cyl_length, tol=tol, nodes=chosen, dev_in=dev_in,
-                           dev_out=dev_out))
+                           dev_out=dev_out, weights=w, area=tributary.sum()))
     return points
 
 
@@ -409,6 +440,9 @@ def remote_toml(points):
             f"axis = {toml_floats(q['axis'])}, radius = {float(q['radius'])!r}, "
             f"length = {q['length']!r}, tol = {q['tol']!r} }}\n"
         )
+        if q["weights"] is not None:
+            # one per node of the cylinder's selection, in increasing node order
+            text += f"weights = {toml_floats(q['weights'])}\n"
     return text
 
 
@@ -451,7 +485,7 @@ def check(M, freqs):
     return lowest
 
 
-def build(part, h, out_for, band=None, remote=False):
+def build(part, h, out_for, band=None, remote=False, weights="uniform"):
     """Write one model into out_for(N); return a row of the summary table."""
     start = time.perf_counter()
     builder, _ = PARTS[part]
@@ -467,7 +501,7 @@ def build(part, h, out_for, band=None, remote=False):
     n = K.shape[0]
     out = out_for(n)
     if remote:
-        coupled = remote_points(part, p, t, nodes)
+        coupled = remote_points(part, p, t, nodes, weights)
         dofs = remote_scene(part)
     else:
         coupled = None
@@ -482,7 +516,11 @@ def build(part, h, out_for, band=None, remote=False):
         for q in coupled:
             print(f"  remote point {q['name']} ({q['kind']}) at {q['position']}: "
                   f"{len(q['nodes'])} nodes, tol {q['tol']:g} = {q['tol'] / h:.3g} h "
-                  f"(surface nodes within {q['dev_in']:.3g}, others from {q['dev_out']:.3g})")
+                  f"(surface nodes within {q['dev_in']:.3g}, others from {q['dev_out']:.3g}); "
+                  f"area {q['area']:.4g} m^2, "
+                  + ("no weights (rigid)" if q["kind"] == "rigid" else
+                     "uniform weights" if q["weights"] is None else
+                     f"area weights {q['weights'].min():.3g} .. {q['weights'].max():.3g}"))
     else:
         for q, i in zip(points, dofs[::3]):
             print(f"  scene node {i // 3} at {np.round(nodes[i // 3], 4)} for {q}")
@@ -491,12 +529,12 @@ def build(part, h, out_for, band=None, remote=False):
     return part, out, n, K.nnz, band, elastic, built, total
 
 
-def all_parts(root):
+def all_parts(root, weights="uniform"):
     rows = []
     for part, (_, sizes) in PARTS.items():
         band = None
         for h in sizes:
-            row = build(part, h, lambda n: root / f"{part}-{n}", band)
+            row = build(part, h, lambda n: root / f"{part}-{n}", band, weights=weights)
             # the fine model keeps the coarse one's band, so both hold the same modes
             band = row[4]
             rows.append(row)
@@ -517,17 +555,20 @@ def main():
     ap.add_argument("--out-root", type=pathlib.Path, help="folder for `all`")
     ap.add_argument("--remote", action="store_true",
                     help="the part's holes as remote points (bracket; the crank always)")
+    ap.add_argument("--weights", choices=("uniform", "area"), default="uniform",
+                    help="distributing points' weights: uniform (none written, 1 per node) or "
+                         "area (each node's tributary area, mean 1); rigid points take none")
     args = ap.parse_args()
     if args.part == "all":
         if args.out_root is None:
             ap.error("all needs --out-root")
         if args.remote:
             ap.error("--remote is for one part")
-        all_parts(args.out_root)
+        all_parts(args.out_root, args.weights)
     else:
         if args.size is None or args.out is None:
             ap.error("one part needs --size and --out")
-        build(args.part, args.size, lambda n: args.out, args.band, args.remote)
+        build(args.part, args.size, lambda n: args.out, args.band, args.remote, args.weights)
 
 
 if __name__ == "__main__":
