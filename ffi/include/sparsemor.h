@@ -309,9 +309,10 @@ typedef struct SparsemorCsc {
  * remainder iωE + iF.
  *
  * For `SPARSEMOR_DAMPING_GENERAL` with `remainder_dofs == SIZE_MAX` the fit was rejected
- * (more than half of D's or K₄'s entries off αM + βK, γM + η₄K, e.g. a K₄ that is zero
- * but for a few dampers): α, β, η, γ are then its last attempt and do not describe the
- * damping; every frequency is factored with the exact A(iω).
+ * (more than half of D's or K₄'s entries off αM + βK, γM + η₄K, and off zero): α, β, η, γ
+ * are then its last attempt and do not describe the damping; every frequency is factored
+ * with the exact A(iω). (A K₄ that is zero but for a few dampers has no proportional part
+ * and a low-rank remainder.)
  */
 typedef struct SparsemorDampingInfo {
     /**
