@@ -40,11 +40,19 @@ def bar(tmp_path_factory):
 
 # (method, settings, whether the strict check runs). The conditioning bound holds everywhere;
 # from 100 Hz the full model's κ no longer limits the agreement, and the strict check asks
-# 1e-10 plus the ROM's own rounding 10·u·κ₁(Ar) there. Line-fitting at tol 1e-2 (order 15):
+# 1e-10 plus the ROM's own rounding 10·u·κ₁(Ar) there, plus the library's reference: E =
+# αM + βK is recognized as proportional (docs/design.md §3.12), so sparsemor's full responses
+# come from the shifted Krylov space, certified to a backward error of 1e-12 (§3.10), not from
+# a backward-stable factorization: 1e-12·κ₁(A) of relative error at most (measured 2.5e-9 at
+# one point next to a resonance, against 2.5e-10 from factorizations). Line-fitting at tol 1e-2 (order 15):
 # κ₁(Ar) 5e4–1e6 from 100 Hz, the largest at 140 Hz next to a resonance, where the two
 # evaluations of ε differ by 2.5e-10. At tol 1e-3 the loop grows to order 20 with κ(Ar)
 # 1e8–3e9 from 100 Hz (measured 1.9e-8 at 140 Hz, κ(Ar) 3.1e9): the conditioning bound
 # covers it.
+# the componentwise backward error a response from the shifted space is certified to
+CERTIFIED = 1e-12
+
+
 @pytest.mark.parametrize("method,kwargs,strict", [
     ("linefit", dict(tolerance=1e-2, outputs_plus=3), True),
     ("linefit", dict(tolerance=1e-3, outputs_plus=3), False),
@@ -67,8 +75,9 @@ def test_pymor_error_equals_sparsemors(bar, method, kwargs, strict):
         # both sides solve A(s) and Ar(s) backward stably: each H carries a relative error up
         # to about u·κ, which enters ε additively
         rom_rounding = 10 * np.finfo(float).eps * cond_1(rom, s)
-        bound.append(1e-10 + 10 * np.finfo(float).eps * cond_1(fom, s) + rom_rounding)
-        strict_bound.append(1e-10 + rom_rounding)
+        bound.append(1e-10 + (10 * np.finfo(float).eps + CERTIFIED) * cond_1(fom, s)
+                     + rom_rounding)
+        strict_bound.append(1e-10 + rom_rounding + CERTIFIED * cond_1(fom, s))
     diff = np.abs(np.array(pymor_eps) - lib_eps)
     above = grid >= 100.0
     print(f"{method}: order {rom.order}, max eps {max(pymor_eps):.3e}; pyMOR vs sparsemor "
