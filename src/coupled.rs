@@ -35,6 +35,7 @@ use crate::model::{Damping, Model, Structural};
 use crate::pencil::Pencil;
 use crate::proportional::Split;
 use crate::rigid::{centroid, rigid_modes, rigid_modes_about};
+use crate::sparse::linear_combination;
 use crate::{Error, Result};
 use faer::Mat;
 use std::collections::BTreeMap;
@@ -364,9 +365,13 @@ fn carried_damping(
             alpha: p.alpha,
             beta: p.beta,
         },
-        (Some(e), Damping::Matrix(_)) => {
-            Damping::Matrix(combination(p.alpha, mass, p.beta, stiffness, Some(&e)))
-        }
+        (Some(e), Damping::Matrix(_)) => Damping::Matrix(linear_combination(
+            p.alpha,
+            mass,
+            p.beta,
+            stiffness,
+            Some(&e),
+        )),
         (_, other) => other.clone(),
     };
     let matrix = match (f, model.structural.matrix.is_some()) {
@@ -380,7 +385,7 @@ fn carried_damping(
                 },
             ))
         }
-        (f, true) => Some(combination(
+        (f, true) => Some(linear_combination(
             p.gamma,
             mass,
             p.eta - eta,
@@ -389,27 +394,6 @@ fn carried_damping(
         )),
     };
     Ok((damping, Structural { eta, matrix }))
-}
-
-/// a M + b K + E, entry by entry in that order (full storage).
-fn combination(
-    a: f64,
-    m: &crate::sparse::Csc,
-    b: f64,
-    k: &crate::sparse::Csc,
-    e: Option<&crate::sparse::Csc>,
-) -> crate::sparse::Csc {
-    let mut out = crate::sparse::Triplets::default();
-    for (x, s) in [(Some(m), a), (Some(k), b), (e, 1.0)] {
-        let Some(x) = x else { continue };
-        for j in 0..x.ncols() {
-            let rows = x.symbolic().row_idx_of_col_raw(j);
-            for (&i, &v) in rows.iter().zip(x.val_of_col(j)) {
-                out.push(i, j, s * v);
-            }
-        }
-    }
-    out.into_csc(m.nrows(), false)
 }
 
 /// The rows `over_z1` (functionals of z₁) as functionals of z, z₁ = T₂ z (module doc): a

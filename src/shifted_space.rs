@@ -834,16 +834,9 @@ mod tests {
     /// a M + b K + the entries `extra` (full storage, both triangles given).
     fn combined(model: &Model, a: f64, b: f64, extra: &[(usize, usize, f64)]) -> Csc {
         let mut t = crate::sparse::Triplets::default();
-        for (x, s) in [(&model.mass, a), (&model.stiffness, b)] {
-            for j in 0..x.ncols() {
-                let rows = x.symbolic().row_idx_of_col_raw(j);
-                for (&i, &v) in rows.iter().zip(x.val_of_col(j)) {
-                    t.push(i, j, s * v);
-                }
-            }
-        }
         extra.iter().for_each(|&(i, j, v)| t.push(i, j, v));
-        t.into_csc(model.n(), false)
+        let e = t.into_csc(model.n(), false);
+        crate::sparse::linear_combination(a, &model.mass, b, &model.stiffness, Some(&e))
     }
 
     /// β K plus two axial dashpots c (e_a − e_b)(e_a − e_b)ᵀ along the bar's axis z: from

@@ -251,6 +251,21 @@ impl Triplets {
     }
 }
 
+/// a M + b K + E of full-storage matrices, entry by entry in that order (full storage).
+pub fn linear_combination(a: f64, m: &Csc, b: f64, k: &Csc, e: Option<&Csc>) -> Csc {
+    let mut out = Triplets::default();
+    for (x, s) in [(Some(m), a), (Some(k), b), (e, 1.0)] {
+        let Some(x) = x else { continue };
+        for j in 0..x.ncols() {
+            let rows = x.symbolic().row_idx_of_col_raw(j);
+            for (&i, &v) in rows.iter().zip(x.val_of_col(j)) {
+                out.push(i, j, s * v);
+            }
+        }
+    }
+    out.into_csc(m.nrows(), false)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

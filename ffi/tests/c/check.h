@@ -9,6 +9,7 @@
 #include <complex.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 static int failures = 0;
 
@@ -78,6 +79,19 @@ static double *rom_matrix(SparsemorRom *rom, uint32_t which, size_t *rows, size_
     v = malloc(sizeof(double) * (need ? need : 1));
     CHECK(sparsemor_rom_copy_matrix(rom, which, v, need, NULL));
     return v;
+}
+
+/* a refused call: the status and a message naming the argument */
+static void expect_refused(SparsemorStatus st, SparsemorStatus want, const char *needle,
+                           const char *what) {
+    const char *msg = last_error();
+    if (st != want || strstr(msg, needle) == NULL) {
+        fprintf(stderr, TEST_NAME ": %s: status %d, message \"%s\" (want %d, \"%s\")\n", what,
+                (int)st, msg, (int)want, needle);
+        fail(what);
+    } else {
+        printf("refused (%s): %s\n", what, msg);
+    }
 }
 
 #endif

@@ -30,18 +30,6 @@
 #define OUT_DOF 70
 #define PI 3.14159265358979323846
 
-/* a refused call: the status and a message naming the argument */
-static void expect_refused(SparsemorStatus st, const char *needle, const char *what) {
-    const char *msg = last_error();
-    if (st != SPARSEMOR_STATUS_INVALID_ARGUMENT || strstr(msg, needle) == NULL) {
-        fprintf(stderr, "scene.c: %s: status %d, message \"%s\" (want \"%s\")\n", what, (int)st,
-                msg, needle);
-        fail(what);
-    } else {
-        printf("refused (%s): %s\n", what, msg);
-    }
-}
-
 /* a dense column-major matrix as full-storage CSC (nonzeros only) */
 typedef struct {
     size_t col_ptr[N + 1];
@@ -180,7 +168,7 @@ int main(void) {
     at[2] += 0.01;
     expect_refused(sparsemor_model_add_remote_point(model, SPARSEMOR_POINT_DISTRIBUTING, at, top,
                                                     0, NULL, &index),
-                   "n_nodes = 0", "a point without nodes");
+                   SPARSEMOR_STATUS_INVALID_ARGUMENT, "n_nodes = 0", "a point without nodes");
     if (index != 99) fail("index_out written on failure");
     CHECK(sparsemor_model_add_remote_point(model, SPARSEMOR_POINT_DISTRIBUTING, at, top, n_top,
                                            NULL, &index));
@@ -244,9 +232,9 @@ int main(void) {
         SparsemorScenePart in_bad_code = {NULL, 0, &bad_code, 1, &bsp};
         size_t count = 0;
         expect_refused(sparsemor_model_set_scene_general(model, &in_bad_shape, &out, 0.0, 1000.0),
-                       "B must be N\xc3\x97p", "B with N - 1 rows");
+                       SPARSEMOR_STATUS_INVALID_ARGUMENT, "B must be N\xc3\x97p", "B with N - 1 rows");
         expect_refused(sparsemor_model_set_scene_general(model, &in_bad_code, &out, 0.0, 1000.0),
-                       "inputs.point_dofs[0] = 6", "a point DoF of a point not added");
+                       SPARSEMOR_STATUS_INVALID_ARGUMENT, "inputs.point_dofs[0] = 6", "a point DoF of a point not added");
         CHECK(sparsemor_model_set_scene_general(model, &in, &out, 0.0, 1000.0));
         CHECK(sparsemor_model_coordinate_count(model, &count));
         if (count != N) fail("a distributing point adds no DoF");

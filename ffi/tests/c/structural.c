@@ -30,19 +30,6 @@
 #define DAMP_B (N / 2 + 3)
 #define PI 3.14159265358979323846
 
-/* a refused call: the status and a message naming the argument */
-static void expect_refused(SparsemorStatus st, SparsemorStatus want, const char *needle,
-                           const char *what) {
-    const char *msg = last_error();
-    if (st != want || strstr(msg, needle) == NULL) {
-        fprintf(stderr, "structural.c: %s: status %d, message \"%s\" (want %d, \"%s\")\n", what,
-                (int)st, msg, (int)want, needle);
-        fail(what);
-    } else {
-        printf("refused (%s): %s\n", what, msg);
-    }
-}
-
 /* a dense column-major n×n matrix as CSC (nonzeros only; the lower triangle if `lower`) */
 typedef struct {
     size_t col_ptr[N + 1];
