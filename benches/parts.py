@@ -22,6 +22,17 @@ Parts (lengths in metres):
 
 Material: steel, E = 210 GPa, nu = 0.3, rho = 7850 kg/m^3; Rayleigh damping beta = 1e-5.
 
+Two materials (--materials two): the tets whose centroid lies above the midpoint of the body's
+x extent are aluminium (E = 70 GPa, nu = 0.33, rho = 2700 kg/m^3), the others steel. K and M
+are the sums of the two materials' matrices, each assembled on its own tets. The damping is
+material-wise stiffness-proportional, D = 1e-5 K_steel + 1e-6 K_aluminium (beta 10x apart),
+which is no alpha M + beta K of the whole body (on the 2e4-DoF crank the least-squares fit
+leaves 23% of |D|_F); D takes the rigid modes to 0 as K does. D is written as D.mtx
+(symmetric, lower triangle, 17 significant digits) and model.toml has `damping = "D.mtx"`
+instead of the [rayleigh] table. Scene, remote points and band are found as for one material
+(the band on the two-material body). Each material's K is checked to take the rigid modes
+to ~0, and its tet count and mass are printed.
+
 Scene: three nodes at meaningful spots, the x, y, z DoFs of each as inputs and outputs
 (the same 9 DoFs): shaft - both end-face centres and the crank pin; bracket - the edges of the
 two bolt holes on the mounting (upright) face and the tip of the base; plate - two opposite
@@ -49,11 +60,17 @@ its band may hold fewer than 13 of them (not measured here); RBE3 adds no stiffn
 was (byte for byte).
 
 Model directory: model.toml, K.mtx and M.mtx (Matrix Market, symmetric, lower triangle,
-1-based), nodes.csv (x,y,z; vertices then edge midpoints). Node i owns DoFs 3i, 3i+1, 3i+2.
+1-based), D.mtx with two materials, nodes.csv (x,y,z; vertices then edge midpoints). Node i
+owns DoFs 3i, 3i+1, 3i+2.
 
 Run:
   python3 benches/parts.py PART --size H --out DIR [--band F] [--remote] [--weights W]
-  python3 benches/parts.py all --out-root DIR [--weights W]
+                           [--materials one|two]
+  python3 benches/parts.py all --out-root DIR [--weights W] [--materials one|two]
+
+e.g. the two-material crank of about 2e4 DoFs:
+  python3 benches/parts.py crank --size 0.008 --materials two --out DIR
+--materials one (the default) writes what it wrote before the option (byte for byte).
 
 `all` writes every part at two sizes (about 1e4 and 1e5 DoFs; the crank 2e4 and 1e5, with its
 remote points) into DIR/<part>-<N>, both sizes of a part with the band found on the small one,
@@ -64,6 +81,7 @@ libGLU, libXcursor, libXinerama and libXft shared libraries on a bare Debian).
 """
 
 import argparse
+import collections
 import json
 import math
 import pathlib
@@ -83,6 +101,10 @@ E = 210e9
 NU = 0.3
 RHO = 7850.0
 RAYLEIGH_BETA = 1e-5
+# beta: the material's stiffness-proportional damping with --materials two
+Material = collections.namedtuple("Material", "name E nu rho beta")
+STEEL = Material("steel", E, NU, RHO, RAYLEIGH_BETA)
+ALUMINIUM = Material("aluminium", 70e9, 0.33, 2700.0, 1e-6)
 # Shift for eigsh: just below zero, so K - sigma M is definite on a free body.
 SIGMA = -1e3
 # Rigid modes come out at |f| far below this; the first elastic mode of these parts is
@@ -259,20 +281,41 @@ def mesh(builder, h):
     return p, t, points
 
 
-@BilinearForm
-def mass(u, v, w):
-    return RHO * dot(u, v)
+def mass_form(rho):
+    @BilinearForm
+    def mass(u, v, w):
+        return rho * dot(u, v)
+    return mass
 
 
-def assemble(p, t):
-    """K and M in node-major order (DoF 3i+k = component k of node i) and the node coordinates."""
+def split_materials(p, t, materials):
+    """[(Material, its tets' indices, or None for all)]: with "two", the tets whose centroid
+    x is above the midpoint of the body's x extent are aluminium, the others steel."""
+    if materials == "one":
+        return [(STEEL, None)]
+    centroid_x = p[0, t].mean(axis=0)
+    mid = 0.5 * (p[0].min() + p[0].max())
+    al = centroid_x > mid
+    return [(STEEL, np.flatnonzero(~al)), (ALUMINIUM, np.flatnonzero(al))]
+
+
+def material_matrices(mesh_, element, material, elements):
+    """K and M of one material on the tets `elements` (None: all), in scikit-fem's DoF order."""
+    # P2 strains are linear on a straight tet, so degree-2 quadrature integrates K exactly
+    # (and three times faster than the default degree 4, which M needs)
+    K = asm(linear_elasticity(*lame_parameters(material.E, material.nu)),
+            Basis(mesh_, element, intorder=2, elements=elements))
+    M = asm(mass_form(material.rho), Basis(mesh_, element, elements=elements))
+    return K, M
+
+
+def assemble(p, t, split):
+    """K and M in node-major order (DoF 3i+k = component k of node i), the node coordinates,
+    and each material's K and M (same order; K and M are their sums). split: split_materials().
+    """
     mesh_ = MeshTet(p, t)
     element = ElementVector(ElementTetP2())
     basis = Basis(mesh_, element)
-    # P2 strains are linear on a straight tet, so degree-2 quadrature integrates K exactly
-    # (and three times faster than the default degree 4, which M needs)
-    K = asm(linear_elasticity(*lame_parameters(E, NU)), Basis(mesh_, element, intorder=2))
-    M = asm(mass, basis)
     # scikit-fem's DoF numbering depends on its version: take each node's x, y, z DoFs from
     # the basis instead of assuming an order
     per_node = np.hstack([basis.nodal_dofs, basis.edge_dofs])  # (3, nodes)
@@ -282,9 +325,14 @@ def assemble(p, t):
     assert np.allclose(basis.doflocs[:, per_node[2]].T, nodes)
     assert np.array_equal(np.sort(perm), np.arange(basis.N))
     check_components(basis, per_node)
-    K = symmetric(K[perm][:, perm])
-    M = symmetric(M[perm][:, perm])
-    return K, M, nodes
+    parts = []
+    for material, elements in split:
+        K, M = material_matrices(mesh_, element, material, elements)
+        parts.append((symmetric(K[perm][:, perm]), symmetric(M[perm][:, perm])))
+    K, M = parts[0]
+    for K_m, M_m in parts[1:]:
+        K, M = K + K_m, M + M_m
+    return K, M, nodes, parts
 
 
 def check_components(basis, per_node):
@@ -296,6 +344,47 @@ def check_components(basis, per_node):
         expected = np.zeros(3)
         expected[k] = 1.0
         assert np.allclose(u.reshape(3, -1).T, expected), f"DoF component {k} is not axis {k}"
+
+
+def rigid_modes(nodes):
+    """The 6 rigid-body modes (N, 6): translations along x, y, z, rotations about x, y, z
+    through the nodes' centroid."""
+    r = nodes - nodes.mean(axis=0)
+    modes = np.zeros((3 * len(nodes), 6))
+    for k in range(3):
+        modes[k::3, k] = 1.0
+        # rotation about axis k: u = e_k x r
+        e = np.zeros(3)
+        e[k] = 1.0
+        modes[:, 3 + k] = np.cross(e, r).ravel()
+    return modes
+
+
+def rigid_residual(A, modes):
+    """max over the rigid modes of |A u| / (|A|_F |u|): ~0 when A takes every rigid mode to 0."""
+    return float(np.max(np.linalg.norm(A @ modes, axis=0)
+                        / (sla.norm(A) * np.linalg.norm(modes, axis=0))))
+
+
+def material_damping(split, parts, K, nodes):
+    """D = sum of each material's beta K_m; raise unless each K_m and K take the rigid modes
+    to ~0. Prints each material's tet count and mass."""
+    modes = rigid_modes(nodes)
+    for (material, elements), (K_m, M_m) in zip(split, parts):
+        moved = rigid_residual(K_m, modes)
+        if not moved < 1e-10:
+            raise RuntimeError(f"{material.name}: K takes a rigid mode to {moved:.3g} (rel)")
+        # u' M_m u for the unit x translation u is the material's mass
+        print(f"  {material.name}: {len(elements)} tets, mass "
+              f"{modes[:, 0] @ M_m @ modes[:, 0]:.4g} kg, "
+              f"|K u_rigid| / |K| |u_rigid| <= {moved:.2g}")
+    moved = rigid_residual(K, modes)
+    if not moved < 1e-10:
+        raise RuntimeError(f"K takes a rigid mode to {moved:.3g} (rel)")
+    D = parts[0][0] * split[0][0].beta
+    for (material, _), (K_m, _) in zip(split[1:], parts[1:]):
+        D = D + K_m * material.beta
+    return D
 
 
 def symmetric(a):
@@ -446,12 +535,19 @@ def remote_toml(points):
     return text
 
 
-def write_model(out, name, K, M, nodes, dofs, band, remote=None):
+def write_model(out, name, K, M, nodes, dofs, band, remote=None, D=None):
+    """D: an explicit damping matrix, written as D.mtx instead of the [rayleigh] table."""
     out.mkdir(parents=True, exist_ok=True)
     # DoF indices as before; remote points' "POINT:DIR" names as TOML basic strings
     scene = json.dumps(dofs) if remote else dofs
     for file, a in (("K.mtx", K), ("M.mtx", M)):
         scipy.io.mmwrite(out / file, sp.tril(a).tocoo(), symmetry="symmetric")
+    if D is not None:
+        scipy.io.mmwrite(out / "D.mtx", sp.tril(D).tocoo(), symmetry="symmetric", precision=17)
+        damping = 'damping = "D.mtx"\n'
+    else:
+        damping = ""
+    rayleigh = "" if D is not None else f"\n[rayleigh]\nalpha = 0.0\nbeta = {RAYLEIGH_BETA!r}\n"
     np.savetxt(out / "nodes.csv", nodes, delimiter=",", header="x,y,z", comments="",
                fmt="%.17g")
     (out / "model.toml").write_text(
@@ -459,11 +555,10 @@ def write_model(out, name, K, M, nodes, dofs, band, remote=None):
         'mass = "M.mtx"\n'
         'stiffness = "K.mtx"\n'
         'nodes = "nodes.csv"\n'
-        "dofs_per_node = 3\n"
-        "\n[rayleigh]\n"
-        "alpha = 0.0\n"
-        f"beta = {RAYLEIGH_BETA!r}\n"
-        "\n[scene]\n"
+        + damping
+        + "dofs_per_node = 3\n"
+        + rayleigh
+        + "\n[scene]\n"
         f"inputs = {scene}\n"
         f"outputs = {scene}\n"
         f"band_hz = [0.0, {float(band)!r}]\n"
@@ -485,16 +580,20 @@ def check(M, freqs):
     return lowest
 
 
-def build(part, h, out_for, band=None, remote=False, weights="uniform"):
-    """Write one model into out_for(N); return a row of the summary table."""
+def build(part, h, out_for, band=None, remote=False, weights="uniform", materials="one"):
+    """Write one model into out_for(N); return a row of the summary table.
+
+    materials: "one" (steel, Rayleigh damping) or "two" (split_materials(), D.mtx)."""
     start = time.perf_counter()
     builder, _ = PARTS[part]
     remote = remote or part == "crank"
     if remote and part not in REMOTE:
         raise ValueError(f"{part} has no remote points (only {', '.join(REMOTE)})")
     p, t, points = mesh(builder, h)
-    K, M, nodes = assemble(p, t)
+    split = split_materials(p, t, materials)
+    K, M, nodes, parts = assemble(p, t, split)
     built = time.perf_counter() - start
+    D = material_damping(split, parts, K, nodes) if materials == "two" else None
     freqs = frequencies(K, M, 30)
     lowest_m = check(M, freqs)
     band = band or band_from(freqs)
@@ -506,7 +605,8 @@ def build(part, h, out_for, band=None, remote=False, weights="uniform"):
     else:
         coupled = None
         dofs = scene_dofs(nodes, points)
-    write_model(out, f"{part} tet10 h={h:g}", K, M, nodes, dofs, band, coupled)
+    name = f"{part} tet10 h={h:g}" + (", steel and aluminium" if D is not None else "")
+    write_model(out, name, K, M, nodes, dofs, band, coupled, D)
     total = time.perf_counter() - start
     elastic = freqs[np.abs(freqs) >= RIGID_HZ]
     print(f"{out}: N = {n}, tets = {t.shape[1]}, nnz(K) = {K.nnz}, band = 0..{band:g} Hz "
@@ -529,12 +629,13 @@ def build(part, h, out_for, band=None, remote=False, weights="uniform"):
     return part, out, n, K.nnz, band, elastic, built, total
 
 
-def all_parts(root, weights="uniform"):
+def all_parts(root, weights="uniform", materials="one"):
     rows = []
     for part, (_, sizes) in PARTS.items():
         band = None
         for h in sizes:
-            row = build(part, h, lambda n: root / f"{part}-{n}", band, weights=weights)
+            row = build(part, h, lambda n: root / f"{part}-{n}", band, weights=weights,
+                        materials=materials)
             # the fine model keeps the coarse one's band, so both hold the same modes
             band = row[4]
             rows.append(row)
@@ -558,17 +659,21 @@ def main():
     ap.add_argument("--weights", choices=("uniform", "area"), default="uniform",
                     help="distributing points' weights: uniform (none written, 1 per node) or "
                          "area (each node's tributary area, mean 1); rigid points take none")
+    ap.add_argument("--materials", choices=("one", "two"), default="one",
+                    help="one: steel, Rayleigh damping; two: steel and aluminium split at the "
+                         "middle of the x extent, material-wise damping written as D.mtx")
     args = ap.parse_args()
     if args.part == "all":
         if args.out_root is None:
             ap.error("all needs --out-root")
         if args.remote:
             ap.error("--remote is for one part")
-        all_parts(args.out_root, args.weights)
+        all_parts(args.out_root, args.weights, args.materials)
     else:
         if args.size is None or args.out is None:
             ap.error("one part needs --size and --out")
-        build(args.part, args.size, lambda n: args.out, args.band, args.remote, args.weights)
+        build(args.part, args.size, lambda n: args.out, args.band, args.remote, args.weights,
+              args.materials)
 
 
 if __name__ == "__main__":
