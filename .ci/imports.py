@@ -34,7 +34,7 @@ LAYERS = [
     ("pencil", ["pencil", "proportional", "rigid", "fe", "coupled"]),
     ("factor", ["factor"]),
     ("body", ["body", "io::model_dir", "io::joints"]),
-    ("engine", ["sweep", "engine", "frf", "eigen", "shifted_space"]),
+    ("engine", ["sweep", "engine", "frf", "eigen", "shifted_space", "linearized_space"]),
     ("reduce", ["reduce"]),
     ("metrics", ["metrics"]),
     ("output", ["io::rom_dir", "io::exudyn", "io::op4::rom", "io::dmig", "io::mbdyn",

@@ -69,6 +69,7 @@ pub mod fe;
 pub mod frf;
 pub mod grid;
 pub mod io;
+pub(crate) mod linearized_space;
 pub mod lsq;
 pub mod memory;
 pub mod metrics;

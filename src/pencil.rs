@@ -614,6 +614,15 @@ impl Pencil {
         }
     }
 
+    /// out ← K + sD + s²M = A(s) at a real s without structural damping (the linearized
+    /// space's K₀ at s₀ > 0: positive definite when M is and K, D are semi-definite; §3.13).
+    pub fn fill_quadratic(&self, s: f64, out: &mut [f64]) {
+        let d = self.values(Coefficient::Damping);
+        for (((r, &k), &m), &d) in out.iter_mut().zip(&self.k).zip(&self.m).zip(d.iter()) {
+            *r = k + s * d + (s * s) * m;
+        }
+    }
+
     /// re ← K − ω²M, im ← ωD + H: the values of A(iω) ([`Self::value`] of every entry).
     pub fn fill_complex(&self, omega: f64, re: &mut [f64], im: &mut [f64]) {
         for (p, (r, i)) in re.iter_mut().zip(im.iter_mut()).enumerate() {

@@ -77,7 +77,7 @@ pub const CERTIFIED_BACKWARD_ERROR: f64 = 1e-12;
 /// A new basis vector is dropped when Gram–Schmidt leaves less than this fraction of the
 /// M-norm of the block image it came from: its direction is already in the space to
 /// rounding (deflation; the space is then invariant in that direction).
-const DEFLATE: f64 = 1e-12;
+pub(crate) const DEFLATE: f64 = 1e-12;
 
 /// A remainder whose relative load on the rigid modes ([`Remainder::rigid_load`]) is above
 /// this does not leave a free body's elastic response to a low-rank update.
@@ -161,6 +161,45 @@ fn shaped<T: faer::traits::ComplexField>(m: &mut Mat<T>, r: usize, c: usize) {
     }
 }
 
+/// What the sweep asks of a space that answers every frequency from one factorization: the
+/// shifted space (§3.10, §3.12) and the linearized one (§3.13, [`crate::linearized_space`]).
+pub(crate) trait ResponseSpace: Send + Sync {
+    /// The basis Q (N × k) that [`Solution::coefficients`] refer to. It only grows: a
+    /// response's coefficients index its first columns for the space's whole life.
+    fn basis(&self) -> MatRef<'_, f64>;
+
+    /// Vectors in the basis.
+    fn dim(&self) -> usize;
+
+    /// The space may still grow (it is neither invariant nor full).
+    fn can_grow(&self) -> bool;
+
+    /// Block solves with the space's factorization so far.
+    fn block_solves(&self) -> usize;
+
+    /// Grows the space until the estimated relative residual at every frequency of
+    /// `freqs_hz` is ≤ `target`, the space is invariant, or it is full.
+    ///
+    /// # Errors
+    /// [`Error::NotConverged`] when the projected matrix has no eigendecomposition.
+    fn grow_for(&mut self, freqs_hz: &[f64], target: f64) -> Result<()>;
+
+    /// The response at `freq_hz` (X left in `buffers`) with its certificate; after
+    /// [`Self::grow_for`].
+    ///
+    /// # Errors
+    /// [`Error::NotConverged`] when the space was not grown first.
+    fn solve(&self, freq_hz: f64, par: Par, buffers: &mut SolutionBuffers) -> Result<Solution>;
+
+    /// The response at the rows `rows` at each of `freqs_hz`, not certified; `None` where the
+    /// estimated residual is above 100 × [`GROW_TO`].
+    fn rows_at(&mut self, freqs_hz: &[f64], rows: &[usize]) -> Arc<Rows>;
+
+    /// [`Self::rows_at`]'s answer when it was last asked the same and the space has not
+    /// grown since.
+    fn answer(&self, freqs_hz: &[f64], rows: &[usize]) -> Option<Arc<Rows>>;
+}
+
 /// The growing Krylov space of one body and load; see the module doc.
 pub(crate) struct ShiftedSpace<'a> {
     pencil: &'a Pencil,
@@ -188,6 +227,8 @@ pub(crate) struct ShiftedSpace<'a> {
     next: Mat<f64>,
     /// G = RᵀMR.
     next_gram: Mat<f64>,
+    /// M R.
+    next_m: Mat<f64>,
     /// The M-norm of each column of the block image R came from (of b₀ for the first block):
     /// the scale of the deflation test ([`DEFLATE`]).
     next_scale: Vec<f64>,
@@ -207,13 +248,21 @@ pub(crate) struct ShiftedSpace<'a> {
     estimated: Option<(usize, Vec<f64>, Vec<f64>)>,
 }
 
-/// [`ShiftedSpace::rows_at`]'s question (frequencies, rows, the space's dimension) and its
+/// [`ResponseSpace::rows_at`]'s question (frequencies, rows, the space's dimension) and its
 /// answer.
-struct RowsAnswer {
-    freqs_hz: Vec<f64>,
-    rows: Vec<usize>,
-    dim: usize,
-    h: Arc<Rows>,
+pub(crate) struct RowsAnswer {
+    pub freqs_hz: Vec<f64>,
+    pub rows: Vec<usize>,
+    pub dim: usize,
+    pub h: Arc<Rows>,
+}
+
+impl RowsAnswer {
+    /// The answer, when asked the same at the same dimension.
+    pub fn same(&self, freqs_hz: &[f64], rows: &[usize], dim: usize) -> Option<Arc<Rows>> {
+        (self.dim == dim && self.freqs_hz == freqs_hz && self.rows == rows)
+            .then(|| Arc::clone(&self.h))
+    }
 }
 
 /// The response at some rows at each of a set of frequencies, from a shifted Krylov space
@@ -225,6 +274,11 @@ pub struct Rows {
 }
 
 impl Rows {
+    /// The responses `h` (one per frequency) and whether the space answers each.
+    pub(crate) fn new(h: MatStack, answered: Vec<bool>) -> Self {
+        Rows { h, answered }
+    }
+
     /// The number of frequencies asked.
     pub fn len(&self) -> usize {
         self.answered.len()
@@ -306,6 +360,7 @@ impl<'a> ShiftedSpace<'a> {
             last: 0,
             next: Mat::zeros(n, 0),
             next_gram: Mat::zeros(0, 0),
+            next_m: Mat::zeros(0, 0),
             next_scale: Vec::new(),
             ritz: None,
             max_dim: max_dim.min(n),
@@ -319,27 +374,6 @@ impl<'a> ShiftedSpace<'a> {
         space.set_next(b0, None);
         space.extend();
         Ok(space)
-    }
-
-    /// The M-orthonormal basis Q (N × k). It only grows: a response's
-    /// [`Solution::coefficients`] index its first columns for the space's whole life.
-    pub fn basis(&self) -> MatRef<'_, f64> {
-        self.q.as_ref()
-    }
-
-    /// Vectors in the basis.
-    pub fn dim(&self) -> usize {
-        self.q.ncols()
-    }
-
-    /// The space may still grow (it is neither invariant nor full).
-    pub fn can_grow(&self) -> bool {
-        self.next.ncols() > 0 && self.dim() < self.max_dim
-    }
-
-    /// Block solves with K − σM so far.
-    pub fn block_solves(&self) -> usize {
-        self.block_solves
     }
 
     /// x ← (K − σM)⁻¹ (M x when `mass`, else x), without its rigid part.
@@ -362,20 +396,24 @@ impl<'a> ShiftedSpace<'a> {
         if self.next.ncols() == 0 || k >= self.max_dim {
             return false;
         }
-        let (qn, mqn, coef) = self.orthonormalize(self.next.as_ref(), &self.next_scale);
+        let (qn, mqn, coef) = m_orthonormalize(
+            self.pencil,
+            self.next.as_ref(),
+            Some(std::mem::replace(&mut self.next_m, Mat::zeros(0, 0))),
+            &self.next_scale,
+        );
         let bn = qn.ncols().min(self.max_dim - k);
         if bn == 0 {
             self.set_next(Mat::zeros(n, 0), None);
             return false;
         }
         let kn = k + bn;
-        if kn > self.capacity {
-            self.capacity = (2 * kn).min(self.max_dim).max(kn);
-            self.q.reserve(n, self.capacity);
-            self.mq.reserve(n, self.capacity);
-        }
-        self.q.resize_with(n, kn, |i, j| qn[(i, j - k)]);
-        self.mq.resize_with(n, kn, |i, j| mqn[(i, j - k)]);
+        append_columns(
+            [&mut self.q, &mut self.mq],
+            [qn.subcols(0, bn), mqn.subcols(0, bn)],
+            &mut self.capacity,
+            self.max_dim,
+        );
         self.t.resize_with(kn, kn, |_, _| 0.0);
         self.r0.resize_with(kn, self.r0.ncols(), |_, _| 0.0);
         if k == 0 {
@@ -426,6 +464,7 @@ impl<'a> ShiftedSpace<'a> {
     fn set_next(&mut self, w: Mat<f64>, coefficients: Option<MatRef<'_, f64>>) {
         let mw = self.pencil.mul(Coefficient::Mass, w.as_ref());
         self.next_gram = w.transpose() * &mw;
+        self.next_m = mw;
         self.next_scale = (0..w.ncols())
             .map(|j| {
                 let inside = coefficients.map_or(0.0, |c| c.col(j).squared_norm_l2());
@@ -433,41 +472,6 @@ impl<'a> ShiftedSpace<'a> {
             })
             .collect();
         self.next = w;
-    }
-
-    /// M-orthonormalizes the columns of `w`, M-orthogonal to the basis already (the image's
-    /// passes in [`Self::extend`]; b₀ comes before any basis), against each other (two
-    /// passes per column against the new columns only),
-    /// dropping a column left with less than [`DEFLATE`] of `scale`: returns the new
-    /// columns, M times them and the coefficients C with w ≈ Q_new C (rows: kept columns).
-    fn orthonormalize(&self, w: MatRef<'_, f64>, scale: &[f64]) -> (Mat<f64>, Mat<f64>, Mat<f64>) {
-        let (n, b) = (w.nrows(), w.ncols());
-        let mut qn = Mat::<f64>::zeros(n, 0);
-        let mut mqn = Mat::<f64>::zeros(n, 0);
-        qn.reserve(n, b);
-        mqn.reserve(n, b);
-        let mut coef = Mat::<f64>::zeros(b, b);
-        for j in 0..b {
-            let mut v = w.col(j).to_owned();
-            for _ in 0..2 {
-                let cn = mqn.transpose() * &v;
-                v -= &qn * &cn;
-                for (i, &x) in cn.iter().enumerate() {
-                    coef[(i, j)] += x;
-                }
-            }
-            let mv = self.pencil.mul(Coefficient::Mass, v.as_mat());
-            let norm = (v.transpose() * mv.col(0)).max(0.0).sqrt();
-            if !(norm > DEFLATE * scale[j]) {
-                continue;
-            }
-            let i = qn.ncols();
-            qn.resize_with(n, i + 1, |r, _| v[r] / norm);
-            mqn.resize_with(n, i + 1, |r, _| mv[(r, 0)] / norm);
-            coef[(i, j)] = norm;
-        }
-        let kept = qn.ncols();
-        (qn, mqn, coef.subrows(0, kept).to_owned())
     }
 
     /// Decomposes the current T = ZΘZᵀ (once per basis).
@@ -609,6 +613,29 @@ impl<'a> ShiftedSpace<'a> {
         );
         out
     }
+}
+
+impl ResponseSpace for ShiftedSpace<'_> {
+    /// The M-orthonormal basis Q (N × k). It only grows: a response's
+    /// [`Solution::coefficients`] index its first columns for the space's whole life.
+    fn basis(&self) -> MatRef<'_, f64> {
+        self.q.as_ref()
+    }
+
+    /// Vectors in the basis.
+    fn dim(&self) -> usize {
+        self.q.ncols()
+    }
+
+    /// The space may still grow (it is neither invariant nor full).
+    fn can_grow(&self) -> bool {
+        self.next.ncols() > 0 && self.dim() < self.max_dim
+    }
+
+    /// Block solves with K − σM so far.
+    fn block_solves(&self) -> usize {
+        self.block_solves
+    }
 
     /// Grows the space until the estimated relative residual at every frequency of
     /// `freqs_hz` is ≤ `target` ([`GROW_TO`] first), the space is invariant, or it holds
@@ -618,7 +645,7 @@ impl<'a> ShiftedSpace<'a> {
     ///
     /// # Errors
     /// [`Error::NotConverged`] when T has no eigendecomposition.
-    pub fn grow_for(&mut self, freqs_hz: &[f64], target: f64) -> Result<()> {
+    fn grow_for(&mut self, freqs_hz: &[f64], target: f64) -> Result<()> {
         loop {
             self.decompose()?;
             let e = self.estimates(freqs_hz);
@@ -641,7 +668,7 @@ impl<'a> ShiftedSpace<'a> {
     ///
     /// # Errors
     /// [`Error::NotConverged`] when the space was not decomposed by [`Self::grow_for`].
-    pub fn solve(&self, freq_hz: f64, par: Par, buffers: &mut SolutionBuffers) -> Result<Solution> {
+    fn solve(&self, freq_hz: f64, par: Par, buffers: &mut SolutionBuffers) -> Result<Solution> {
         let omega = hz_to_omega(freq_hz);
         let (tau, scale) = self.shift(omega);
         let ritz = self.ritz.as_ref().ok_or_else(|| {
@@ -660,7 +687,18 @@ impl<'a> ShiftedSpace<'a> {
             omega,
             Mat::from_fn(y.nrows(), y.ncols(), |i, c| y[(i, c)] * inv),
         );
-        let certificate = self.lift(omega, coefficients.as_ref(), par, buffers);
+        let certificate = lift(
+            Lifted {
+                pencil: self.pencil,
+                q: self.q.as_ref(),
+                rigid: self.rigid,
+                load: self.load.as_ref(),
+            },
+            omega,
+            coefficients.as_ref(),
+            par,
+            buffers,
+        );
         Ok(Solution {
             coefficients,
             certificate,
@@ -675,7 +713,7 @@ impl<'a> ShiftedSpace<'a> {
     /// 100 × [`GROW_TO`] (grow the space for those frequencies first). Not certified: the
     /// sampling loop uses it to find where the ROM's error is largest, and certifies the
     /// responses it keeps. The answer is kept for [`Self::answer`].
-    pub fn rows_at(&mut self, freqs_hz: &[f64], rows: &[usize]) -> Arc<Rows> {
+    fn rows_at(&mut self, freqs_hz: &[f64], rows: &[usize]) -> Arc<Rows> {
         let Some(ritz) = &self.ritz else {
             return Arc::new(Rows {
                 h: MatStack::default(),
@@ -728,64 +766,137 @@ impl<'a> ShiftedSpace<'a> {
 
     /// [`Self::rows_at`]'s answer when it was last asked the same, and the space has not
     /// grown since.
-    pub fn answer(&self, freqs_hz: &[f64], rows: &[usize]) -> Option<Arc<Rows>> {
+    fn answer(&self, freqs_hz: &[f64], rows: &[usize]) -> Option<Arc<Rows>> {
         self.answered
             .as_ref()
-            .filter(|a| a.dim == self.dim() && a.freqs_hz == freqs_hz && a.rows == rows)
-            .map(|a| Arc::clone(&a.h))
+            .and_then(|a| a.same(freqs_hz, rows, self.dim()))
     }
+}
 
-    /// X = Q c (c = y / (1 + iωβ)), rigid-free, into `buffers`, and its certificate. One
-    /// product Q [Re c, Im c] reads Q once.
-    fn lift(
-        &self,
-        omega: f64,
-        c: MatRef<'_, c64>,
-        par: Par,
-        buffers: &mut SolutionBuffers,
-    ) -> Certificate {
-        let (n, p) = (self.q.nrows(), c.ncols());
-        let parts = Mat::<f64>::from_fn(c.nrows(), 2 * p, |i, j| {
-            if j < p {
-                c[(i, j)].re
-            } else {
-                c[(i, j - p)].im
-            }
-        });
-        shaped(&mut buffers.parts, n, 2 * p);
-        matmul(
-            buffers.parts.as_mut(),
-            Accum::Replace,
-            self.q.as_ref(),
-            parts.as_ref(),
-            1.0,
-            par,
-        );
-        shaped(&mut buffers.x, n, p);
-        let xp = &buffers.parts;
-        for j in 0..p {
-            let (re, im) = (xp.col(j), xp.col(p + j));
-            for (x, (&r, &i)) in buffers
-                .x
-                .col_mut(j)
-                .iter_mut()
-                .zip(re.iter().zip(im.iter()))
-            {
-                *x = c64::new(r, i);
+/// M-orthonormalizes the columns of `w` (M w given as `mw`, or computed), M-orthogonal to the basis already (the image's
+/// passes in [`ShiftedSpace::extend`]; b₀ comes before any basis), against each other (two
+/// passes per column against the new columns only),
+/// dropping a column left with less than [`DEFLATE`] of `scale`: returns the new
+/// columns, M times them and the coefficients C with w ≈ Q_new C (rows: kept columns).
+pub(crate) fn m_orthonormalize(
+    pencil: &Pencil,
+    w: MatRef<'_, f64>,
+    mw: Option<Mat<f64>>,
+    scale: &[f64],
+) -> (Mat<f64>, Mat<f64>, Mat<f64>) {
+    let (n, b) = (w.nrows(), w.ncols());
+    // M w in one block product (a product per column costs several times as much); the
+    // columns' M-images then follow by the same combinations as the columns
+    let mw = mw.unwrap_or_else(|| pencil.mul(Coefficient::Mass, w));
+    let mut qn = Mat::<f64>::zeros(n, 0);
+    let mut mqn = Mat::<f64>::zeros(n, 0);
+    qn.reserve(n, b);
+    mqn.reserve(n, b);
+    let mut coef = Mat::<f64>::zeros(b, b);
+    for j in 0..b {
+        let mut v = w.col(j).to_owned();
+        let mut mv = mw.col(j).to_owned();
+        for _ in 0..2 {
+            let cn = mqn.transpose() * &v;
+            v -= &qn * &cn;
+            mv -= &mqn * &cn;
+            for (i, &x) in cn.iter().enumerate() {
+                coef[(i, j)] += x;
             }
         }
-        if let Some(rb) = self.rigid {
-            rb.project_response(buffers.x.as_mut());
+        let norm = (v.transpose() * &mv).max(0.0).sqrt();
+        if !(norm > DEFLATE * scale[j]) {
+            continue;
         }
-        certify(
-            self.pencil,
-            omega,
-            self.load.as_ref(),
-            buffers.x.as_ref(),
-            par,
-            &mut buffers.certify,
-        )
+        let i = qn.ncols();
+        qn.resize_with(n, i + 1, |r, _| v[r] / norm);
+        mqn.resize_with(n, i + 1, |r, _| mv[r] / norm);
+        coef[(i, j)] = norm;
     }
+    let kept = qn.ncols();
+    (qn, mqn, coef.subrows(0, kept).to_owned())
+}
+
+/// Appends the columns `new` to the basis Q and M Q (`q`), their room grown by doubling up
+/// to `max` columns (`capacity` keeps it): a copy of 16 N k bytes per block would fault in
+/// fresh pages each time (a sixth of the 10⁶-DoF bar's seed step).
+pub(crate) fn append_columns(
+    q: [&mut Mat<f64>; 2],
+    new: [MatRef<'_, f64>; 2],
+    capacity: &mut usize,
+    max: usize,
+) {
+    let (n, k) = (q[0].nrows(), q[0].ncols());
+    let kn = k + new[0].ncols();
+    if kn > *capacity {
+        *capacity = (2 * kn).min(max).max(kn);
+    }
+    for (m, c) in q.into_iter().zip(new) {
+        // a no-op while the room suffices
+        m.reserve(n, *capacity);
+        m.resize_with(n, kn, |i, j| c[(i, j - k)]);
+    }
+}
+
+/// A response space's answer X = Q c, rigid-free, into `buffers`, and its certificate against
+/// the exact pencil (b = `load`). One product Q [Re c, Im c] reads Q once.
+pub(crate) fn lift(
+    space: Lifted<'_>,
+    omega: f64,
+    c: MatRef<'_, c64>,
+    par: Par,
+    buffers: &mut SolutionBuffers,
+) -> Certificate {
+    let (n, p) = (space.q.nrows(), c.ncols());
+    let parts = Mat::<f64>::from_fn(c.nrows(), 2 * p, |i, j| {
+        if j < p {
+            c[(i, j)].re
+        } else {
+            c[(i, j - p)].im
+        }
+    });
+    shaped(&mut buffers.parts, n, 2 * p);
+    matmul(
+        buffers.parts.as_mut(),
+        Accum::Replace,
+        space.q,
+        parts.as_ref(),
+        1.0,
+        par,
+    );
+    shaped(&mut buffers.x, n, p);
+    let xp = &buffers.parts;
+    for j in 0..p {
+        let (re, im) = (xp.col(j), xp.col(p + j));
+        for (x, (&r, &i)) in buffers
+            .x
+            .col_mut(j)
+            .iter_mut()
+            .zip(re.iter().zip(im.iter()))
+        {
+            *x = c64::new(r, i);
+        }
+    }
+    if let Some(rb) = space.rigid {
+        rb.project_response(buffers.x.as_mut());
+    }
+    certify(
+        space.pencil,
+        omega,
+        space.load,
+        buffers.x.as_ref(),
+        par,
+        &mut buffers.certify,
+    )
+}
+
+/// What [`lift`] reads of a space: its pencil, basis, rigid body and load.
+#[derive(Clone, Copy)]
+pub(crate) struct Lifted<'s> {
+    pub pencil: &'s Pencil,
+    pub q: MatRef<'s, f64>,
+    pub rigid: Option<&'s RigidBody>,
+    pub load: MatRef<'s, f64>,
 }
 
 /// A C for real A and complex C, as A Re C + i A Im C.
@@ -804,7 +915,7 @@ fn resolvent(ritz: &Ritz, tau: c64, s: c64, d: &mut [c64]) {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::body::Body;
     use crate::fe::{bar_model, paper_scene, BoxSpec};
@@ -820,7 +931,7 @@ mod tests {
     }
 
     /// The paper bar, coarsely meshed (free), changed by `change`.
-    fn bar_with(change: impl FnOnce(&mut Model)) -> (Body, Vec<usize>) {
+    pub(crate) fn bar_with(change: impl FnOnce(&mut Model)) -> (Body, Vec<usize>) {
         let spec = BoxSpec {
             elements: [1, 2, 24],
             ..BoxSpec::paper_bar()
@@ -917,7 +1028,7 @@ mod tests {
     }
 
     /// The elastic responses at `freqs` and their stats, by `method`.
-    fn responses(
+    pub(crate) fn responses(
         body: &Body,
         inputs: &[usize],
         freqs: &[f64],
@@ -952,7 +1063,7 @@ mod tests {
     }
 
     /// [`krylov_vs_factored`] for a body.
-    fn krylov_vs_factored_body(body: &Body, inputs: &[usize], freqs: &[f64]) -> f64 {
+    pub(crate) fn krylov_vs_factored_body(body: &Body, inputs: &[usize], freqs: &[f64]) -> f64 {
         let (x, stats) = responses(body, inputs, freqs, SolveMethod::Auto);
         let (x0, _) = responses(body, inputs, freqs, SolveMethod::Factored);
         for s in &stats {

@@ -30,9 +30,10 @@
 
 use crate::body::Body;
 use crate::factor::{Analysis, Backend, Numeric, Storage, SymbolicStats};
+use crate::linearized_space::LinearizedSpace;
 use crate::random::Xorshift;
 use crate::rigid::RigidBody;
-use crate::shifted_space::{Rows, ShiftedSpace, SolutionBuffers, GROW_TO};
+use crate::shifted_space::{ResponseSpace, Rows, ShiftedSpace, SolutionBuffers, GROW_TO};
 pub use crate::shifted_space::{CERTIFIED_BACKWARD_ERROR, CERTIFIED_RELATIVE_RESIDUAL};
 use crate::{Error, Result};
 use faer::{c64, Mat, MatRef, Par};
@@ -364,7 +365,7 @@ impl<S, I, F> Run<'_, S, I, F> {
 enum Space<'a> {
     /// Not made yet.
     Unmade,
-    Made(Box<ShiftedSpace<'a>>),
+    Made(Box<dyn ResponseSpace + 'a>),
     /// K − σM could not be factored (M not positive definite?): every frequency is factored.
     Failed,
 }
@@ -533,7 +534,7 @@ impl<'a> Solver<'a> {
                 let Space::Made(s) = &*space else {
                     break;
                 };
-                let failed = self.phase(&run, &wanted, Some(s))?;
+                let failed = self.phase(&run, &wanted, Some(s.as_ref()))?;
                 pending.retain(|k| !wanted.contains(k) || failed.iter().any(|(j, _)| j == k));
                 if !failed.iter().any(|&(_, why)| why == Fallback::Grow) || !s.can_grow() {
                     break;
@@ -584,7 +585,7 @@ impl<'a> Solver<'a> {
         &self,
         run: &Run<'_, S, I, F>,
         items: &[usize],
-        space: Option<&ShiftedSpace<'_>>,
+        space: Option<&dyn ResponseSpace>,
     ) -> Result<Vec<(usize, Fallback)>>
     where
         S: Send,
@@ -822,12 +823,22 @@ impl<'a> Solver<'a> {
             } else {
                 Par::Seq
             };
-            *space = match crate::pool::with_pool(self.threads, || {
-                ShiftedSpace::new(self.body, self.load.clone(), sigma, max_dim, par)
-            })? {
+            // proportional damping (but for a low-rank remainder): shifts of K − σM (§3.10,
+            // §3.12); any other viscous D: the linearization about s₀ = √−σ (§3.13)
+            let made = crate::pool::with_pool(self.threads, || {
+                let load = self.load.clone();
+                if self.body.pencil().proportional().is_some() {
+                    ShiftedSpace::new(self.body, load, sigma, max_dim, par)
+                        .map(|s| Box::new(s) as Box<dyn ResponseSpace + 'a>)
+                } else {
+                    LinearizedSpace::new(self.body, load, (-sigma).sqrt(), max_dim, par)
+                        .map(|s| Box::new(s) as Box<dyn ResponseSpace + 'a>)
+                }
+            })?;
+            *space = match made {
                 Ok(s) => {
                     cost = (1, s.block_solves());
-                    Space::Made(Box::new(s))
+                    Space::Made(s)
                 }
                 Err(_) => Space::Failed,
             };
@@ -896,7 +907,7 @@ impl<'a> Solver<'a> {
     /// is refused as singular).
     fn space_response(
         &self,
-        space: &ShiftedSpace<'_>,
+        space: &dyn ResponseSpace,
         f: f64,
         par: Par,
         buffers: &mut SolutionBuffers,
@@ -1013,7 +1024,7 @@ pub(crate) fn space_applies(body: &Body, response: Response, opts: &SweepOptions
     opts.method == SolveMethod::Auto
         && opts.out_of_core.is_none()
         && crate::factor::held_whole(opts.backend)
-        && body.pencil().proportional().is_some()
+        && (body.pencil().proportional().is_some() || body.pencil().structural() == (0.0, false))
         && (response == Response::Elastic || body.rigid().is_none())
 }
 

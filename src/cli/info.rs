@@ -43,7 +43,7 @@ pub fn info(dir: &Path) -> Result<()> {
     if let Some(text) = describe_structural(&model.structural) {
         println!("structural       {text}");
     }
-    println!("damping path     {}", describe_split(pencil.split()));
+    println!("damping path     {}", describe_split(&pencil));
     let v0 = match (&model.rigid_modes, &model.nodes) {
         (Some(v0), _) => {
             println!("nodes            none: a coupled model, rigid modes from its couplings");
@@ -141,8 +141,8 @@ fn describe_structural(s: &sparsemor::model::Structural) -> Option<String> {
     }
 }
 
-/// How the damping is answered (docs/design.md §3.12), with the fitted coefficients.
-fn describe_split(split: &Split) -> String {
+/// How the damping is answered (docs/design.md §3.12, §3.13), with the fitted coefficients.
+fn describe_split(pencil: &sparsemor::pencil::Pencil) -> String {
     let coefficients = |p: &Proportional| {
         format!(
             "alpha = {:e}, beta = {:e}, eta = {:e}{}",
@@ -156,7 +156,7 @@ fn describe_split(split: &Split) -> String {
             }
         )
     };
-    match split {
+    match pencil.split() {
         Split::Proportional(p) => format!(
             "proportional ({}): one shifted Krylov space answers every frequency",
             coefficients(p)
@@ -171,13 +171,18 @@ fn describe_split(split: &Split) -> String {
             r.rank()
         ),
         Split::General(p, dofs) => format!(
-            "not proportional: the remainder after the fit ({}) touches {} DoFs; every \
-             frequency is factored",
+            "not proportional: the remainder after the fit ({}) touches {} DoFs; {}",
             coefficients(p),
             if *dofs == usize::MAX {
                 "most".to_string()
             } else {
                 dofs.to_string()
+            },
+            if pencil.structural() == (0.0, false) {
+                "one linearized Krylov space answers every frequency (when D keeps a free \
+                 body's rigid motion apart)"
+            } else {
+                "with structural damping every frequency is factored"
             }
         ),
     }

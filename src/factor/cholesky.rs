@@ -92,9 +92,23 @@ impl Cholesky {
     ) -> std::result::Result<(), LltError> {
         let mut vals = vec![0.0; pencil.nnz()];
         pencil.fill_shifted(sigma, &mut vals);
+        self.factor_values(pencil, &vals, par)
+    }
+
+    /// Factors the real matrix with the values `vals` on the pencil's lower pattern (e.g.
+    /// K + s₀D + s₀²M, [`Pencil::fill_quadratic`]).
+    ///
+    /// # Errors
+    /// faer's error when a pivot is not positive.
+    pub(crate) fn factor_values(
+        &mut self,
+        pencil: &Pencil,
+        vals: &[f64],
+        par: Par,
+    ) -> std::result::Result<(), LltError> {
         self.sym.factorize_numeric_llt(
             &mut self.l,
-            SparseColMatRef::new(pattern::lower(pencil), &vals),
+            SparseColMatRef::new(pattern::lower(pencil), vals),
             Side::Lower,
             Default::default(),
             par,
