@@ -205,24 +205,13 @@ impl<'a> LinearizedSpace<'a> {
     /// (η × columns, η the new dimension; x = Q C) and each column's M-norm.
     fn add_directions(&mut self, mut x: Mat<f64>) -> (Mat<f64>, Vec<f64>) {
         let eta = self.q.ncols();
-        let mut mx = self.pencil.mul(Coefficient::Mass, x.as_ref());
+        let mx = self.pencil.mul(Coefficient::Mass, x.as_ref());
         let scale: Vec<f64> = (0..x.ncols())
             .map(|j| (x.col(j).transpose() * mx.col(j)).max(0.0).sqrt())
             .collect();
-        let mut c = Mat::<f64>::zeros(eta, x.ncols());
-        for _ in 0..2 {
-            let pass = project_once(self.q.as_ref(), self.mq.as_ref(), &mut x, self.par);
-            matmul(
-                mx.as_mut(),
-                Accum::Add,
-                self.mq.as_ref(),
-                pass.as_ref(),
-                -1.0,
-                self.par,
-            );
-            c += &pass;
-        }
-        let (qn, mqn, rn) = m_orthonormalize(self.pencil, x.as_ref(), Some(mx), &scale);
+        let mut c = project_once(self.q.as_ref(), self.mq.as_ref(), &mut x, self.par);
+        c += project_once(self.q.as_ref(), self.mq.as_ref(), &mut x, self.par);
+        let (qn, mqn, rn) = m_orthonormalize(self.pencil, x.as_ref(), &scale);
         let e = qn.ncols();
         append_columns(
             [&mut self.q, &mut self.mq],

@@ -227,8 +227,6 @@ pub(crate) struct ShiftedSpace<'a> {
     next: Mat<f64>,
     /// G = RᵀMR.
     next_gram: Mat<f64>,
-    /// M R.
-    next_m: Mat<f64>,
     /// The M-norm of each column of the block image R came from (of b₀ for the first block):
     /// the scale of the deflation test ([`DEFLATE`]).
     next_scale: Vec<f64>,
@@ -360,7 +358,6 @@ impl<'a> ShiftedSpace<'a> {
             last: 0,
             next: Mat::zeros(n, 0),
             next_gram: Mat::zeros(0, 0),
-            next_m: Mat::zeros(0, 0),
             next_scale: Vec::new(),
             ritz: None,
             max_dim: max_dim.min(n),
@@ -396,12 +393,7 @@ impl<'a> ShiftedSpace<'a> {
         if self.next.ncols() == 0 || k >= self.max_dim {
             return false;
         }
-        let (qn, mqn, coef) = m_orthonormalize(
-            self.pencil,
-            self.next.as_ref(),
-            Some(std::mem::replace(&mut self.next_m, Mat::zeros(0, 0))),
-            &self.next_scale,
-        );
+        let (qn, mqn, coef) = m_orthonormalize(self.pencil, self.next.as_ref(), &self.next_scale);
         let bn = qn.ncols().min(self.max_dim - k);
         if bn == 0 {
             self.set_next(Mat::zeros(n, 0), None);
@@ -464,7 +456,6 @@ impl<'a> ShiftedSpace<'a> {
     fn set_next(&mut self, w: Mat<f64>, coefficients: Option<MatRef<'_, f64>>) {
         let mw = self.pencil.mul(Coefficient::Mass, w.as_ref());
         self.next_gram = w.transpose() * &mw;
-        self.next_m = mw;
         self.next_scale = (0..w.ncols())
             .map(|j| {
                 let inside = coefficients.map_or(0.0, |c| c.col(j).squared_norm_l2());
@@ -773,7 +764,7 @@ impl ResponseSpace for ShiftedSpace<'_> {
     }
 }
 
-/// M-orthonormalizes the columns of `w` (M w given as `mw`, or computed), M-orthogonal to the basis already (the image's
+/// M-orthonormalizes the columns of `w`, M-orthogonal to the basis already (the image's
 /// passes in [`ShiftedSpace::extend`]; b₀ comes before any basis), against each other (two
 /// passes per column against the new columns only),
 /// dropping a column left with less than [`DEFLATE`] of `scale`: returns the new
@@ -781,13 +772,9 @@ impl ResponseSpace for ShiftedSpace<'_> {
 pub(crate) fn m_orthonormalize(
     pencil: &Pencil,
     w: MatRef<'_, f64>,
-    mw: Option<Mat<f64>>,
     scale: &[f64],
 ) -> (Mat<f64>, Mat<f64>, Mat<f64>) {
     let (n, b) = (w.nrows(), w.ncols());
-    // M w in one block product (a product per column costs several times as much); the
-    // columns' M-images then follow by the same combinations as the columns
-    let mw = mw.unwrap_or_else(|| pencil.mul(Coefficient::Mass, w));
     let mut qn = Mat::<f64>::zeros(n, 0);
     let mut mqn = Mat::<f64>::zeros(n, 0);
     qn.reserve(n, b);
@@ -795,22 +782,24 @@ pub(crate) fn m_orthonormalize(
     let mut coef = Mat::<f64>::zeros(b, b);
     for j in 0..b {
         let mut v = w.col(j).to_owned();
-        let mut mv = mw.col(j).to_owned();
         for _ in 0..2 {
             let cn = mqn.transpose() * &v;
             v -= &qn * &cn;
-            mv -= &mqn * &cn;
             for (i, &x) in cn.iter().enumerate() {
                 coef[(i, j)] += x;
             }
         }
-        let norm = (v.transpose() * &mv).max(0.0).sqrt();
+        // M v of the orthogonalized v itself: M w minus the same combinations of M Q would
+        // lose digits to cancellation when little of w is left (on the 50k crank the
+        // certificates failed and frequencies were factored)
+        let mv = pencil.mul(Coefficient::Mass, v.as_mat());
+        let norm = (v.transpose() * mv.col(0)).max(0.0).sqrt();
         if !(norm > DEFLATE * scale[j]) {
             continue;
         }
         let i = qn.ncols();
         qn.resize_with(n, i + 1, |r, _| v[r] / norm);
-        mqn.resize_with(n, i + 1, |r, _| mv[r] / norm);
+        mqn.resize_with(n, i + 1, |r, _| mv[(r, 0)] / norm);
         coef[(i, j)] = norm;
     }
     let kept = qn.ncols();
