@@ -34,8 +34,9 @@ pub const SPARSEMOR_DAMPING_PROPORTIONAL: u32 = 1;
 /// `remainder_rank` on `remainder_dofs` DoFs (dashpots, bushings, a damped joint): the
 /// shifted pencil plus a Sherman–Morrison–Woodbury correction (§3.12).
 pub const SPARSEMOR_DAMPING_LOW_RANK: u32 = 2;
-/// `SparsemorDampingInfo::kind`: a remainder on many DoFs (material-wise damping): every
-/// frequency is factored.
+/// `SparsemorDampingInfo::kind`: a remainder on many DoFs (material-wise damping): one
+/// linearized Krylov space answers every frequency (§3.13); with structural damping (η or
+/// K₄) every frequency is factored.
 pub const SPARSEMOR_DAMPING_GENERAL: u32 = 3;
 
 /// How a model's damping is answered (docs/design.md §3.12), from
@@ -44,8 +45,8 @@ pub const SPARSEMOR_DAMPING_GENERAL: u32 = 3;
 ///
 /// For `SPARSEMOR_DAMPING_GENERAL` with `remainder_dofs == SIZE_MAX` the fit was rejected
 /// (more than half of D's or K₄'s entries off αM + βK, γM + η₄K, and off zero): α, β, η, γ
-/// are then its last attempt and do not describe the damping; every frequency is factored
-/// with the exact A(iω). (A K₄ that is zero but for a few dampers has no proportional part
+/// are then its last attempt and do not describe the damping; the responses come from the
+/// exact A(iω) as for any `_GENERAL` damping. (A K₄ that is zero but for a few dampers has no proportional part
 /// and a low-rank remainder.)
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
