@@ -713,6 +713,30 @@ mod tests {
         }
     }
 
+    /// The outputs' rows from the eigendecomposition of H equal the rows of the lifted
+    /// Galerkin responses (a dense LU of I − τH), at the band's frequencies.
+    #[test]
+    fn rows_at_equal_the_lifted_responses() {
+        let (body, inputs) = bar_with(two_materials(0.0, 1e-6, 1e-5));
+        let load = body.elastic_load(&inputs);
+        let freqs = [30.0, 333.0, 777.0, 990.0];
+        let s0 = crate::units::hz_to_omega(250.0);
+        let mut space = LinearizedSpace::new(&body, load, s0, body.n(), Par::Seq).unwrap();
+        space.grow_for(&freqs, GROW_TO).unwrap();
+        let rows = [0, 7, body.n() - 1];
+        let h = space.rows_at(&freqs, &rows);
+        let mut buffers = SolutionBuffers::default();
+        for (k, &f) in freqs.iter().enumerate() {
+            let solution = space.solve(f, Par::Seq, &mut buffers).unwrap();
+            assert!(solution.certified(), "{f} Hz");
+            let x = buffers.x();
+            let lifted = Mat::<c64>::from_fn(rows.len(), x.ncols(), |i, j| x[(rows[i], j)]);
+            let from_rows = h.get(k).expect("answered");
+            let d = (&lifted - from_rows).norm_l2() / lifted.norm_l2();
+            assert!(d <= 1e-9, "{f} Hz: {d:.2e}");
+        }
+    }
+
     /// Structural damping makes K complex: not for this real space (factored per frequency).
     #[test]
     fn structural_damping_is_refused() {

@@ -823,11 +823,10 @@ impl<'a> Solver<'a> {
             } else {
                 Par::Seq
             };
-            // proportional damping (but for a low-rank remainder): shifts of K − σM (§3.10,
-            // §3.12); any other viscous D: the linearization about s₀ = √−σ (§3.13)
+            // shifts of K − σM (§3.10, §3.12), or the linearization about s₀ = √−σ (§3.13)
             let made = crate::pool::with_pool(self.threads, || {
                 let load = self.load.clone();
-                if self.body.pencil().proportional().is_some() {
+                if self.body.pencil().shifted_space_applies() {
                     ShiftedSpace::new(self.body, load, sigma, max_dim, par)
                         .map(|s| Box::new(s) as Box<dyn ResponseSpace + 'a>)
                 } else {
@@ -1024,7 +1023,7 @@ pub(crate) fn space_applies(body: &Body, response: Response, opts: &SweepOptions
     opts.method == SolveMethod::Auto
         && opts.out_of_core.is_none()
         && crate::factor::held_whole(opts.backend)
-        && (body.pencil().proportional().is_some() || body.pencil().structural() == (0.0, false))
+        && (body.pencil().shifted_space_applies() || body.pencil().linearized_space_applies())
         && (response == Response::Elastic || body.rigid().is_none())
 }
 
