@@ -52,8 +52,8 @@ use crate::factor::Cholesky;
 use crate::pencil::{Coefficient, Pencil};
 use crate::rigid::RigidBody;
 use crate::shifted_space::{
-    append_columns, lift, m_orthonormalize, Lifted, ResponseSpace, Rows, RowsAnswer, Solution,
-    SolutionBuffers, DEFLATE, GROW_TO,
+    append_columns, lift, m_orthonormalize, Growth, Lifted, ResponseSpace, Rows, RowsAnswer,
+    Solution, SolutionBuffers, DEFLATE, GROW_TO,
 };
 use crate::units::hz_to_omega;
 use crate::{Error, Result};
@@ -418,22 +418,15 @@ impl ResponseSpace for LinearizedSpace<'_> {
         self.block_solves
     }
 
-    /// Blocks are added in batches of about a quarter of the basis, so the decompositions
-    /// cost O(k³) in all.
+    /// [`Growth::grow`] over the Arnoldi vectors.
     fn grow_for(&mut self, freqs_hz: &[f64], target: f64) -> Result<()> {
-        loop {
-            self.decompose()?;
-            if self.estimates(freqs_hz).iter().all(|&e| e <= target) {
-                return Ok(());
-            }
-            let b = self.next_a.ncols().max(1);
-            let batch = (self.a.ncols() / (4 * b)).max(1);
-            for _ in 0..batch {
-                if !self.extend() {
-                    return self.decompose();
-                }
-            }
-        }
+        let growth = Growth {
+            decompose: Self::decompose,
+            estimates: Self::estimates,
+            extend: Self::extend,
+            sizes: |s: &Self| (s.next_a.ncols(), s.a.ncols()),
+        };
+        growth.grow(self, freqs_hz, target).map(|_| ())
     }
 
     /// y = (I − τH)⁻¹E₁R₀ by a dense LU (not the eigendecomposition: H is not normal), and

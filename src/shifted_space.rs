@@ -637,21 +637,16 @@ impl ResponseSpace for ShiftedSpace<'_> {
     /// # Errors
     /// [`Error::NotConverged`] when T has no eigendecomposition.
     fn grow_for(&mut self, freqs_hz: &[f64], target: f64) -> Result<()> {
-        loop {
-            self.decompose()?;
-            let e = self.estimates(freqs_hz);
-            if e.iter().all(|&e| e <= target) {
-                self.estimated = Some((self.dim(), freqs_hz.to_vec(), e));
-                return Ok(());
-            }
-            let b = self.next.ncols().max(1);
-            let batch = (self.dim() / (4 * b)).max(1);
-            for _ in 0..batch {
-                if !self.extend() {
-                    return self.decompose();
-                }
-            }
+        let growth = Growth {
+            decompose: Self::decompose,
+            estimates: Self::estimates,
+            extend: Self::extend,
+            sizes: |s: &Self| (s.next.ncols(), s.dim()),
+        };
+        if let Some(e) = growth.grow(self, freqs_hz, target)? {
+            self.estimated = Some((self.dim(), freqs_hz.to_vec(), e));
         }
+        Ok(())
     }
 
     /// X = Pᵀ A(iω)⁻¹ P B at `freq_hz` from the space, with its certificate (module doc);
@@ -824,6 +819,43 @@ pub(crate) fn append_columns(
         // a no-op while the room suffices
         m.reserve(n, *capacity);
         m.resize_with(n, kn, |i, j| c[(i, j - k)]);
+    }
+}
+
+/// How a space grows by blocks: [`Growth::grow`] is both spaces' `grow_for`.
+pub(crate) struct Growth<S> {
+    /// Decomposes the projected matrix (once per basis).
+    pub decompose: fn(&mut S) -> Result<()>,
+    /// The estimated relative residuals at the frequencies.
+    pub estimates: fn(&S, &[f64]) -> Vec<f64>,
+    /// Adds a block; false when the space is invariant or full.
+    pub extend: fn(&mut S) -> bool,
+    /// The next block's columns and the space's vectors.
+    pub sizes: fn(&S) -> (usize, usize),
+}
+
+impl<S> Growth<S> {
+    /// Grows `space` until the estimate at every frequency of `freqs_hz` is ≤ `target`, the
+    /// space is invariant, or it is full; leaves it decomposed. Blocks are added in batches of
+    /// about a quarter of the space, so the decompositions cost O(k³) in all. Returns the
+    /// estimates when the target was met.
+    ///
+    /// # Errors
+    /// The decomposition's.
+    pub fn grow(&self, space: &mut S, freqs_hz: &[f64], target: f64) -> Result<Option<Vec<f64>>> {
+        loop {
+            (self.decompose)(space)?;
+            let e = (self.estimates)(space, freqs_hz);
+            if e.iter().all(|&e| e <= target) {
+                return Ok(Some(e));
+            }
+            let (b, k) = (self.sizes)(space);
+            for _ in 0..(k / (4 * b.max(1))).max(1) {
+                if !(self.extend)(space) {
+                    return (self.decompose)(space).map(|()| None);
+                }
+            }
+        }
     }
 }
 
