@@ -52,15 +52,14 @@ use crate::factor::Cholesky;
 use crate::pencil::{Coefficient, Pencil};
 use crate::rigid::RigidBody;
 use crate::shifted_space::{
-    append_columns, lift, m_orthonormalize, Growth, Lifted, ResponseSpace, Rows, RowsAnswer,
-    Solution, SolutionBuffers, DEFLATE, GROW_TO,
+    append_columns, complex_product, lift, m_orthonormalize, orthonormalize, Growth, Lifted,
+    ResponseSpace, Rows, RowsAnswer, Solution, SolutionBuffers, GROW_TO,
 };
 use crate::units::hz_to_omega;
 use crate::{Error, Result};
 use faer::linalg::matmul::matmul;
 use faer::linalg::solvers::Solve;
 use faer::{c64, Accum, Mat, MatRef, Par};
-use rayon::prelude::*;
 use std::sync::Arc;
 
 /// D couples the rigid motion of a free body to the elastic when ‖D V₀ − M V₀ (V₀ᵀDV₀)‖ is
@@ -241,7 +240,7 @@ impl<'a> LinearizedSpace<'a> {
             return false;
         }
         let w = stack(self.next_a.as_ref(), self.next_b.as_ref());
-        let (vn, coef) = orthonormal_columns(w.as_ref(), &self.next_scale);
+        let (vn, _, coef) = orthonormalize(w.as_ref(), &self.next_scale, |v| v.as_mat().to_owned());
         let bn = vn.ncols();
         let eta = self.q.ncols();
         if bn == 0 {
@@ -350,17 +349,13 @@ impl<'a> LinearizedSpace<'a> {
     fn superposed(&self, ritz: &Ritz, left: MatRef<'_, c64>, freqs_hz: &[f64]) -> MatStack {
         let (m, p) = (left.nrows(), ritz.c.ncols());
         let one = c64::new(1.0, 0.0);
-        let all: Vec<Mat<c64>> = freqs_hz
-            .par_iter()
-            .map(|&f| {
-                let tau = self.tau(hz_to_omega(f));
-                let dc = Mat::<c64>::from_fn(ritz.c.nrows(), p, |j, c| {
-                    ritz.c[(j, c)] / (one - tau * ritz.lambda[j])
-                });
-                left * &dc
-            })
-            .collect();
-        MatStack::from_fn(m, p, all.len(), |i| all[i].clone())
+        MatStack::from_fn(m, p, freqs_hz.len(), |f| {
+            let tau = self.tau(hz_to_omega(freqs_hz[f]));
+            let dc = Mat::<c64>::from_fn(ritz.c.nrows(), p, |j, c| {
+                ritz.c[(j, c)] / (one - tau * ritz.lambda[j])
+            });
+            left * &dc
+        })
     }
 
     /// The estimated relative residual ‖(I − τOp)z − z₀‖/‖z₀‖ (worst column) at each of
@@ -379,7 +374,7 @@ impl<'a> LinearizedSpace<'a> {
         // G^{1/2} = Λ^{1/2}Vᵀ times the last block's rows of X
         let root = Mat::<f64>::from_fn(g.len(), v.nrows(), |i, j| g[i].max(0.0).sqrt() * v[(j, i)]);
         let last = self.a.ncols() - self.last;
-        let left = complex(root.as_ref()) * ritz.x.subrows(self.last, last);
+        let left = complex_product(root.as_ref(), ritz.x.subrows(self.last, last));
         let norms: Vec<f64> = (0..self.r0.ncols())
             .map(|c| self.r0.col(c).norm_l2())
             .collect();
@@ -443,7 +438,7 @@ impl ResponseSpace for LinearizedSpace<'_> {
             c64::new(d, 0.0) - tau * self.h[(i, j)]
         });
         let y = lhs.partial_piv_lu().solve(&complex(self.r0.as_ref()));
-        let coefficients = complex(self.a.as_ref()) * &y;
+        let coefficients = complex_product(self.a.as_ref(), y.as_ref());
         let one = c64::new(1.0, 0.0);
         let amplification = ritz
             .lambda
@@ -477,7 +472,7 @@ impl ResponseSpace for LinearizedSpace<'_> {
         };
         let qa =
             Mat::<f64>::from_fn(rows.len(), self.q.ncols(), |i, j| self.q[(rows[i], j)]) * &self.a;
-        let left = complex(qa.as_ref()) * &ritz.x;
+        let left = complex_product(qa.as_ref(), ritz.x.as_ref());
         let h = self.superposed(ritz, left.as_ref(), freqs_hz);
         let answered = self
             .estimates(freqs_hz)
@@ -538,34 +533,6 @@ fn stack(x: MatRef<'_, f64>, y: MatRef<'_, f64>) -> Mat<f64> {
 /// A real matrix as a complex one.
 fn complex(x: MatRef<'_, f64>) -> Mat<c64> {
     Mat::from_fn(x.nrows(), x.ncols(), |i, j| c64::new(x[(i, j)], 0.0))
-}
-
-/// Orthonormalizes the columns of `w` (orthogonal to the basis already) against each other,
-/// two passes per column, dropping a column left with less than [`DEFLATE`] of `scale`:
-/// returns the kept columns and the coefficients C with w ≈ W_new C (rows: kept columns).
-fn orthonormal_columns(w: MatRef<'_, f64>, scale: &[f64]) -> (Mat<f64>, Mat<f64>) {
-    let (n, b) = (w.nrows(), w.ncols());
-    let mut out = Mat::<f64>::zeros(n, 0);
-    let mut coef = Mat::<f64>::zeros(b, b);
-    for j in 0..b {
-        let mut v = w.col(j).to_owned();
-        for _ in 0..2 {
-            let c = out.transpose() * &v;
-            v -= &out * &c;
-            for (i, &x) in c.iter().enumerate() {
-                coef[(i, j)] += x;
-            }
-        }
-        let norm = v.norm_l2();
-        if !(norm > DEFLATE * scale[j]) {
-            continue;
-        }
-        let i = out.ncols();
-        out.resize_with(n, i + 1, |r, _| v[r] / norm);
-        coef[(i, j)] = norm;
-    }
-    let kept = out.ncols();
-    (out, coef.subrows(0, kept).to_owned())
 }
 
 #[cfg(test)]

@@ -77,7 +77,7 @@ pub const CERTIFIED_BACKWARD_ERROR: f64 = 1e-12;
 /// A new basis vector is dropped when Gram–Schmidt leaves less than this fraction of the
 /// M-norm of the block image it came from: its direction is already in the space to
 /// rounding (deflation; the space is then invariant in that direction).
-pub(crate) const DEFLATE: f64 = 1e-12;
+const DEFLATE: f64 = 1e-12;
 
 /// A remainder whose relative load on the rigid modes ([`Remainder::rigid_load`]) is above
 /// this does not leave a free body's elastic response to a low-rank update.
@@ -760,14 +760,28 @@ impl ResponseSpace for ShiftedSpace<'_> {
 }
 
 /// M-orthonormalizes the columns of `w`, M-orthogonal to the basis already (the image's
-/// passes in [`ShiftedSpace::extend`]; b₀ comes before any basis), against each other (two
-/// passes per column against the new columns only),
-/// dropping a column left with less than [`DEFLATE`] of `scale`: returns the new
-/// columns, M times them and the coefficients C with w ≈ Q_new C (rows: kept columns).
+/// passes in [`ShiftedSpace::extend`]; b₀ comes before any basis): [`orthonormalize`] with
+/// the product by M; returns the new columns, M times them and the coefficients.
 pub(crate) fn m_orthonormalize(
     pencil: &Pencil,
     w: MatRef<'_, f64>,
     scale: &[f64],
+) -> (Mat<f64>, Mat<f64>, Mat<f64>) {
+    // M v of the orthogonalized v itself: M w minus the same combinations of M Q would
+    // lose digits to cancellation when little of w is left (on the 50k crank the
+    // certificates failed and frequencies were factored)
+    orthonormalize(w, scale, |v| pencil.mul(Coefficient::Mass, v.as_mat()))
+}
+
+/// Orthonormalizes the columns of `w` (orthogonal to the basis already) against each other in
+/// the inner product ⟨x, y⟩ = xᵀ G y with `image(v)` = G v (N × 1): two passes per column
+/// against the new columns only, dropping a column left with less than [`DEFLATE`] of
+/// `scale`. Returns the new columns, G times them and the coefficients C with w ≈ W_new C
+/// (rows: kept columns).
+pub(crate) fn orthonormalize(
+    w: MatRef<'_, f64>,
+    scale: &[f64],
+    image: impl Fn(&faer::Col<f64>) -> Mat<f64>,
 ) -> (Mat<f64>, Mat<f64>, Mat<f64>) {
     let (n, b) = (w.nrows(), w.ncols());
     let mut qn = Mat::<f64>::zeros(n, 0);
@@ -784,10 +798,7 @@ pub(crate) fn m_orthonormalize(
                 coef[(i, j)] += x;
             }
         }
-        // M v of the orthogonalized v itself: M w minus the same combinations of M Q would
-        // lose digits to cancellation when little of w is left (on the 50k crank the
-        // certificates failed and frequencies were factored)
-        let mv = pencil.mul(Coefficient::Mass, v.as_mat());
+        let mv = image(&v);
         let norm = (v.transpose() * mv.col(0)).max(0.0).sqrt();
         if !(norm > DEFLATE * scale[j]) {
             continue;
@@ -921,7 +932,7 @@ pub(crate) struct Lifted<'s> {
 }
 
 /// A C for real A and complex C, as A Re C + i A Im C.
-fn complex_product(a: MatRef<'_, f64>, c: MatRef<'_, c64>) -> Mat<c64> {
+pub(crate) fn complex_product(a: MatRef<'_, f64>, c: MatRef<'_, c64>) -> Mat<c64> {
     let (re, im) = (a * c.map(|x| x.re), a * c.map(|x| x.im));
     Mat::from_fn(a.nrows(), c.ncols(), |i, j| {
         c64::new(re[(i, j)], im[(i, j)])
