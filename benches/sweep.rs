@@ -62,7 +62,7 @@ fn bench(c: &mut Criterion) {
         }
         let pencil = Pencil::new(&m);
         g.bench_function(BenchmarkId::new("cholesky-reference", m.n()), |b| {
-            b.iter(|| reference_cholesky(&pencil, faer::Par::Seq).unwrap())
+            b.iter(|| reference_cholesky(&pencil).unwrap())
         });
     }
     g.finish();

@@ -117,8 +117,8 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     let pardiso_dir =
         std::env::temp_dir().join(format!("sparsemor-bench-sweep-{}", std::process::id()));
     let mut pardiso_note = None;
-    println!("| model | N | backend | symbolic s | factor s (complex) | factor s, 2 thr | factor s (real) | solve s | nnz(factor) | peak mem | numeric mem | chol(K) s | complex ÷ chol | PARDISO factor s (1 / 2 thr) | ÷ PARDISO (1 / 2 thr) | sweep 1 thr s | sweep 2 thr s | speed-up |");
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("| model | N | backend | symbolic s | factor s (complex) | factor s, 2 thr | factor s (real) | solve s | nnz(factor) | peak mem | numeric mem | chol(K) s | real LDLᵀ s | complex ÷ chol | PARDISO factor s (1 / 2 thr) | ÷ PARDISO (1 / 2 thr) | sweep 1 thr s | sweep 2 thr s | speed-up |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for case in &CASES {
         let spec = BoxSpec {
             elements: case.elements,
@@ -160,7 +160,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
                 None => ("—".into(), "—".into()),
             };
             println!(
-                "| {} | {} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.4} | {} | {} | {} | {:.3} | {:.2} | {pardiso_s} | {ratio} | {:.2} | {:.2} | {:.2} |",
+                "| {} | {} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.4} | {} | {} | {} | {:.3} | {:.3} | {:.2} | {pardiso_s} | {ratio} | {:.2} | {:.2} | {:.2} |",
                 case.name,
                 model.n(),
                 backend,
@@ -177,6 +177,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
                 human_bytes(row.peak as f64),
                 human_bytes(row.numeric_peak as f64),
                 row.chol_s,
+                row.ldlt_real_s,
                 row.factor_complex_s / row.chol_s,
                 row.sweep1_s,
                 row.sweep2_s,
@@ -236,6 +237,7 @@ struct Row {
     peak: usize,
     numeric_peak: usize,
     chol_s: f64,
+    ldlt_real_s: f64,
     sweep1_s: f64,
     sweep2_s: f64,
 }
@@ -293,7 +295,7 @@ fn measure(model: &Model, scene: &Scene, backend: Backend) -> Result<Row> {
     let factor_real_s = t.elapsed().as_secs_f64();
     drop(num_r);
     drop(an_r);
-    let (_, chol_s) = reference_cholesky(&pencil, faer::Par::Seq)?;
+    let (_, chol_s, ldlt_real_s) = reference_cholesky(&pencil)?;
     // 4 frequencies (2 above 5·10⁴ DoF, where one factorization takes tens of seconds)
     let freqs: &[f64] = if model.n() > 50_000 {
         &[350.0, 750.0]
@@ -330,6 +332,7 @@ fn measure(model: &Model, scene: &Scene, backend: Backend) -> Result<Row> {
         peak,
         numeric_peak,
         chol_s,
+        ldlt_real_s,
         sweep1_s,
         sweep2_s,
     })

@@ -1,4 +1,6 @@
-//! Complex-symmetric supernodal LDLᵀ of a damped A(iω) = K − ω²M + iωD (docs/design.md §3.1).
+//! Complex-symmetric supernodal LDLᵀ of a damped A(iω) = K − ω²M + iωD (docs/design.md §3.1),
+//! and the same kernel in real arithmetic ([`RealLdlt`]: K − σM, its negative pivots counting
+//! the eigenvalues below σ): every routine is generic over the scalar ([`Scalar`]).
 //!
 //! P A Pᵀ = L D Lᵀ with the transpose, never the adjoint: A is complex *symmetric*
 //! (Aᵀ = A, Aᴴ ≠ A), L unit lower triangular in c64 and D diagonal in c64. The structure is
@@ -75,6 +77,67 @@ fn par_for(work: usize, par: Par) -> Par {
         par
     } else {
         Par::Seq
+    }
+}
+
+/// The scalars the factorization runs in: `c64` for A(iω), `f64` for a real shifted pencil
+/// (the same kernel, the transpose throughout: no conjugation in either).
+pub(crate) trait Scalar:
+    faer::traits::ComplexField
+    + Copy
+    + Send
+    + Sync
+    + std::ops::Add<Output = Self>
+    + std::ops::Mul<Output = Self>
+    + std::ops::AddAssign
+    + std::ops::SubAssign
+    + std::ops::MulAssign
+    + Default
+{
+    /// 0 and 1.
+    const ZERO: Self;
+    const ONE: Self;
+    /// The real number `x`.
+    fn real(x: f64) -> Self;
+    /// |x|.
+    fn magnitude(self) -> f64;
+    /// 1/x.
+    fn reciprocal(self) -> Self;
+    /// x < 0 (a real pivot's sign; never for a complex one).
+    fn negative(self) -> bool;
+}
+
+impl Scalar for f64 {
+    const ZERO: f64 = 0.0;
+    const ONE: f64 = 1.0;
+    fn real(x: f64) -> f64 {
+        x
+    }
+    fn magnitude(self) -> f64 {
+        self.abs()
+    }
+    fn reciprocal(self) -> f64 {
+        1.0 / self
+    }
+    fn negative(self) -> bool {
+        self < 0.0
+    }
+}
+
+impl Scalar for c64 {
+    const ZERO: c64 = c64::new(0.0, 0.0);
+    const ONE: c64 = c64::new(1.0, 0.0);
+    fn real(x: f64) -> c64 {
+        c64::new(x, 0.0)
+    }
+    fn magnitude(self) -> f64 {
+        self.norm()
+    }
+    fn reciprocal(self) -> c64 {
+        self.inv()
+    }
+    fn negative(self) -> bool {
+        false
     }
 }
 
@@ -357,7 +420,7 @@ impl Symbolic {
     }
 
     /// The work buffers of one thread of the factorization.
-    fn scratch(&self) -> Result<Scratch> {
+    fn scratch<T: Scalar>(&self) -> Result<Scratch<T>> {
         Ok(Scratch {
             update: try_vec(self.max_update)?,
             dense: try_vec(self.max_cols * self.max_cols.div_ceil(2))?,
@@ -377,67 +440,84 @@ impl SymbolicFactorization for Symbolic {
     }
 
     fn numeric(&self) -> Result<Box<dyn Factorization + '_>> {
-        let n = self.sym.nrows();
-        let rhs = self.max_rhs + 1;
-        Ok(Box::new(Numeric {
-            symbolic: self,
-            l: try_vec(supernodal(&self.sym).len_val())?,
+        Ok(Box::new(Numeric::<_, c64>::new(self)?))
+    }
+}
+
+impl<S: std::ops::Deref<Target = Symbolic>, T: Scalar> Numeric<S, T> {
+    /// The factor's storage and buffers on `symbolic`, not yet factored.
+    fn new(symbolic: S) -> Result<Self> {
+        let n = symbolic.sym.nrows();
+        let rhs = symbolic.max_rhs + 1;
+        let (max_pattern, top) = (
+            symbolic.max_pattern,
+            symbolic.split.as_ref().map_or(0, |sp| sp.top_rows.len()),
+        );
+        Ok(Numeric {
+            l: try_vec(supernodal(&symbolic.sym).len_val())?,
             d_inv: try_vec(n)?,
-            scratch: self.scratch()?,
+            scratch: symbolic.scratch()?,
             second: None,
             x: Mat::zeros(n, rhs),
             solve: std::array::from_fn(|_| SolveScratch {
-                gathered: Mat::zeros(self.max_pattern, rhs),
-                top: Mat::zeros(self.split.as_ref().map_or(0, |sp| sp.top_rows.len()), rhs),
+                gathered: Mat::zeros(max_pattern, rhs),
+                top: Mat::zeros(top, rhs),
             }),
             pivot_ratio: f64::NAN,
             perturbed: 0,
-        }))
+            symbolic,
+        })
     }
 }
 
 /// One numeric LDLᵀ factorization, refilled per frequency.
-pub(super) struct Numeric<'a> {
-    symbolic: &'a Symbolic,
+pub(super) struct Numeric<S, T> {
+    symbolic: S,
     /// L (strictly lower part) and D (its diagonal) in faer's supernodal layout.
-    l: Vec<c64>,
+    l: Vec<T>,
     /// D⁻¹, in the order of L's columns.
-    d_inv: Vec<c64>,
-    scratch: Scratch,
+    d_inv: Vec<T>,
+    scratch: Scratch<T>,
     /// The second thread's buffers when subtrees run in parallel (allocated on first use).
-    second: Option<Scratch>,
+    second: Option<Scratch<T>>,
     /// The permuted right-hand sides of a solve.
-    x: Mat<c64>,
+    x: Mat<T>,
     /// The solve's buffers for each of the two groups of a [`SubtreeGroups`] (the first alone
     /// without one).
-    solve: [SolveScratch; 2],
+    solve: [SolveScratch<T>; 2],
     pivot_ratio: f64,
     perturbed: usize,
 }
 
 /// The buffers of one thread of a solve.
-struct SolveScratch {
+struct SolveScratch<T> {
     /// One supernode's pattern rows, gathered.
-    gathered: Mat<c64>,
+    gathered: Mat<T>,
     /// A group's contributions to the top's rows (forward), or the top's solution (backward).
-    top: Mat<c64>,
+    top: Mat<T>,
 }
 
 /// The work buffers of one thread of the factorization.
-struct Scratch {
+struct Scratch<T> {
     /// A descendant's update block before it is scattered.
-    update: Vec<c64>,
+    update: Vec<T>,
     /// L21·D1 inside the recursive dense LDLᵀ.
-    dense: Vec<c64>,
+    dense: Vec<T>,
     /// Row → position in the current supernode's pattern (usize::MAX elsewhere).
     local: Vec<usize>,
 }
 
-impl Numeric<'_> {
-    /// One left-looking factorization of `a` with the static pivot threshold `tau`: with
-    /// more than one thread and a [`SubtreeGroups`], its two groups of subtrees in parallel first.
-    fn factor_with(&mut self, a: &Values<'_>, tau: f64, par: Par) -> Result<Pivots> {
-        let sy = self.symbolic;
+impl<S: std::ops::Deref<Target = Symbolic>, T: Scalar> Numeric<S, T> {
+    /// One left-looking factorization of the matrix with lower-pattern entries `a(p)` with
+    /// the static pivot threshold `tau`: with more than one thread and a [`SubtreeGroups`],
+    /// its two groups of subtrees in parallel first.
+    fn factor_with(
+        &mut self,
+        a: &(impl Fn(usize) -> T + Sync),
+        tau: f64,
+        par: Par,
+    ) -> Result<Pivots> {
+        let sy: &Symbolic = &self.symbolic;
         let s = supernodal(&sy.sym);
         let cpv = s.col_ptr_for_val();
         let mut pivots = Pivots::new(tau);
@@ -454,8 +534,8 @@ impl Numeric<'_> {
         let second = self.second.as_mut().expect("allocated above");
         // each subtree's values, cut from L in order of position
         let ranges = split.subtrees();
-        let mut parts: [Vec<(usize, usize, &mut [c64])>; 2] = [Vec::new(), Vec::new()];
-        let mut rest: &mut [c64] = &mut self.l;
+        let mut parts: [Vec<(usize, usize, &mut [T])>; 2] = [Vec::new(), Vec::new()];
+        let mut rest: &mut [T] = &mut self.l;
         let mut offset = 0;
         for (first, end, g) in ranges {
             let (_, tail) = std::mem::take(&mut rest).split_at_mut(cpv[first] - offset);
@@ -465,7 +545,7 @@ impl Numeric<'_> {
             offset = cpv[end];
         }
         let [p0, p1] = parts;
-        let run = |part: Vec<(usize, usize, &mut [c64])>, sc: &mut Scratch| {
+        let run = |part: Vec<(usize, usize, &mut [T])>, sc: &mut Scratch<T>| {
             let mut pv = Pivots::new(tau);
             for (first, end, l) in part {
                 for sn in first..end {
@@ -485,19 +565,19 @@ impl Numeric<'_> {
     }
 }
 
-impl Numeric<'_> {
+impl<S: std::ops::Deref<Target = Symbolic>, T: Scalar> Numeric<S, T> {
     /// D⁻¹ from the factor's diagonal, for the solves: with threads, the supernodes in two
     /// halves.
     fn invert_diagonal(&mut self, par: Par) {
         let s = supernodal(&self.symbolic.sym);
         let (begin, end, cpv) = (s.supernode_begin(), s.supernode_end(), s.col_ptr_for_val());
         let l = &self.l;
-        let invert = |sns: std::ops::Range<usize>, d: &mut [c64], r0: usize| {
+        let invert = |sns: std::ops::Range<usize>, d: &mut [T], r0: usize| {
             for sn in sns {
                 let ncols = end[sn] - begin[sn];
                 let stride = ncols + pattern(s, sn).len();
                 for j in 0..ncols {
-                    d[begin[sn] + j - r0] = l[cpv[sn] + j * stride + j].inv();
+                    d[begin[sn] + j - r0] = l[cpv[sn] + j * stride + j].reciprocal();
                 }
             }
         };
@@ -517,13 +597,13 @@ impl Symbolic {
     /// updates of its descendants, factors the diagonal block and solves the rows below.
     /// `l` holds L's values from position `base` on, `sn` and all its descendants included.
     #[allow(clippy::too_many_arguments)]
-    fn factor_supernode(
+    fn factor_supernode<T: Scalar>(
         &self,
         sn: usize,
-        l: &mut [c64],
+        l: &mut [T],
         base: usize,
-        a: &Values<'_>,
-        sc: &mut Scratch,
+        a: &(impl Fn(usize) -> T + Sync),
+        sc: &mut Scratch<T>,
         pivots: &mut Pivots,
         par: Par,
     ) {
@@ -539,9 +619,9 @@ impl Symbolic {
         let (head, tail) = l.split_at_mut(cpv[sn] - base);
         let panel = &mut tail[..nrows * ncols];
         // A's entries into the zeroed panel
-        panel.fill(c64::new(0.0, 0.0));
+        panel.fill(T::ZERO);
         for &(p, q) in &self.assembly[self.assembly_ptr[sn]..self.assembly_ptr[sn + 1]] {
-            panel[q - cpv[sn]] += a.entry(p);
+            panel[q - cpv[sn]] += a(p);
         }
         let mut ls = MatMut::from_column_major_slice_mut(panel, nrows, ncols);
         for &d in &self.desc[self.desc_ptr[sn]..self.desc_ptr[sn + 1]] {
@@ -579,7 +659,7 @@ impl Symbolic {
                 BlockStructure::Rectangular,
                 dmid_t.rb(),
                 BlockStructure::Rectangular,
-                c64::new(1.0, 0.0),
+                T::ONE,
                 par_for(k * k * dcols / 2, par),
             );
             matmul(
@@ -587,7 +667,7 @@ impl Symbolic {
                 Accum::Replace,
                 below.subrows(k, rows.len() - k),
                 dmid_t.rb(),
-                c64::new(1.0, 0.0),
+                T::ONE,
                 par_for((rows.len() - k) * k * dcols, par),
             );
             let target = Target {
@@ -605,7 +685,79 @@ impl Symbolic {
     }
 }
 
-impl Factorization for Numeric<'_> {
+/// The same supernodal LDLᵀ in real arithmetic: P A Pᵀ = L D Lᵀ of a real symmetric A with
+/// values on the pencil's lower pattern (K − σM, K + s₀D + s₀²M), with static pivots. For a
+/// positive definite A every pivot is positive and this is a Cholesky factorization
+/// (L D^{1/2}); the factor owns its analysis, so it lives as long as its user.
+pub(crate) struct RealLdlt(Numeric<Box<Symbolic>, f64>);
+
+/// The pivots of one [`RealLdlt`] factorization.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct RealPivots {
+    /// Pivots below 0: by Sylvester's law the number of negative eigenvalues of A when none
+    /// was perturbed.
+    pub(crate) negative: usize,
+    /// Pivots of magnitude below ε·max|aᵢⱼ|, replaced by ±ε·max|aᵢⱼ| (A singular to working
+    /// precision).
+    pub(crate) perturbed: usize,
+}
+
+impl RealLdlt {
+    /// The analysis on `sym` (the pencil's [`super::symbolic_cholesky`]) and the factor's
+    /// storage, for solves of up to `rhs` columns at once; `None` when `sym` has no
+    /// supernodes (a pattern without off-diagonal entries).
+    ///
+    /// # Errors
+    /// [`Error::Factor`] when the analysis finds an entry outside L's pattern or memory is
+    /// short.
+    pub(crate) fn new(
+        pencil: &Pencil,
+        sym: Arc<SymbolicCholesky<usize>>,
+        rhs: usize,
+    ) -> Result<Option<Self>> {
+        if !matches!(sym.raw(), SymbolicCholeskyRaw::Supernodal(_)) {
+            return Ok(None);
+        }
+        let (symbolic, _) = Symbolic::new(pencil, sym, rhs.max(1))?;
+        Ok(Some(RealLdlt(Numeric::new(Box::new(symbolic))?)))
+    }
+
+    /// Factors the matrix with values `vals` on the pencil's lower pattern, pivots below
+    /// ε·max|aᵢⱼ| perturbed (counted, not repeated with a larger threshold: a caller that
+    /// needs a definite or exactly counted A refuses a perturbed factor).
+    pub(crate) fn factor(&mut self, vals: &[f64], par: Par) -> Result<RealPivots> {
+        let amax = vals.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let pivots = self
+            .0
+            .factor_with(&|p: usize| vals[p], f64::EPSILON * amax, par)?;
+        self.0.invert_diagonal(par);
+        if !(pivots.hi.is_finite() && pivots.hi > 0.0) {
+            return Err(Error::Factor(
+                "the real LDLᵀ factorization met a non-finite or all-zero pivot (NaN in the \
+                 model?)"
+                    .into(),
+            ));
+        }
+        Ok(RealPivots {
+            negative: pivots.negative,
+            perturbed: pivots.perturbed,
+        })
+    }
+
+    /// X ← A⁻¹X in place, in blocks of the `rhs` columns of [`Self::new`] (the tests' check
+    /// of the factor; the benches time the factorization alone).
+    #[cfg(test)]
+    pub(crate) fn solve(&mut self, mut x: MatMut<'_, f64>, par: Par) {
+        let width = self.0.x.ncols();
+        let k = x.ncols();
+        for c in (0..k).step_by(width) {
+            self.0
+                .solve_block(x.rb_mut().subcols_mut(c, width.min(k - c)), par);
+        }
+    }
+}
+
+impl Factorization for Numeric<&Symbolic, c64> {
     fn factor(&mut self, a: &Values<'_>, freq_hz: f64, par: Par) -> Result<()> {
         // max |aᵢⱼ|, exact in any grouping: on two threads, halves
         let max_sq = |entries: std::ops::Range<usize>| {
@@ -624,9 +776,10 @@ impl Factorization for Numeric<'_> {
         .sqrt();
         // numerically zero pivots only; if there were any, PARDISO's larger threshold, which
         // bounds the growth behind a zero pivot (refinement then removes the perturbation)
-        let mut pivots = self.factor_with(a, f64::EPSILON * amax, par)?;
+        let entry = |p: usize| a.entry(p);
+        let mut pivots = self.factor_with(&entry, f64::EPSILON * amax, par)?;
         if pivots.perturbed > 0 {
-            pivots = self.factor_with(a, f64::EPSILON.sqrt() * amax, par)?;
+            pivots = self.factor_with(&entry, f64::EPSILON.sqrt() * amax, par)?;
         }
         self.invert_diagonal(par);
         self.perturbed = pivots.perturbed;
@@ -663,15 +816,15 @@ impl Factorization for Numeric<'_> {
     }
 }
 
-impl Numeric<'_> {
+impl<S: std::ops::Deref<Target = Symbolic>, T: Scalar> Numeric<S, T> {
     /// Solves A X = B in place for at most `x.ncols()` columns: P, L, D, Lᵀ, Pᵀ. With a
     /// [`SubtreeGroups`] the two groups of subtrees are solved independently (on two threads when
     /// `par` has them): forward, each group keeps its contributions to the top's rows in its
     /// own buffer, added to the top before the top is solved; backward, the top first, then
     /// the groups read its solution from a copy. The groups run the same way on one thread,
     /// so the solution does not depend on the thread count.
-    fn solve_block(&mut self, rhs: MatMut<'_, c64>, par: Par) {
-        let sy = self.symbolic;
+    fn solve_block(&mut self, rhs: MatMut<'_, T>, par: Par) {
+        let sy: &Symbolic = &self.symbolic;
         let s = supernodal(&sy.sym);
         let (n, k) = (rhs.nrows(), rhs.ncols());
         let fwd = &sy.fwd;
@@ -688,8 +841,8 @@ impl Numeric<'_> {
         match sy.split.as_ref() {
             None => solver.substitute(Direction::Forward, all.clone(), x.rb_mut(), 0, s0, &[], par),
             Some(split) => {
-                s0.top.fill(c64::new(0.0, 0.0));
-                s1.top.fill(c64::new(0.0, 0.0));
+                s0.top.fill(T::ZERO);
+                s1.top.fill(T::ZERO);
                 solver.groups(split, x.rb_mut(), [s0, s1], par, |sw, sns, xg, r0, sc| {
                     sw.substitute(
                         Direction::Forward,
@@ -766,7 +919,11 @@ impl Numeric<'_> {
 
 /// `f(c, column c of x)` for every column, on two threads (each half of the columns) when
 /// `par` has them.
-fn by_columns(x: MatMut<'_, c64>, par: Par, f: impl Fn(usize, faer::ColMut<'_, c64>) + Sync) {
+fn by_columns<T: Scalar>(
+    x: MatMut<'_, T>,
+    par: Par,
+    f: impl Fn(usize, faer::ColMut<'_, T>) + Sync,
+) {
     let k = x.ncols();
     if par.degree() > 1 && k > 1 {
         let (a, b) = x.split_at_col_mut(k / 2);
@@ -791,14 +948,14 @@ enum Direction {
 }
 
 /// The triangular solves of one numeric factorization, supernode by supernode.
-struct Sweep<'a> {
+struct Sweep<'a, T> {
     sy: &'a Symbolic,
-    l: &'a [c64],
+    l: &'a [T],
 }
 
-impl Sweep<'_> {
+impl<T: Scalar> Sweep<'_, T> {
     /// Supernode `sn`'s diagonal block and the rows below it.
-    fn panel(&self, sn: usize) -> (MatRef<'_, c64>, MatRef<'_, c64>) {
+    fn panel(&self, sn: usize) -> (MatRef<'_, T>, MatRef<'_, T>) {
         let s = supernodal(&self.sy.sym);
         let (begin, end, cpv) = (s.supernode_begin(), s.supernode_end(), s.col_ptr_for_val());
         let (ncols, np) = (end[sn] - begin[sn], pattern(s, sn).len());
@@ -812,16 +969,16 @@ impl Sweep<'_> {
     fn groups(
         &self,
         split: &SubtreeGroups,
-        x: MatMut<'_, c64>,
-        scratch: [&mut SolveScratch; 2],
+        x: MatMut<'_, T>,
+        scratch: [&mut SolveScratch<T>; 2],
         par: Par,
-        run: impl Fn(&Self, std::ops::Range<usize>, MatMut<'_, c64>, usize, &mut SolveScratch) + Sync,
+        run: impl Fn(&Self, std::ops::Range<usize>, MatMut<'_, T>, usize, &mut SolveScratch<T>) + Sync,
     ) {
         let s = supernodal(&self.sy.sym);
         let (begin, end) = (s.supernode_begin(), s.supernode_end());
         // each subtree's rows, cut from x in order of position
         let ranges = split.subtrees();
-        let mut parts: [Vec<(usize, usize, MatMut<'_, c64>)>; 2] = [Vec::new(), Vec::new()];
+        let mut parts: [Vec<(usize, usize, MatMut<'_, T>)>; 2] = [Vec::new(), Vec::new()];
         let mut rest = x;
         let mut offset = 0;
         for (first, last, g) in ranges {
@@ -834,7 +991,7 @@ impl Sweep<'_> {
         }
         let [p0, p1] = parts;
         let [sc0, sc1] = scratch;
-        let group = |part: Vec<(usize, usize, MatMut<'_, c64>)>, sc: &mut SolveScratch| {
+        let group = |part: Vec<(usize, usize, MatMut<'_, T>)>, sc: &mut SolveScratch<T>| {
             for (first, last, xg) in part {
                 run(self, first..last, xg, begin[first], sc);
             }
@@ -857,16 +1014,16 @@ impl Sweep<'_> {
         &self,
         direction: Direction,
         sns: impl Iterator<Item = usize>,
-        mut x: MatMut<'_, c64>,
+        mut x: MatMut<'_, T>,
         r0: usize,
-        sc: &mut SolveScratch,
+        sc: &mut SolveScratch<T>,
         top_pos: &[usize],
         par: Par,
     ) {
         let s = supernodal(&self.sy.sym);
         let begin = s.supernode_begin();
         let k = x.ncols();
-        let one = c64::new(1.0, 0.0);
+        let one = T::ONE;
         let in_top = |r: usize| top_pos.get(r).copied().filter(|&t| t != usize::MAX);
         for sn in sns {
             let (top, bot) = self.panel(sn);
@@ -924,10 +1081,10 @@ struct Target<'a> {
 /// columns from `first` on. With threads and enough entries the columns go in two halves of
 /// equal work, each on its own thread: they write disjoint columns, and every entry gets the
 /// same single subtraction either way.
-fn subtract_update(
-    mut ls: MatMut<'_, c64>,
+fn subtract_update<T: Scalar>(
+    mut ls: MatMut<'_, T>,
     first: usize,
-    w: MatRef<'_, c64>,
+    w: MatRef<'_, T>,
     t: &Target<'_>,
     cols: std::ops::Range<usize>,
     par: Par,
@@ -977,6 +1134,8 @@ struct Pivots {
     lo: f64,
     hi: f64,
     perturbed: usize,
+    /// Real pivots below 0 (taken after any perturbation).
+    negative: usize,
 }
 
 impl Pivots {
@@ -987,6 +1146,7 @@ impl Pivots {
             lo: f64::INFINITY,
             hi: 0.0,
             perturbed: 0,
+            negative: 0,
         }
     }
 
@@ -995,22 +1155,24 @@ impl Pivots {
         self.lo = self.lo.min(other.lo);
         self.hi = self.hi.max(other.hi);
         self.perturbed += other.perturbed;
+        self.negative += other.negative;
     }
 
     /// The pivot to use for `d`: d itself, or τ·d/|d| (τ for d = 0) when |d| < τ.
-    fn take(&mut self, d: c64) -> c64 {
-        let m = d.norm();
+    fn take<T: Scalar>(&mut self, d: T) -> T {
+        let m = d.magnitude();
         let d = if m < self.tau {
             self.perturbed += 1;
             if m > 0.0 {
-                d * (self.tau / m)
+                d * T::real(self.tau / m)
             } else {
-                c64::new(self.tau, 0.0)
+                T::real(self.tau)
             }
         } else {
             d
         };
-        let m = d.norm();
+        let m = d.magnitude();
+        self.negative += usize::from(d.negative());
         self.lo = self.lo.min(m);
         self.hi = self.hi.max(m);
         d
@@ -1020,7 +1182,7 @@ impl Pivots {
 /// Dense LDLᵀ (transpose) of the lower triangle of `a` in place: the strictly lower part
 /// becomes L, the diagonal D. Recursive halving: A₁₁ = L₁₁D₁L₁₁ᵀ, L₂₁D₁ = A₂₁L₁₁⁻ᵀ,
 /// A₂₂ ← A₂₂ − (L₂₁D₁)L₂₁ᵀ, then A₂₂ itself. `work` holds L₂₁D₁.
-fn dense_ldlt(mut a: MatMut<'_, c64>, work: &mut [c64], pivots: &mut Pivots, par: Par) {
+fn dense_ldlt<T: Scalar>(mut a: MatMut<'_, T>, work: &mut [T], pivots: &mut Pivots, par: Par) {
     let n = a.nrows();
     if n <= UNBLOCKED {
         for j in 0..n {
@@ -1033,7 +1195,7 @@ fn dense_ldlt(mut a: MatMut<'_, c64>, work: &mut [c64], pivots: &mut Pivots, par
                 .as_slice_mut();
             let d = pivots.take(lj[0]);
             lj[0] = d;
-            let inv = d.inv();
+            let inv = d.reciprocal();
             // a[c.., c] −= (L d)[c.., j] · (L d)[c, j] / d for the columns right of j
             for (c, col) in right.rb_mut().col_iter_mut().enumerate() {
                 let f = lj[c + 1] * inv;
@@ -1069,7 +1231,7 @@ fn dense_ldlt(mut a: MatMut<'_, c64>, work: &mut [c64], pivots: &mut Pivots, par
         BlockStructure::Rectangular,
         wd_t.rb(),
         BlockStructure::Rectangular,
-        c64::new(-1.0, 0.0),
+        T::real(-1.0),
         par,
     );
     dense_ldlt(a22, rest, pivots, par);
@@ -1077,7 +1239,7 @@ fn dense_ldlt(mut a: MatMut<'_, c64>, work: &mut [c64], pivots: &mut Pivots, par
 
 /// The supernode's panel [A₁₁; A₂₁] (`ncols` columns, lower part of A₁₁ used) becomes
 /// [L₁₁ with D on its diagonal; L₂₁]: A₁₁ = L₁₁ D L₁₁ᵀ, then L₂₁ = A₂₁ L₁₁⁻ᵀ D⁻¹.
-fn factor_panel(panel: MatMut<'_, c64>, work: &mut [c64], pivots: &mut Pivots, par: Par) {
+fn factor_panel<T: Scalar>(panel: MatMut<'_, T>, work: &mut [T], pivots: &mut Pivots, par: Par) {
     let ncols = panel.ncols();
     let (mut top, mut bot) = panel.split_at_row_mut(ncols);
     dense_ldlt(top.rb_mut(), work, pivots, par);
@@ -1087,9 +1249,9 @@ fn factor_panel(panel: MatMut<'_, c64>, work: &mut [c64], pivots: &mut Pivots, p
 }
 
 /// X ← X D⁻¹, D the diagonal of the factored block `ld`.
-fn divide_by_diagonal(ld: MatRef<'_, c64>, mut x: MatMut<'_, c64>) {
+fn divide_by_diagonal<T: Scalar>(ld: MatRef<'_, T>, mut x: MatMut<'_, T>) {
     for j in 0..ld.ncols() {
-        let inv = ld[(j, j)].inv();
+        let inv = ld[(j, j)].reciprocal();
         for v in x.rb_mut().col_mut(j).iter_mut() {
             *v *= inv;
         }
@@ -1100,7 +1262,7 @@ fn divide_by_diagonal(ld: MatRef<'_, c64>, mut x: MatMut<'_, c64>) {
 /// on halves of L. faer solves a transposed (row-major) X directly, but its products then run
 /// on row-major operands; here the coupling X₂ −= X₁ L₂₁ᵀ is a GEMM on a column-major copy of
 /// L₂₁ᵀ (`work`, c²/4 entries).
-fn solve_right_transposed(l: MatRef<'_, c64>, x: MatMut<'_, c64>, work: &mut [c64], par: Par) {
+fn solve_right_transposed<T: Scalar>(l: MatRef<'_, T>, x: MatMut<'_, T>, work: &mut [T], par: Par) {
     let c = l.nrows();
     if c <= UNBLOCKED_SOLVE {
         solve_unit_lower_triangular_in_place(l, x.transpose_mut(), par);
@@ -1117,7 +1279,7 @@ fn solve_right_transposed(l: MatRef<'_, c64>, x: MatMut<'_, c64>, work: &mut [c6
         Accum::Add,
         x1.rb(),
         l21_t.rb(),
-        c64::new(-1.0, 0.0),
+        T::real(-1.0),
         p,
     );
     solve_right_transposed(l.submatrix(h, h, c - h, c - h), x2, work, par);
