@@ -34,7 +34,9 @@ use crate::linearized_space::LinearizedSpace;
 use crate::random::Xorshift;
 use crate::rigid::RigidBody;
 use crate::shifted_space::{ResponseSpace, Rows, ShiftedSpace, SolutionBuffers, GROW_TO};
-pub use crate::shifted_space::{CERTIFIED_BACKWARD_ERROR, CERTIFIED_RELATIVE_RESIDUAL};
+pub use crate::shifted_space::{
+    CERTIFIED_BACKWARD_ERROR, CERTIFIED_NORMWISE_BACKWARD_ERROR, CERTIFIED_RELATIVE_RESIDUAL,
+};
 use crate::{Error, Result};
 use faer::{c64, Mat, MatRef, Par};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -167,6 +169,9 @@ pub struct FreqStats {
     /// The worst load column's ‖b − A x‖₂/‖b‖₂ of a response from the Krylov space (NaN when
     /// factored: the probe measures those).
     pub relative_residual: f64,
+    /// The worst load column's normwise backward error bound maxᵢ |b − A x|ᵢ / maxᵢ (|A||x| +
+    /// |b|)ᵢ of a response from the Krylov space (NaN when factored).
+    pub normwise_backward_error: f64,
     /// Real factorizations and block solves spent on the shifted Krylov space by the run
     /// before its frequencies were solved, carried by the run's first frequency (0 on the
     /// others), so that summing the stats counts them once.
@@ -796,6 +801,7 @@ impl<'a> Solver<'a> {
             pivoted: numeric.pivoted(),
             space_dim: 0,
             relative_residual: f64::NAN,
+            normwise_backward_error: f64::NAN,
             space_cost: (0, 0),
         })
     }
@@ -934,6 +940,7 @@ impl<'a> Solver<'a> {
             pivoted: false,
             space_dim: space.dim(),
             relative_residual: worst(&r.certificate.relative_residual),
+            normwise_backward_error: worst(&r.certificate.normwise_backward_error),
             space_cost: (0, 0),
         };
         Ok((r, stats))

@@ -56,8 +56,9 @@ pub struct SweepArgs {
     out: PathBuf,
     /// Also write each frequency's solve statistics as CSV: f_hz, factor_s, solve_s,
     /// probe_error, backward_error, refinement_steps, pivot_ratio, pivoted, krylov_dim,
-    /// relative_residual (a response from the shifted Krylov space has krylov_dim > 0, no
-    /// factorization and no probe: factor_s 0, probe_error and pivot_ratio NaN).
+    /// relative_residual, normwise_backward_error (a response from the shifted Krylov space
+    /// has krylov_dim > 0, no factorization and no probe: factor_s 0, probe_error and
+    /// pivot_ratio NaN; the last two are NaN for a factored one).
     #[arg(long)]
     stats: Option<PathBuf>,
 }
@@ -169,12 +170,12 @@ fn write_stats_csv(path: &Path, stats: &[FreqStats]) -> Result<()> {
     atomic::write_file(path, |w| {
         writeln!(
             w,
-            "f_hz,factor_s,solve_s,probe_error,backward_error,refinement_steps,pivot_ratio,pivoted,krylov_dim,relative_residual"
+            "f_hz,factor_s,solve_s,probe_error,backward_error,refinement_steps,pivot_ratio,pivoted,krylov_dim,relative_residual,normwise_backward_error"
         )?;
         for s in stats {
             writeln!(
                 w,
-                "{:?},{:?},{:?},{:?},{:?},{},{:?},{},{},{:?}",
+                "{:?},{:?},{:?},{:?},{:?},{},{:?},{},{},{:?},{:?}",
                 s.freq_hz,
                 s.factor_s,
                 s.solve_s,
@@ -184,7 +185,8 @@ fn write_stats_csv(path: &Path, stats: &[FreqStats]) -> Result<()> {
                 s.pivot_ratio,
                 u8::from(s.pivoted),
                 s.space_dim,
-                s.relative_residual
+                s.relative_residual,
+                s.normwise_backward_error
             )?;
         }
         Ok(())

@@ -223,6 +223,7 @@ fn encode(rank: usize, reply: &Result<Reply>) -> Vec<u8> {
             .u64(u64::from(s.pivoted))
             .usize(s.space_dim)
             .f64(s.relative_residual)
+            .f64(s.normwise_backward_error)
             .usize(s.space_cost.0)
             .usize(s.space_cost.1);
     }
@@ -272,6 +273,7 @@ fn decode(bytes: &[u8]) -> Result<Result<Reply>> {
                 pivoted: r.u64()? == 1,
                 space_dim: r.usize()?,
                 relative_residual: r.f64()?,
+                normwise_backward_error: r.f64()?,
                 space_cost: (r.usize()?, r.usize()?),
             },
         ));

@@ -16,7 +16,7 @@
 //! full square product makes the 32³ cube's factor 1.3× slower, docs/design.md §3.1), then the
 //! diagonal block is factored by a recursive blocked dense LDLᵀ and L_bot ← L_bot L_top⁻ᵀ D⁻¹
 //! (triangular solve). Every flop outside the smallest diagonal blocks is a faer GEMM or
-//! triangular solve on c64.
+//! triangular solve on the scalar (c64 for A(iω)).
 //!
 //! **Threads inside one factorization** (the sweep's factor-parallel schedule): the supernodes
 //! are in postorder, so every subtree of the elimination tree is a contiguous range of

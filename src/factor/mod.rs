@@ -575,16 +575,20 @@ pub struct Certificate {
     pub backward_error: Vec<f64>,
     /// ‖b − A x‖₂ / ‖b‖₂ per column (0 for a zero column b with x = 0).
     pub relative_residual: Vec<f64>,
+    /// maxᵢ |b − A x|ᵢ / maxᵢ (|A||x| + |b|)ᵢ per column: a bound of the normwise backward
+    /// error ‖b − A x‖∞ / (‖A‖∞‖x‖∞ + ‖b‖∞).
+    pub normwise_backward_error: Vec<f64>,
 }
 
 impl Certificate {
-    /// Every column passes: componentwise backward error ≤ `backward` or relative residual
-    /// ≤ `relative`.
-    pub fn passes(&self, backward: f64, relative: f64) -> bool {
-        self.backward_error
-            .iter()
-            .zip(&self.relative_residual)
-            .all(|(&be, &rr)| be <= backward || rr <= relative)
+    /// Every column passes: componentwise backward error ≤ `backward`, relative residual
+    /// ≤ `relative` or normwise backward error ≤ `normwise`.
+    pub fn passes(&self, backward: f64, relative: f64, normwise: f64) -> bool {
+        (0..self.backward_error.len()).all(|c| {
+            self.backward_error[c] <= backward
+                || self.relative_residual[c] <= relative
+                || self.normwise_backward_error[c] <= normwise
+        })
     }
 }
 
@@ -624,6 +628,7 @@ pub fn certify(
         par,
     );
     let backward_error = scratch.column_errors().to_vec();
+    let normwise_backward_error = scratch.column_normwise().to_vec();
     let r = scratch.block(x.nrows(), x.ncols());
     let r = r.as_ref();
     let relative_residual = (0..x.ncols())
@@ -641,5 +646,6 @@ pub fn certify(
     Certificate {
         backward_error,
         relative_residual,
+        normwise_backward_error,
     }
 }

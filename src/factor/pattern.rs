@@ -174,8 +174,10 @@ pub(super) fn symmetric_residual<T: Scalar, F: Fn(usize) -> T + Sync>(
         parts.enumerate().map(run).fold(0.0, f64::max)
     };
     scratch.columns.clear();
+    scratch.normwise.clear();
     for b in &scratch.blocks[..blocks] {
         scratch.columns.extend_from_slice(&b.columns);
+        scratch.normwise.extend_from_slice(&b.normwise);
     }
     worst
 }
@@ -261,6 +263,9 @@ pub(super) struct ResidualScratch<T> {
     /// The componentwise backward error of each column of the last call (0 without
     /// `componentwise`).
     columns: Vec<f64>,
+    /// maxᵢ |r|ᵢ / maxᵢ (|A||x| + |b|)ᵢ of each column of the last call (0 without
+    /// `componentwise`).
+    normwise: Vec<f64>,
 }
 
 impl<T> Default for ResidualScratch<T> {
@@ -269,6 +274,7 @@ impl<T> Default for ResidualScratch<T> {
             xr: Vec::new(),
             blocks: Vec::new(),
             columns: Vec::new(),
+            normwise: Vec::new(),
         }
     }
 }
@@ -278,6 +284,12 @@ impl<T> ResidualScratch<T> {
     /// (its return value is their maximum).
     pub(super) fn column_errors(&self) -> &[f64] {
         &self.columns
+    }
+
+    /// maxᵢ |r|ᵢ / maxᵢ (|A||x| + |b|)ᵢ of each column of the last [`symmetric_residual`]: an
+    /// upper bound of the normwise backward error ‖r‖∞ / (‖A‖∞‖x‖∞ + ‖b‖∞).
+    pub(super) fn column_normwise(&self) -> &[f64] {
+        &self.normwise
     }
 }
 
@@ -300,6 +312,7 @@ struct BlockScratch {
     rt: Vec<f64>,
     st: Vec<f64>,
     columns: Vec<f64>,
+    normwise: Vec<f64>,
 }
 
 /// [`symmetric_residual`] of one block of w ≤ [`RESIDUAL_BLOCK`] columns: `xr` holds the
@@ -317,9 +330,16 @@ fn residual_block<T: Scalar, F: Fn(usize) -> T>(
 ) -> f64 {
     let (n, w) = (x.nrows(), x.ncols());
     let q = row_len::<T>(w);
-    let BlockScratch { rt, st, columns } = ws;
+    let BlockScratch {
+        rt,
+        st,
+        columns,
+        normwise,
+    } = ws;
     columns.clear();
     columns.resize(w, 0.0);
+    normwise.clear();
+    normwise.resize(w, 0.0);
     rt.resize(n * q, 0.0);
     st.resize(if componentwise { n * w } else { 0 }, 0.0);
     let b = MatRef::from_column_major_slice(xr, n, w);
@@ -331,13 +351,19 @@ fn residual_block<T: Scalar, F: Fn(usize) -> T>(
     split(x, xt);
     let worst = if componentwise {
         vectorized(Pass::<T, F, true>::new(a, w, xt, rt, st));
+        let mut largest = vec![(0.0f64, 0.0f64); w];
         for (r, s) in rt.chunks_exact(q).zip(st.chunks_exact(w)) {
             for (c, (e, &s)) in columns.iter_mut().zip(s).enumerate() {
+                let im = if T::COMPLEX { r[w + c] } else { 0.0 };
+                let ri = T::from_parts(r[c], im).abs1();
                 if s > 0.0 {
-                    let im = if T::COMPLEX { r[w + c] } else { 0.0 };
-                    *e = e.max(T::from_parts(r[c], im).abs1() / s);
+                    *e = e.max(ri / s);
                 }
+                largest[c] = (largest[c].0.max(ri), largest[c].1.max(s));
             }
+        }
+        for (nw, &(r, s)) in normwise.iter_mut().zip(&largest) {
+            *nw = if s > 0.0 { r / s } else { 0.0 };
         }
         columns.iter().fold(0.0f64, |m, &e| m.max(e))
     } else {

@@ -212,7 +212,7 @@ fn generate_info_sweep_matches_the_library_bit_exactly() {
     // The per-frequency statistics: the library's accuracy numbers, bit for bit.
     let stats = csv(
         &work.join("stats.csv"),
-        "f_hz,factor_s,solve_s,probe_error,backward_error,refinement_steps,pivot_ratio,pivoted,krylov_dim,relative_residual",
+        "f_hz,factor_s,solve_s,probe_error,backward_error,refinement_steps,pivot_ratio,pivoted,krylov_dim,relative_residual,normwise_backward_error",
     );
     assert_eq!(stats.len(), 7);
     for (r, s) in stats.iter().zip(&frf.freq_stats) {
@@ -223,6 +223,11 @@ fn generate_info_sweep_matches_the_library_bit_exactly() {
         assert_eq!(r[7], u8::from(s.pivoted).to_string());
         assert_eq!(r[8], s.space_dim.to_string());
         assert_eq!(num(&r[9]).to_bits(), s.relative_residual.to_bits(), "{r:?}");
+        assert_eq!(
+            num(&r[10]).to_bits(),
+            s.normwise_backward_error.to_bits(),
+            "{r:?}"
+        );
         // the bar is damped proportionally: every elastic response comes from the shifted
         // Krylov space, no factorization, certified by its residual
         assert!(s.from_space(), "{r:?}");
@@ -230,7 +235,9 @@ fn generate_info_sweep_matches_the_library_bit_exactly() {
         assert!(
             s.backward_error > 0.0
                 && (s.backward_error <= sparsemor::sweep::CERTIFIED_BACKWARD_ERROR
-                    || s.relative_residual <= sparsemor::sweep::CERTIFIED_RELATIVE_RESIDUAL),
+                    || s.relative_residual <= sparsemor::sweep::CERTIFIED_RELATIVE_RESIDUAL
+                    || s.normwise_backward_error
+                        <= sparsemor::sweep::CERTIFIED_NORMWISE_BACKWARD_ERROR),
             "{r:?}"
         );
     }

@@ -134,6 +134,7 @@ pub fn assert_sweep_matches_dense(
         let accepted = if st.from_space() {
             berr <= sparsemor::sweep::CERTIFIED_BACKWARD_ERROR
                 || st.relative_residual <= sparsemor::sweep::CERTIFIED_RELATIVE_RESIDUAL
+                || st.normwise_backward_error <= sparsemor::sweep::CERTIFIED_NORMWISE_BACKWARD_ERROR
         } else {
             berr <= STABLE_BACKWARD_ERROR
         };
