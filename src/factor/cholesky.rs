@@ -197,34 +197,20 @@ mod tests {
         Pencil::new(&model)
     }
 
-    /// ‖(K − σM)x − b‖∞ / (‖K − σM‖∞‖x‖∞ + ‖b‖∞) of each column, the worst.
+    /// The worst column's bound maxᵢ |r|ᵢ / maxᵢ (|A||x| + |b|)ᵢ of the normwise backward
+    /// error of x as a solution of (K − σM)x = b ([`pattern::symmetric_residual`]).
     fn backward_error(pencil: &Pencil, sigma: f64, x: &Mat<f64>, b: &Mat<f64>) -> f64 {
         let mut vals = vec![0.0; pencil.nnz()];
         pencil.fill_shifted(sigma, &mut vals);
-        let (cp, ri, n) = (pencil.col_ptr(), pencil.row_idx(), pencil.n());
-        let mut worst = 0.0f64;
-        for c in 0..x.ncols() {
-            let mut r: Vec<f64> = (0..n).map(|i| -b[(i, c)]).collect();
-            let mut row_abs = vec![0.0; n];
-            for j in 0..n {
-                for p in cp[j]..cp[j + 1] {
-                    let i = ri[p];
-                    r[i] += vals[p] * x[(j, c)];
-                    row_abs[i] += vals[p].abs();
-                    if i != j {
-                        r[j] += vals[p] * x[(i, c)];
-                        row_abs[j] += vals[p].abs();
-                    }
-                }
-            }
-            let inf = |v: &mut dyn Iterator<Item = f64>| v.fold(0.0f64, |m, a| m.max(a.abs()));
-            let norm_a = inf(&mut row_abs.iter().copied());
-            let e = inf(&mut r.iter().copied())
-                / (norm_a * inf(&mut x.col(c).iter().copied())
-                    + inf(&mut b.col(c).iter().copied()));
-            worst = worst.max(e);
-        }
-        worst
+        let mut scratch = pattern::ResidualScratch::<f64>::default();
+        scratch.block(b.nrows(), b.ncols()).copy_from(b);
+        let entry = |p: usize| vals[p];
+        let a = pattern::Lower {
+            pencil,
+            entry: &entry,
+        };
+        pattern::symmetric_residual(a, x.as_ref(), true, &mut scratch, Par::Seq);
+        scratch.column_normwise().iter().fold(0.0, |m, &e| m.max(e))
     }
 
     /// The in-house real LDLᵀ (the supernodal path; 1 and 2 threads, in blocks of 3 columns)

@@ -1,6 +1,6 @@
 //! Complex-symmetric supernodal LDLᵀ of a damped A(iω) = K − ω²M + iωD (docs/design.md §3.1),
 //! and the same kernel in real arithmetic ([`RealLdlt`]: K − σM, its negative pivots counting
-//! the eigenvalues below σ): every routine is generic over the scalar ([`Scalar`]).
+//! the eigenvalues below σ): every routine is generic over the scalar ([`FactorScalar`]).
 //!
 //! P A Pᵀ = L D Lᵀ with the transpose, never the adjoint: A is complex *symmetric*
 //! (Aᵀ = A, Aᴴ ≠ A), L unit lower triangular in c64 and D diagonal in c64. The structure is
@@ -47,6 +47,7 @@ use super::backend::{
 };
 use super::lblt;
 use super::ordering::supernode_tree;
+use super::pattern;
 use crate::pencil::Pencil;
 use crate::{Error, Result};
 use faer::linalg::matmul::matmul;
@@ -81,24 +82,14 @@ fn par_for(work: usize, par: Par) -> Par {
 }
 
 /// The scalars the factorization runs in: `c64` for A(iω), `f64` for a real shifted pencil
-/// (the same kernel, the transpose throughout: no conjugation in either).
-pub(crate) trait Scalar:
-    faer::traits::ComplexField
-    + Copy
-    + Send
-    + Sync
-    + std::ops::Add<Output = Self>
-    + std::ops::Mul<Output = Self>
-    + std::ops::AddAssign
-    + std::ops::SubAssign
-    + std::ops::MulAssign
-    + Default
+/// (the same kernel, the transpose throughout: no conjugation in either). On top of the
+/// residual's [`pattern::Scalar`] (parts, |·|₁), what pivots need.
+pub(crate) trait FactorScalar:
+    pattern::Scalar + std::ops::Add<Output = Self> + std::ops::MulAssign + Default
 {
     /// 0 and 1.
     const ZERO: Self;
     const ONE: Self;
-    /// The real number `x`.
-    fn real(x: f64) -> Self;
     /// |x|.
     fn magnitude(self) -> f64;
     /// 1/x.
@@ -107,12 +98,9 @@ pub(crate) trait Scalar:
     fn negative(self) -> bool;
 }
 
-impl Scalar for f64 {
+impl FactorScalar for f64 {
     const ZERO: f64 = 0.0;
     const ONE: f64 = 1.0;
-    fn real(x: f64) -> f64 {
-        x
-    }
     fn magnitude(self) -> f64 {
         self.abs()
     }
@@ -124,12 +112,9 @@ impl Scalar for f64 {
     }
 }
 
-impl Scalar for c64 {
+impl FactorScalar for c64 {
     const ZERO: c64 = c64::new(0.0, 0.0);
     const ONE: c64 = c64::new(1.0, 0.0);
-    fn real(x: f64) -> c64 {
-        c64::new(x, 0.0)
-    }
     fn magnitude(self) -> f64 {
         self.norm()
     }
@@ -420,7 +405,7 @@ impl Symbolic {
     }
 
     /// The work buffers of one thread of the factorization.
-    fn scratch<T: Scalar>(&self) -> Result<Scratch<T>> {
+    fn scratch<T: FactorScalar>(&self) -> Result<Scratch<T>> {
         Ok(Scratch {
             update: try_vec(self.max_update)?,
             dense: try_vec(self.max_cols * self.max_cols.div_ceil(2))?,
@@ -444,7 +429,7 @@ impl SymbolicFactorization for Symbolic {
     }
 }
 
-impl<S: std::ops::Deref<Target = Symbolic>, T: Scalar> Numeric<S, T> {
+impl<S: std::ops::Deref<Target = Symbolic>, T: FactorScalar> Numeric<S, T> {
     /// The factor's storage and buffers on `symbolic`, not yet factored.
     fn new(symbolic: S) -> Result<Self> {
         let n = symbolic.sym.nrows();
@@ -507,7 +492,7 @@ struct Scratch<T> {
     local: Vec<usize>,
 }
 
-impl<S: std::ops::Deref<Target = Symbolic>, T: Scalar> Numeric<S, T> {
+impl<S: std::ops::Deref<Target = Symbolic>, T: FactorScalar> Numeric<S, T> {
     /// One left-looking factorization of the matrix with lower-pattern entries `a(p)` with
     /// the static pivot threshold `tau`: with more than one thread and a [`SubtreeGroups`],
     /// its two groups of subtrees in parallel first.
@@ -565,7 +550,7 @@ impl<S: std::ops::Deref<Target = Symbolic>, T: Scalar> Numeric<S, T> {
     }
 }
 
-impl<S: std::ops::Deref<Target = Symbolic>, T: Scalar> Numeric<S, T> {
+impl<S: std::ops::Deref<Target = Symbolic>, T: FactorScalar> Numeric<S, T> {
     /// D⁻¹ from the factor's diagonal, for the solves: with threads, the supernodes in two
     /// halves.
     fn invert_diagonal(&mut self, par: Par) {
@@ -597,7 +582,7 @@ impl Symbolic {
     /// updates of its descendants, factors the diagonal block and solves the rows below.
     /// `l` holds L's values from position `base` on, `sn` and all its descendants included.
     #[allow(clippy::too_many_arguments)]
-    fn factor_supernode<T: Scalar>(
+    fn factor_supernode<T: FactorScalar>(
         &self,
         sn: usize,
         l: &mut [T],
@@ -816,7 +801,7 @@ impl Factorization for Numeric<&Symbolic, c64> {
     }
 }
 
-impl<S: std::ops::Deref<Target = Symbolic>, T: Scalar> Numeric<S, T> {
+impl<S: std::ops::Deref<Target = Symbolic>, T: FactorScalar> Numeric<S, T> {
     /// Solves A X = B in place for at most `x.ncols()` columns: P, L, D, Lᵀ, Pᵀ. With a
     /// [`SubtreeGroups`] the two groups of subtrees are solved independently (on two threads when
     /// `par` has them): forward, each group keeps its contributions to the top's rows in its
@@ -919,7 +904,7 @@ impl<S: std::ops::Deref<Target = Symbolic>, T: Scalar> Numeric<S, T> {
 
 /// `f(c, column c of x)` for every column, on two threads (each half of the columns) when
 /// `par` has them.
-fn by_columns<T: Scalar>(
+fn by_columns<T: FactorScalar>(
     x: MatMut<'_, T>,
     par: Par,
     f: impl Fn(usize, faer::ColMut<'_, T>) + Sync,
@@ -953,7 +938,7 @@ struct Sweep<'a, T> {
     l: &'a [T],
 }
 
-impl<T: Scalar> Sweep<'_, T> {
+impl<T: FactorScalar> Sweep<'_, T> {
     /// Supernode `sn`'s diagonal block and the rows below it.
     fn panel(&self, sn: usize) -> (MatRef<'_, T>, MatRef<'_, T>) {
         let s = supernodal(&self.sy.sym);
@@ -1081,7 +1066,7 @@ struct Target<'a> {
 /// columns from `first` on. With threads and enough entries the columns go in two halves of
 /// equal work, each on its own thread: they write disjoint columns, and every entry gets the
 /// same single subtraction either way.
-fn subtract_update<T: Scalar>(
+fn subtract_update<T: FactorScalar>(
     mut ls: MatMut<'_, T>,
     first: usize,
     w: MatRef<'_, T>,
@@ -1159,14 +1144,14 @@ impl Pivots {
     }
 
     /// The pivot to use for `d`: d itself, or τ·d/|d| (τ for d = 0) when |d| < τ.
-    fn take<T: Scalar>(&mut self, d: T) -> T {
+    fn take<T: FactorScalar>(&mut self, d: T) -> T {
         let m = d.magnitude();
         let d = if m < self.tau {
             self.perturbed += 1;
             if m > 0.0 {
-                d * T::real(self.tau / m)
+                d * T::from_parts(self.tau / m, 0.0)
             } else {
-                T::real(self.tau)
+                T::from_parts(self.tau, 0.0)
             }
         } else {
             d
@@ -1182,7 +1167,12 @@ impl Pivots {
 /// Dense LDLᵀ (transpose) of the lower triangle of `a` in place: the strictly lower part
 /// becomes L, the diagonal D. Recursive halving: A₁₁ = L₁₁D₁L₁₁ᵀ, L₂₁D₁ = A₂₁L₁₁⁻ᵀ,
 /// A₂₂ ← A₂₂ − (L₂₁D₁)L₂₁ᵀ, then A₂₂ itself. `work` holds L₂₁D₁.
-fn dense_ldlt<T: Scalar>(mut a: MatMut<'_, T>, work: &mut [T], pivots: &mut Pivots, par: Par) {
+fn dense_ldlt<T: FactorScalar>(
+    mut a: MatMut<'_, T>,
+    work: &mut [T],
+    pivots: &mut Pivots,
+    par: Par,
+) {
     let n = a.nrows();
     if n <= UNBLOCKED {
         for j in 0..n {
@@ -1231,7 +1221,7 @@ fn dense_ldlt<T: Scalar>(mut a: MatMut<'_, T>, work: &mut [T], pivots: &mut Pivo
         BlockStructure::Rectangular,
         wd_t.rb(),
         BlockStructure::Rectangular,
-        T::real(-1.0),
+        T::from_parts(-1.0, 0.0),
         par,
     );
     dense_ldlt(a22, rest, pivots, par);
@@ -1239,7 +1229,12 @@ fn dense_ldlt<T: Scalar>(mut a: MatMut<'_, T>, work: &mut [T], pivots: &mut Pivo
 
 /// The supernode's panel [A₁₁; A₂₁] (`ncols` columns, lower part of A₁₁ used) becomes
 /// [L₁₁ with D on its diagonal; L₂₁]: A₁₁ = L₁₁ D L₁₁ᵀ, then L₂₁ = A₂₁ L₁₁⁻ᵀ D⁻¹.
-fn factor_panel<T: Scalar>(panel: MatMut<'_, T>, work: &mut [T], pivots: &mut Pivots, par: Par) {
+fn factor_panel<T: FactorScalar>(
+    panel: MatMut<'_, T>,
+    work: &mut [T],
+    pivots: &mut Pivots,
+    par: Par,
+) {
     let ncols = panel.ncols();
     let (mut top, mut bot) = panel.split_at_row_mut(ncols);
     dense_ldlt(top.rb_mut(), work, pivots, par);
@@ -1249,7 +1244,7 @@ fn factor_panel<T: Scalar>(panel: MatMut<'_, T>, work: &mut [T], pivots: &mut Pi
 }
 
 /// X ← X D⁻¹, D the diagonal of the factored block `ld`.
-fn divide_by_diagonal<T: Scalar>(ld: MatRef<'_, T>, mut x: MatMut<'_, T>) {
+fn divide_by_diagonal<T: FactorScalar>(ld: MatRef<'_, T>, mut x: MatMut<'_, T>) {
     for j in 0..ld.ncols() {
         let inv = ld[(j, j)].reciprocal();
         for v in x.rb_mut().col_mut(j).iter_mut() {
@@ -1262,7 +1257,12 @@ fn divide_by_diagonal<T: Scalar>(ld: MatRef<'_, T>, mut x: MatMut<'_, T>) {
 /// on halves of L. faer solves a transposed (row-major) X directly, but its products then run
 /// on row-major operands; here the coupling X₂ −= X₁ L₂₁ᵀ is a GEMM on a column-major copy of
 /// L₂₁ᵀ (`work`, c²/4 entries).
-fn solve_right_transposed<T: Scalar>(l: MatRef<'_, T>, x: MatMut<'_, T>, work: &mut [T], par: Par) {
+fn solve_right_transposed<T: FactorScalar>(
+    l: MatRef<'_, T>,
+    x: MatMut<'_, T>,
+    work: &mut [T],
+    par: Par,
+) {
     let c = l.nrows();
     if c <= UNBLOCKED_SOLVE {
         solve_unit_lower_triangular_in_place(l, x.transpose_mut(), par);
@@ -1279,7 +1279,7 @@ fn solve_right_transposed<T: Scalar>(l: MatRef<'_, T>, x: MatMut<'_, T>, work: &
         Accum::Add,
         x1.rb(),
         l21_t.rb(),
-        T::real(-1.0),
+        T::from_parts(-1.0, 0.0),
         p,
     );
     solve_right_transposed(l.submatrix(h, h, c - h, c - h), x2, work, par);

@@ -351,7 +351,8 @@ fn residual_block<T: Scalar, F: Fn(usize) -> T>(
     split(x, xt);
     let worst = if componentwise {
         vectorized(Pass::<T, F, true>::new(a, w, xt, rt, st));
-        let mut largest = vec![(0.0f64, 0.0f64); w];
+        // per column: the largest |r|ᵢ and (|A||x| + |b|)ᵢ (w ≤ RESIDUAL_BLOCK)
+        let mut largest = [(0.0f64, 0.0f64); RESIDUAL_BLOCK];
         for (r, s) in rt.chunks_exact(q).zip(st.chunks_exact(w)) {
             for (c, (e, &s)) in columns.iter_mut().zip(s).enumerate() {
                 let im = if T::COMPLEX { r[w + c] } else { 0.0 };
@@ -362,7 +363,7 @@ fn residual_block<T: Scalar, F: Fn(usize) -> T>(
                 largest[c] = (largest[c].0.max(ri), largest[c].1.max(s));
             }
         }
-        for (nw, &(r, s)) in normwise.iter_mut().zip(&largest) {
+        for (nw, &(r, s)) in normwise.iter_mut().zip(&largest[..w]) {
             *nw = if s > 0.0 { r / s } else { 0.0 };
         }
         columns.iter().fold(0.0f64, |m, &e| m.max(e))
