@@ -26,7 +26,7 @@
 //!   ```
 //!
 //!   so the space answers U's r columns beside the loads and an r × r solve per frequency
-//!   does the rest ([`Remainder::correction`]);
+//!   does the rest ([`Remainder::correction`]), with or without structural damping;
 //! - [`Split::General`]: a remainder on many DoFs (material-wise damping): without
 //!   structural damping the linearized space answers it (§3.13,
 //!   [`crate::linearized_space`]); with it, each frequency is factored.

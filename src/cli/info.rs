@@ -161,7 +161,7 @@ fn describe_split(pencil: &sparsemor::pencil::Pencil) -> String {
             "proportional ({}): one shifted Krylov space answers every frequency",
             coefficients(p)
         ),
-        Split::LowRank(p, r) if pencil.shifted_space_applies() => format!(
+        Split::LowRank(p, r) => format!(
             "proportional ({}) + a rank-{} remainder on {} DoFs (dampers): one shifted Krylov \
              space and a {}x{} correction per frequency",
             coefficients(p),
@@ -169,14 +169,6 @@ fn describe_split(pencil: &sparsemor::pencil::Pencil) -> String {
             r.dofs.len(),
             r.rank(),
             r.rank()
-        ),
-        Split::LowRank(p, r) => format!(
-            "proportional ({}) + a rank-{} remainder on {} DoFs (dampers): one linearized \
-             Krylov space answers every frequency (when D keeps a free body's rigid motion \
-             apart)",
-            coefficients(p),
-            r.rank(),
-            r.dofs.len()
         ),
         Split::General(p, dofs) => format!(
             "not proportional: the remainder after the fit ({}) touches {} DoFs; {}",
