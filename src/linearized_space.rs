@@ -148,10 +148,10 @@ impl<'a> LinearizedSpace<'a> {
         let mut vals = vec![0.0; pencil.nnz()];
         pencil.fill_quadratic(s0, &mut vals);
         let p = load.ncols();
-        let mut factor = Cholesky::with_rhs(body.symbolic()?, par, p)?;
+        let mut factor = Cholesky::with_rhs(pencil, body.symbolic()?, par, p)?;
         factor.factor_values(pencil, &vals, par).map_err(|e| {
             Error::Factor(format!(
-                "K + s0 D + s0^2 M (s0 = {s0:.3e}) is not positive definite ({e:?}): is D \
+                "K + s0 D + s0^2 M (s0 = {s0:.3e}) is not positive definite ({e}): is D \
                  positive semi-definite?"
             ))
         })?;

@@ -5,10 +5,11 @@
 //! same ordered (AMD or nested dissection) symbolic analysis:
 //! - σ below the spectrum (σ < 0: K − σM is positive definite even for a free body): sparse
 //!   Cholesky LLᵀ, the cheapest factor — the bottom slice and [`super::Request::Lowest`];
-//! - σ inside the spectrum (an interior slice): LBLᵀ with Bunch–Kaufman pivots, whose
-//!   inertia also gives ν(σ), the number of eigenvalues below σ (Sylvester).
+//! - σ inside the spectrum (an interior slice): the LDLᵀ with static pivots where it can be trusted, else LBLᵀ with Bunch–Kaufman pivots
+//!   ([`ShiftedIndefinite`]), whose inertia also gives ν(σ), the number of eigenvalues below
+//!   σ (Sylvester).
 
-use crate::factor::{Cholesky, ShiftedLblt};
+use crate::factor::{Cholesky, ShiftedIndefinite};
 use crate::pencil::{Coefficient, Pencil};
 use crate::{Error, Result};
 use faer::sparse::linalg::cholesky::SymbolicCholesky;
@@ -17,7 +18,7 @@ use std::sync::Arc;
 
 enum Factor<'a> {
     Definite(Cholesky),
-    Indefinite(ShiftedLblt<'a>),
+    Indefinite(ShiftedIndefinite<'a>),
 }
 
 /// S = (K − σM)⁻¹ M: the factor of K − σM and the mass matrix.
@@ -45,15 +46,15 @@ impl<'a> ShiftInvert<'a> {
         rhs: usize,
     ) -> Result<Self> {
         let factor = if sigma < 0.0 {
-            let mut chol = Cholesky::with_rhs(sym, par, rhs)?;
+            let mut chol = Cholesky::with_rhs(pencil, sym, par, rhs)?;
             chol.factor(pencil, sigma, par).map_err(|e| {
                 Error::Factor(format!(
-                    "K - sigma M (sigma = {sigma:.3e}) is not positive definite ({e:?}): is M positive definite and K positive semi-definite?"
+                    "K - sigma M (sigma = {sigma:.3e}) is not positive definite ({e}): is M positive definite and K positive semi-definite?"
                 ))
             })?;
             Factor::Definite(chol)
         } else {
-            Factor::Indefinite(ShiftedLblt::new(sym, pencil, sigma, rhs)?)
+            Factor::Indefinite(ShiftedIndefinite::new(sym, pencil, sigma, rhs, par)?)
         };
         Ok(ShiftInvert {
             factor,
@@ -111,16 +112,16 @@ impl<'a> ShiftInvert<'a> {
     pub(crate) fn solve_in_place(&mut self, x: MatMut<'_, f64>) {
         match &mut self.factor {
             Factor::Definite(f) => f.solve_block(x, Par::Seq),
-            Factor::Indefinite(f) => f.solve_in_place(x),
+            Factor::Indefinite(f) => f.solve_in_place(x, Par::Seq),
         }
     }
 
-    /// X ← (K − σM)⁻¹ X as [`Self::solve_in_place`], the Cholesky solves parallel under
-    /// `par` (an interior shift's LBLᵀ solves stay sequential).
+    /// X ← (K − σM)⁻¹ X as [`Self::solve_in_place`], the solves parallel under `par` (but
+    /// an interior shift's LBLᵀ solves, which stay sequential).
     pub(crate) fn solve_with(&mut self, x: MatMut<'_, f64>, par: Par) {
         match &mut self.factor {
             Factor::Definite(f) => f.solve_block(x, par),
-            Factor::Indefinite(f) => f.solve_in_place(x),
+            Factor::Indefinite(f) => f.solve_in_place(x, par),
         }
     }
 

@@ -1,14 +1,15 @@
-//! Real sparse Cholesky LLᵀ of the shifted pencil K − σM (faer, supernodal, on the pencil's
-//! fill-reducing order).
+//! Real sparse Cholesky factorization of a symmetric positive definite matrix on the pencil's
+//! pattern and fill-reducing order (docs/design.md §3.1, §3.6).
 //!
 //! For σ below the spectrum of K φ = λ M φ (σ < 0 with M positive definite and K positive
 //! semi-definite), K − σM is symmetric positive definite, even for a free body, so it has a
-//! Cholesky factor P (K − σM) Pᵀ = L Lᵀ. Two users (docs/design.md §3.1, §3.6):
-//! - the eigensolver's shift-invert operator (K − σM)⁻¹ M ([`Cholesky`]: factor once, solve
-//!   in place per Krylov step);
-//! - the benches' reference "real Cholesky on the same pattern" ([`reference_cholesky`]),
-//!   the arithmetic floor the complex factorizations of A(iω) are compared with, beside the
-//!   in-house supernodal LDLᵀ in real arithmetic on the same matrix.
+//! Cholesky factor P (K − σM) Pᵀ = L Lᵀ; so have K + s₀D + s₀²M (s₀ > 0, D positive
+//! semi-definite) and a held stiffness K_ii. Its users ([`Cholesky`]: factor once, solve in
+//! place per block): the eigensolver's shift-invert operator (K − σM)⁻¹ M, the shifted and
+//! linearized spaces, Craig–Bampton's constraint modes. The kernel is the in-house
+//! supernodal LDLᵀ in real arithmetic; the benches' reference ([`reference_cholesky`]) times
+//! it beside faer's LLᵀ on the same matrix, the arithmetic floor the complex factorizations
+//! of A(iω) are compared with.
 //!
 //! [`symbolic_cholesky`] is the ordered (AMD, level-set bisection or nested dissection,
 //! `ordering`) symbolic analysis of the pencil's N×N lower pattern. It is shared: the LBLᵀ
@@ -40,59 +41,77 @@ pub fn symbolic_cholesky(pencil: &Pencil) -> Result<SymbolicCholesky<usize>> {
     super::ordering::symbolic_cholesky_ordered(pencil).map(|(sym, _)| sym)
 }
 
-/// A numeric Cholesky factor of K − σM on a [`symbolic_cholesky`] of the pencil: allocate
-/// once ([`Cholesky::new`]), factor ([`Cholesky::factor`]), solve in place
+/// A numeric factor of a real symmetric positive definite matrix on the pencil's pattern
+/// (K − σM below the spectrum, K + s₀D + s₀²M, a held K_ii): allocate once
+/// ([`Cholesky::with_rhs`]), factor ([`Cholesky::factor`]), solve in place
 /// ([`Cholesky::solve_block`], a block of columns at a time).
+///
+/// The kernel is the in-house supernodal LDLᵀ in real arithmetic (`ldlt`, every pivot
+/// required positive, none perturbed: then L D^{1/2} is the Cholesky factor), faster than
+/// faer's LLᵀ on every body measured (docs/performance.md); a pattern without off-diagonal
+/// entries, which has no supernodes, takes faer's LLᵀ.
 pub(crate) struct Cholesky {
-    sym: Arc<SymbolicCholesky<usize>>,
-    l: Vec<f64>,
-    stack: MemBuffer,
+    kernel: Kernel,
+    /// Entries of L.
+    nnz: usize,
+}
+
+enum Kernel {
+    InHouse(Box<RealLdlt>),
+    Faer {
+        sym: Arc<SymbolicCholesky<usize>>,
+        l: Vec<f64>,
+        stack: MemBuffer,
+    },
 }
 
 impl Cholesky {
-    /// Allocates the factor and the workspace of a factorization with parallelism `par`
-    /// and of one-column solves.
-    ///
-    /// # Errors
-    /// [`Error::Factor`] when the memory cannot be allocated.
-    pub(crate) fn new(sym: Arc<SymbolicCholesky<usize>>, par: Par) -> Result<Self> {
-        Self::with_rhs(sym, par, 1)
-    }
-
-    /// As [`Self::new`], with the workspace of solves of blocks of up to `rhs` columns
-    /// ([`Self::solve_block`]).
+    /// Allocates the factor on the analysis `sym` of the pencil's pattern and the workspace
+    /// of a factorization with parallelism `par` and of solves of blocks of up to `rhs`
+    /// columns ([`Self::solve_block`]).
     ///
     /// # Errors
     /// [`Error::Factor`] when the memory cannot be allocated.
     pub(crate) fn with_rhs(
+        pencil: &Pencil,
         sym: Arc<SymbolicCholesky<usize>>,
         par: Par,
         rhs: usize,
     ) -> Result<Self> {
+        let nnz = sym.len_val();
+        match RealLdlt::new(pencil, sym.clone(), rhs)? {
+            Some(f) => Ok(Cholesky {
+                kernel: Kernel::InHouse(Box::new(f)),
+                nnz,
+            }),
+            None => Self::faer(sym, par, rhs),
+        }
+    }
+
+    /// faer's LLᵀ on `sym` (the benches' reference, and a pattern without supernodes).
+    fn faer(sym: Arc<SymbolicCholesky<usize>>, par: Par, rhs: usize) -> Result<Self> {
         let l = try_vec(sym.len_val())?;
         let stack = workspace(
             sym.factorize_numeric_llt_scratch::<f64>(par, Default::default())
                 .or(sym.solve_in_place_scratch::<f64>(rhs.max(1), par)),
         )?;
-        Ok(Cholesky { sym, l, stack })
+        Ok(Cholesky {
+            nnz: sym.len_val(),
+            kernel: Kernel::Faer { sym, l, stack },
+        })
     }
 
     /// Entries of the factor L.
     pub(crate) fn factor_nnz(&self) -> usize {
-        self.sym.len_val()
+        self.nnz
     }
 
     /// Factors K − σM.
     ///
     /// # Errors
-    /// faer's error when a pivot is not positive (K − σM is not positive definite).
-    pub(crate) fn factor(
-        &mut self,
-        pencil: &Pencil,
-        sigma: f64,
-        par: Par,
-    ) -> std::result::Result<(), LltError> {
-        let mut vals = vec![0.0; pencil.nnz()];
+    /// As [`Self::factor_values`].
+    pub(crate) fn factor(&mut self, pencil: &Pencil, sigma: f64, par: Par) -> Result<()> {
+        let mut vals = try_vec(pencil.nnz())?;
         pencil.fill_shifted(sigma, &mut vals);
         self.factor_values(pencil, &vals, par)
     }
@@ -101,33 +120,43 @@ impl Cholesky {
     /// K + s₀D + s₀²M, [`Pencil::fill_quadratic`]).
     ///
     /// # Errors
-    /// faer's error when a pivot is not positive.
-    pub(crate) fn factor_values(
-        &mut self,
-        pencil: &Pencil,
-        vals: &[f64],
-        par: Par,
-    ) -> std::result::Result<(), LltError> {
-        self.sym.factorize_numeric_llt(
-            &mut self.l,
-            SparseColMatRef::new(pattern::lower(pencil), vals),
-            Side::Lower,
-            Default::default(),
-            par,
-            MemStack::new(&mut self.stack),
-            Default::default(),
-        )?;
+    /// [`Error::Factor`] when a pivot is not positive (the matrix is not positive definite,
+    /// or singular to working precision) or memory is short.
+    pub(crate) fn factor_values(&mut self, pencil: &Pencil, vals: &[f64], par: Par) -> Result<()> {
+        match &mut self.kernel {
+            Kernel::InHouse(f) => {
+                let pivots = f.factor(vals, par)?;
+                if pivots.negative + pivots.perturbed > 0 {
+                    return Err(Error::Factor(format!(
+                        "{} negative and {} zero pivots",
+                        pivots.negative, pivots.perturbed
+                    )));
+                }
+            }
+            Kernel::Faer { sym, l, stack } => {
+                sym.factorize_numeric_llt(
+                    l,
+                    SparseColMatRef::new(pattern::lower(pencil), vals),
+                    Side::Lower,
+                    Default::default(),
+                    par,
+                    MemStack::new(stack),
+                    Default::default(),
+                )
+                .map_err(|e: LltError| Error::Factor(format!("faer's LLᵀ: {e:?}")))?;
+            }
+        }
         Ok(())
     }
 
-    /// X ← (K − σM)⁻¹ X for a block of at most the `rhs` columns of [`Self::with_rhs`].
+    /// X ← A⁻¹ X for a block of at most the `rhs` columns of [`Self::with_rhs`].
     pub(crate) fn solve_block(&mut self, x: MatMut<'_, f64>, par: Par) {
-        LltRef::new(&self.sym, &self.l).solve_in_place_with_conj(
-            Conj::No,
-            x,
-            par,
-            MemStack::new(&mut self.stack),
-        );
+        match &mut self.kernel {
+            Kernel::InHouse(f) => f.solve(x, par),
+            Kernel::Faer { sym, l, stack } => {
+                LltRef::new(sym, l).solve_in_place_with_conj(Conj::No, x, par, MemStack::new(stack))
+            }
+        }
     }
 }
 
@@ -143,27 +172,22 @@ impl Cholesky {
 /// K + σM not positive definite.
 pub fn reference_cholesky(pencil: &Pencil) -> Result<(usize, f64, f64)> {
     let sym = Arc::new(symbolic_cholesky(pencil)?);
-    let mut chol = Cholesky::new(sym.clone(), Par::Seq)?;
+    let nnz = sym.len_val();
     let sigma = -(2.0 * std::f64::consts::PI).powi(2);
-    let t = Instant::now();
-    chol.factor(pencil, sigma, Par::Seq)
-        .map_err(|e| Error::Factor(format!("reference Cholesky: {e:?}")))?;
-    let faer_s = t.elapsed().as_secs_f64();
-    let nnz = chol.factor_nnz();
-    drop(chol);
+    let mut vals = try_vec(pencil.nnz())?;
+    pencil.fill_shifted(sigma, &mut vals);
+    let time = |mut f: Cholesky| {
+        let t = Instant::now();
+        f.factor_values(pencil, &vals, Par::Seq)
+            .map_err(|e| Error::Factor(format!("reference factorization of K + σM: {e}")))?;
+        Ok::<f64, Error>(t.elapsed().as_secs_f64())
+    };
+    let faer_s = time(Cholesky::faer(sym.clone(), Par::Seq, 1)?)?;
     let in_house_s = match RealLdlt::new(pencil, sym, 1)? {
-        Some(mut f) => {
-            let mut vals = vec![0.0; pencil.nnz()];
-            pencil.fill_shifted(sigma, &mut vals);
-            let t = Instant::now();
-            let pivots = f.factor(&vals, Par::Seq)?;
-            if pivots.negative + pivots.perturbed > 0 {
-                return Err(Error::Factor(
-                    "reference LDLᵀ: K + σM is not positive definite".into(),
-                ));
-            }
-            t.elapsed().as_secs_f64()
-        }
+        Some(f) => time(Cholesky {
+            kernel: Kernel::InHouse(Box::new(f)),
+            nnz,
+        })?,
         None => f64::NAN,
     };
     Ok((nnz, faer_s, in_house_s))
@@ -172,7 +196,7 @@ pub fn reference_cholesky(pencil: &Pencil) -> Result<(usize, f64, f64)> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::factor::count_eigenvalues_below;
+    use crate::factor::inertia::ShiftedIndefinite;
     use crate::fe::{assemble, BoxSpec};
     use crate::model::{Damping, Model};
     use faer::Mat;
@@ -224,7 +248,7 @@ mod tests {
         let mut vals = vec![0.0; pencil.nnz()];
         pencil.fill_shifted(sigma, &mut vals);
         let b = Mat::<f64>::from_fn(pencil.n(), 5, |i, j| ((i * 7 + j * 13) % 11) as f64 - 5.0);
-        let mut reference = Cholesky::with_rhs(sym.clone(), Par::Seq, 5).unwrap();
+        let mut reference = Cholesky::faer(sym.clone(), Par::Seq, 5).unwrap();
         reference.factor(&pencil, sigma, Par::Seq).unwrap();
         let mut y = b.clone();
         reference.solve_block(y.as_mut(), Par::Seq);
@@ -246,23 +270,33 @@ mod tests {
     }
 
     /// Its negative pivots count the eigenvalues below an interior shift exactly (Sylvester),
-    /// as faer's Bunch–Kaufman LBLᵀ does, when no pivot was perturbed.
+    /// as faer's Bunch–Kaufman LBLᵀ does, on one and two threads; the interior-shift factor
+    /// keeps it (its probe solve passes).
     #[test]
     fn negative_pivots_count_the_eigenvalues_below() {
         let pencil = bar_pencil();
         let sym = Arc::new(symbolic_cholesky(&pencil).unwrap());
-        let mut f = RealLdlt::new(&pencil, sym, 1).unwrap().unwrap();
+        let mut lblt = crate::factor::lblt::Factor::new(&sym, 1).unwrap();
+        let mut f = RealLdlt::new(&pencil, sym.clone(), 1).unwrap().unwrap();
         for hz in [500.0, 3000.0, 9000.0] {
             let sigma = (2.0 * std::f64::consts::PI * hz).powi(2);
             let mut vals = vec![0.0; pencil.nnz()];
             pencil.fill_shifted(sigma, &mut vals);
-            let pivots = f.factor(&vals, Par::Seq).unwrap();
-            assert_eq!(pivots.perturbed, 0);
-            assert_eq!(
-                pivots.negative,
-                count_eigenvalues_below(&pencil, sigma).unwrap(),
-                "{hz} Hz"
-            );
+            let a = SparseColMatRef::new(pattern::lower(&pencil), &vals);
+            let pivoted = lblt.factor(&sym, a, Par::Seq).negative;
+            assert!(pivoted >= 6, "{hz} Hz: above the rigid modes");
+            for par in [Par::Seq, Par::rayon(2)] {
+                let pivots = f.factor(&vals, par).unwrap();
+                assert_eq!(pivots.perturbed, 0);
+                assert_eq!(pivots.negative, pivoted, "{hz} Hz");
+            }
+            let counted = crate::pool::with_pool(2, || {
+                ShiftedIndefinite::new(sym.clone(), &pencil, sigma, 1, Par::rayon(2))
+                    .map(|f| (f.below(), f.max_l()))
+            })
+            .unwrap()
+            .unwrap();
+            assert_eq!(counted, (pivoted, 0.0), "{hz} Hz: the static pivots kept");
         }
     }
 }

@@ -685,6 +685,8 @@ pub(crate) struct RealPivots {
     /// Pivots of magnitude below ε·max|aᵢⱼ|, replaced by ±ε·max|aᵢⱼ| (A singular to working
     /// precision).
     pub(crate) perturbed: usize,
+    /// min |dᵢ| / max |dᵢ|.
+    pub(crate) ratio: f64,
 }
 
 impl RealLdlt {
@@ -726,12 +728,11 @@ impl RealLdlt {
         Ok(RealPivots {
             negative: pivots.negative,
             perturbed: pivots.perturbed,
+            ratio: pivots.lo / pivots.hi,
         })
     }
 
-    /// X ← A⁻¹X in place, in blocks of the `rhs` columns of [`Self::new`] (the tests' check
-    /// of the factor; the benches time the factorization alone).
-    #[cfg(test)]
+    /// X ← A⁻¹X in place, in blocks of the `rhs` columns of [`Self::new`].
     pub(crate) fn solve(&mut self, mut x: MatMut<'_, f64>, par: Par) {
         let width = self.0.x.ncols();
         let k = x.ncols();

@@ -14,7 +14,7 @@ use crate::units::hz_to_lambda;
 use crate::{Error, Result};
 
 /// The number of elastic eigenfrequencies of the body below `f_hz`, exactly, from the
-/// inertia of K − (2πf)²M (one real LBLᵀ factorization; [`count_eigenvalues_below_with`]),
+/// inertia of K − (2πf)²M (one real factorization; [`count_eigenvalues_below_with`]),
 /// less the rigid modes. A band end that is an eigenfrequency to working precision is
 /// counted a millionth higher.
 pub(super) fn elastic_modes_below(body: &Body, f_hz: f64) -> Result<usize> {
