@@ -3,11 +3,12 @@
 //! S is self-adjoint in the M-inner product ⟨x, y⟩_M = xᵀMy; its eigenvalues θ = 1/(λ − σ)
 //! are largest in magnitude for the λ nearest σ, on either side. Two factorizations of the
 //! same ordered (AMD or nested dissection) symbolic analysis:
-//! - σ below the spectrum (σ < 0: K − σM is positive definite even for a free body): sparse
-//!   Cholesky LLᵀ, the cheapest factor — the bottom slice and [`super::Request::Lowest`];
-//! - σ inside the spectrum (an interior slice): the LDLᵀ with static pivots where it can be trusted, else LBLᵀ with Bunch–Kaufman pivots
-//!   ([`ShiftedIndefinite`]), whose inertia also gives ν(σ), the number of eigenvalues below
-//!   σ (Sylvester).
+//! - σ below the spectrum (σ < 0: K − σM is positive definite even for a free body): a
+//!   sparse Cholesky factor ([`Cholesky`], every pivot positive), the cheapest — the bottom
+//!   slice and [`super::Request::Lowest`];
+//! - σ inside the spectrum (an interior slice): the LDLᵀ with static pivots where it can be
+//!   trusted, else LBLᵀ with Bunch–Kaufman pivots ([`ShiftedIndefinite`]), whose inertia also
+//!   gives ν(σ), the number of eigenvalues below σ (Sylvester).
 
 use crate::factor::{Cholesky, ShiftedIndefinite};
 use crate::pencil::{Coefficient, Pencil};
@@ -82,7 +83,7 @@ impl<'a> ShiftInvert<'a> {
 
     /// Largest |l_ij| below the diagonal of an LBLᵀ factor (module `factor::lblt`'s
     /// `PivotStats::max_l`): large where a pivot inside a supernode met a nearly singular
-    /// block and the solves' backward error grew; 0 for a Cholesky factor.
+    /// block and the solves' backward error grew; 0 for a Cholesky factor and for the static-pivot LDLᵀ.
     pub(crate) fn growth(&self) -> f64 {
         match &self.factor {
             Factor::Definite(_) => 0.0,

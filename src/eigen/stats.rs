@@ -49,7 +49,7 @@ pub struct SliceStats {
     /// Fresh starts after missed copies of multiple eigenvalues.
     pub fresh_starts: usize,
     /// Iterative-refinement steps of the interior shift's LBLᵀ solves (0 when every solve
-    /// met its backward-error target at once; see `factor::ShiftedLblt`): a large number
+    /// met its backward-error target at once; see `factor::ShiftedIndefinite`): a large number
     /// means the factor at this shift grew and each solve cost up to four.
     pub refinements: usize,
     /// Times the interior shift was moved because its factor grew (largest |l_ij| of its

@@ -50,11 +50,7 @@ pub fn symbolic_cholesky(pencil: &Pencil) -> Result<SymbolicCholesky<usize>> {
 /// required positive, none perturbed: then L D^{1/2} is the Cholesky factor), faster than
 /// faer's LLᵀ on every body measured (docs/performance.md); a pattern without off-diagonal
 /// entries, which has no supernodes, takes faer's LLᵀ.
-pub(crate) struct Cholesky {
-    kernel: Kernel,
-    /// Entries of L.
-    nnz: usize,
-}
+pub(crate) struct Cholesky(Kernel);
 
 enum Kernel {
     InHouse(Box<RealLdlt>),
@@ -78,12 +74,8 @@ impl Cholesky {
         par: Par,
         rhs: usize,
     ) -> Result<Self> {
-        let nnz = sym.len_val();
         match RealLdlt::new(pencil, sym.clone(), rhs)? {
-            Some(f) => Ok(Cholesky {
-                kernel: Kernel::InHouse(Box::new(f)),
-                nnz,
-            }),
+            Some(f) => Ok(Cholesky(Kernel::InHouse(Box::new(f)))),
             None => Self::faer(sym, par, rhs),
         }
     }
@@ -95,15 +87,15 @@ impl Cholesky {
             sym.factorize_numeric_llt_scratch::<f64>(par, Default::default())
                 .or(sym.solve_in_place_scratch::<f64>(rhs.max(1), par)),
         )?;
-        Ok(Cholesky {
-            nnz: sym.len_val(),
-            kernel: Kernel::Faer { sym, l, stack },
-        })
+        Ok(Cholesky(Kernel::Faer { sym, l, stack }))
     }
 
     /// Entries of the factor L.
     pub(crate) fn factor_nnz(&self) -> usize {
-        self.nnz
+        match &self.0 {
+            Kernel::InHouse(f) => f.factor_nnz(),
+            Kernel::Faer { l, .. } => l.len(),
+        }
     }
 
     /// Factors K − σM.
@@ -123,7 +115,7 @@ impl Cholesky {
     /// [`Error::Factor`] when a pivot is not positive (the matrix is not positive definite,
     /// or singular to working precision) or memory is short.
     pub(crate) fn factor_values(&mut self, pencil: &Pencil, vals: &[f64], par: Par) -> Result<()> {
-        match &mut self.kernel {
+        match &mut self.0 {
             Kernel::InHouse(f) => {
                 let pivots = f.factor(vals, par)?;
                 if pivots.negative + pivots.perturbed > 0 {
@@ -151,7 +143,7 @@ impl Cholesky {
 
     /// X ← A⁻¹ X for a block of at most the `rhs` columns of [`Self::with_rhs`].
     pub(crate) fn solve_block(&mut self, x: MatMut<'_, f64>, par: Par) {
-        match &mut self.kernel {
+        match &mut self.0 {
             Kernel::InHouse(f) => f.solve(x, par),
             Kernel::Faer { sym, l, stack } => {
                 LltRef::new(sym, l).solve_in_place_with_conj(Conj::No, x, par, MemStack::new(stack))
@@ -184,10 +176,7 @@ pub fn reference_cholesky(pencil: &Pencil) -> Result<(usize, f64, f64)> {
     };
     let faer_s = time(Cholesky::faer(sym.clone(), Par::Seq, 1)?)?;
     let in_house_s = match RealLdlt::new(pencil, sym, 1)? {
-        Some(f) => time(Cholesky {
-            kernel: Kernel::InHouse(Box::new(f)),
-            nnz,
-        })?,
+        Some(f) => time(Cholesky(Kernel::InHouse(Box::new(f))))?,
         None => f64::NAN,
     };
     Ok((nnz, faer_s, in_house_s))

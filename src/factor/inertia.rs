@@ -6,9 +6,9 @@
 //! preserves that number, so it is read off a factorization P (K − σM) Pᵀ = L B Lᵀ as the
 //! number of negative eigenvalues of the (block) diagonal B: the in-house LDLᵀ's static
 //! pivots when they can be trusted, else an LBLᵀ's 1×1 pivots and the eigenvalues of its
-//! 2×2 pivots. "All modes up to f" is then counted, not guessed, and the LBLᵀ factor is
-//! also the shift-invert operator of a spectrum slice whose shift lies inside the
-//! spectrum (where K − σM is indefinite and has no Cholesky factor).
+//! 2×2 pivots ([`ShiftedIndefinite`]). "All modes up to f" is then counted, not guessed,
+//! and the same factor is the shift-invert operator of a spectrum slice whose shift lies
+//! inside the spectrum (where K − σM is indefinite and has no Cholesky factor).
 
 use super::backend::try_vec;
 use super::cholesky::symbolic_cholesky;

@@ -732,6 +732,11 @@ impl RealLdlt {
         })
     }
 
+    /// Entries of L.
+    pub(crate) fn factor_nnz(&self) -> usize {
+        self.0.l.len()
+    }
+
     /// X ← A⁻¹X in place, in blocks of the `rhs` columns of [`Self::new`].
     pub(crate) fn solve(&mut self, mut x: MatMut<'_, f64>, par: Par) {
         let width = self.0.x.ncols();
