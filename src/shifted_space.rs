@@ -4,8 +4,11 @@
 //! A_p(iω) = c_k(K − μM), μ = c_m/c_k, and an r × r correction per frequency.
 //!
 //! With D = αM + βK (or D = 0), A(iω) = (1 + iωβ)(K − μM) with μ(ω) = (ω² − iωα)/(1 + iωβ):
-//! every frequency is a shift of one real pencil. With a real σ < 0 (K − σM is positive
-//! definite, so its factor is a Cholesky factor) and the M-self-adjoint S = (K − σM)⁻¹M,
+//! every frequency is a shift of one real pencil. With a real σ that is no eigenvalue (below
+//! the spectrum K − σM is positive definite and its factor a Cholesky factor; inside it the
+//! factor is an indefinite LDLᵀ, whose inertia also counts the eigenvalues below σ, so that
+//! σ at the band's top gives line-fitting its count of the band's modes with the same
+//! factorization) and the M-self-adjoint S = (K − σM)⁻¹M,
 //!
 //! ```text
 //! (K − μM) x = b   ⇔   (I − τS) x = b₀,     τ = μ − σ,   b₀ = (K − σM)⁻¹ b,
@@ -39,7 +42,12 @@
 //! [`CERTIFIED_RELATIVE_RESIDUAL`] or normwise backward error ≤
 //! [`CERTIFIED_NORMWISE_BACKWARD_ERROR`] per column. A response that fails is left to a factorization of A(iω) by the caller.
 //!
-//! Cost: one real Cholesky factorization (a quarter of a complex one's flops) and one block
+//! Next to an undamped eigenvalue the backward error stays small while the response is
+//! meaningless: [`Solution::forward_error_estimate`] multiplies it by the amplification of
+//! the mode nearest μ, with the rounding of τ in it ([`amplification`]), and a caller factors
+//! such a frequency instead.
+//!
+//! Cost: one real factorization (a quarter of a complex one's flops) and one block
 //! solve per block of the basis; per frequency a k × p solve, the product Q y (O(N k p)) and
 //! the certificate (one pass over the pattern). Memory: Q and MQ, 16 N k bytes, and per worker
 //! the blocks of one response ([`SolutionBuffers`], kept from one frequency to the next).
@@ -106,9 +114,9 @@ pub(crate) struct Solution {
     pub coefficients: Mat<c64>,
     /// Its true residual's measures.
     pub certificate: Certificate,
-    /// max_j |τθ_j| / |1 − τθ_j| over the Ritz values: how much the shifted system amplifies
-    /// a relative perturbation along the space's mode nearest μ (infinite at an undamped
-    /// eigenvalue).
+    /// How much K − μM amplifies a relative perturbation of K and M along the space's mode
+    /// nearest μ, with the rounding of the shift in it ([`amplification`]; infinite at an
+    /// undamped eigenvalue).
     pub amplification: f64,
 }
 
@@ -301,13 +309,16 @@ impl Rows {
 }
 
 impl<'a> ShiftedSpace<'a> {
-    /// Factors K − σM (σ < 0) and starts the space from b₀ = (K − σM)⁻¹ [`load`, U], where
-    /// `load` is P B (rigid-free on a free body) and U spans the damping's low-rank remainder,
-    /// if any (§3.12). The basis holds at most `max_dim` vectors.
+    /// Factors K − σM and starts the space from b₀ = (K − σM)⁻¹ [`load`, U], where `load`
+    /// is P B (rigid-free on a free body) and U spans the damping's low-rank remainder, if
+    /// any (§3.12). σ < 0 gives a Cholesky factor; σ inside the spectrum an indefinite one
+    /// whose inertia counts the eigenvalues below σ ([`Self::below`]). The basis holds at
+    /// most `max_dim` vectors.
     ///
     /// # Errors
-    /// [`Error::InvalidSetting`] for σ ≥ 0, a damping that is not proportional but for a
-    /// low-rank remainder, or a remainder that loads the rigid motion of a free body; the
+    /// [`Error::InvalidSetting`] for a σ that is not finite, a damping that is not
+    /// proportional but for a low-rank remainder, or a remainder that loads the rigid motion
+    /// of a free body; [`Error::Singular`] when σ is an eigenvalue to working precision; the
     /// factorization's errors.
     pub fn new(
         body: &'a crate::body::Body,
@@ -334,9 +345,9 @@ impl<'a> ShiftedSpace<'a> {
                 )));
             }
         }
-        if !(sigma < 0.0) {
+        if !sigma.is_finite() {
             return Err(Error::InvalidSetting(format!(
-                "shift sigma = {sigma}: must be < 0 (K - sigma M positive definite)"
+                "shift sigma = {sigma}: must be finite"
             )));
         }
         let n = pencil.n();
@@ -383,6 +394,12 @@ impl<'a> ShiftedSpace<'a> {
         space.set_next(b0, None);
         space.extend();
         Ok(space)
+    }
+
+    /// ν(σ) = #{λ < σ}, the eigenvalues of K − λM below the shift, rigid ones included,
+    /// from the inertia of the factor (Sylvester; 0 for σ < 0).
+    pub fn below(&self) -> usize {
+        self.op.below()
     }
 
     /// x ← (K − σM)⁻¹ (M x when `mass`, else x), without its rigid part.
@@ -675,11 +692,7 @@ impl ResponseSpace for ShiftedSpace<'_> {
             )
         })?;
         let y = Self::coefficients(ritz, tau, 0..self.dim());
-        let amplification = ritz
-            .theta
-            .iter()
-            .map(|&th| (tau * th).norm() / (c64::new(1.0, 0.0) - tau * th).norm())
-            .fold(0.0, f64::max);
+        let amplification = amplification(&ritz.theta, self.sigma, tau);
         let inv = scale.inv();
         let coefficients = self.corrected(
             omega,
@@ -949,6 +962,31 @@ pub(crate) fn complex_product(a: MatRef<'_, f64>, c: MatRef<'_, c64>) -> Mat<c64
     Mat::from_fn(a.nrows(), c.ncols(), |i, j| {
         c64::new(re[(i, j)], im[(i, j)])
     })
+}
+
+/// max_j (|λ_j| + |μ|) / |λ_j − μ| over the Ritz values λ_j = σ + 1/θ_j, μ = σ + τ: how
+/// much K − μM amplifies a relative perturbation of K and M (a componentwise backward error)
+/// along the space's mode nearest μ. Computed as (|1 + σθ_j| + |μθ_j|) / |1 − τθ_j| (times
+/// |θ_j| above and below), with |1 − τθ_j| less its rounding, 8ε(1 + |σθ_j| + |μθ_j|): the
+/// shift τ = μ − σ carries an absolute error ε(|μ| + |σ|), which an interior σ next to an
+/// eigenvalue (θ_j large) makes as large as 1 − τθ_j itself. Infinite where the rounding
+/// covers the distance (an undamped eigenvalue to working precision).
+fn amplification(theta: &[f64], sigma: f64, tau: c64) -> f64 {
+    let mu = tau + sigma;
+    let one = c64::new(1.0, 0.0);
+    theta
+        .iter()
+        .map(|&th| {
+            let (s, m) = ((1.0 + sigma * th).abs(), (mu * th).norm());
+            let rounding = 8.0 * f64::EPSILON * (1.0 + (sigma * th).abs() + m);
+            let distance = (one - tau * th).norm() - rounding;
+            if distance > 0.0 {
+                (s + m) / distance
+            } else {
+                f64::INFINITY
+            }
+        })
+        .fold(0.0, f64::max)
 }
 
 /// d_j = s / (1 − τ θ_j): the Ritz values' resolvent at the shift τ, times s.
@@ -1237,6 +1275,111 @@ pub(crate) mod tests {
             dims[1] > dims[0],
             "the tighter target grew the space: {dims:?}"
         );
+    }
+
+    /// A space about an interior shift at the band's top, as line-fitting makes it to count
+    /// the band's modes with the same factor: its count equals the inertia of a factor of its
+    /// own, and its certified responses equal factored ones (measured 1e-11…3e-11 on the
+    /// coarse bar, undamped, damped, with dashpots).
+    #[test]
+    fn a_space_about_the_band_top_counts_the_modes_and_answers_the_band() {
+        let freqs = [3.0, 117.0, 410.5, 640.0, 999.0];
+        for (what, change) in [
+            (
+                "beta 1e-5",
+                &(|m: &mut Model| {
+                    m.damping = Damping::Rayleigh {
+                        alpha: 0.0,
+                        beta: 1e-5,
+                    }
+                }) as &dyn Fn(&mut Model),
+            ),
+            ("undamped", &|m: &mut Model| m.damping = Damping::None),
+            ("dashpots", &|m: &mut Model| {
+                m.damping = Damping::Matrix(with_dashpots(m, 1e-6, 50.0))
+            }),
+        ] {
+            let (body, inputs) = bar_with(change);
+            let sigma = crate::units::hz_to_lambda(1000.0);
+            let mut space =
+                ShiftedSpace::new(&body, body.elastic_load(&inputs), sigma, body.n(), Par::Seq)
+                    .unwrap();
+            let sym = body.symbolic().unwrap();
+            let own = crate::factor::count_eigenvalues_below_with(&sym, body.pencil(), sigma);
+            assert_eq!(space.below(), own.unwrap(), "{what}: count");
+            assert!(space.below() > 6 + 2, "{what}: {} below", space.below());
+            let (x0, _) = responses(&body, &inputs, &freqs, SolveMethod::Factored);
+            let mut buffers = SolutionBuffers::default();
+            for (f, x0) in freqs.iter().zip(&x0) {
+                // grown as the sweep grows it: a target 100× tighter after a failed certificate
+                let certified = [GROW_TO, 1e-2 * GROW_TO, 1e-4 * GROW_TO].iter().any(|&t| {
+                    space.grow_for(&[*f], t).unwrap();
+                    space.solve(*f, Par::Seq, &mut buffers).unwrap().certified()
+                });
+                assert!(certified, "{what}, {f} Hz: not certified");
+                let d = (buffers.x() - x0).norm_l2() / x0.norm_l2();
+                assert!(d <= 1e-8, "{what}, {f} Hz: relative difference {d:.2e}");
+            }
+        }
+    }
+
+    /// Undamped, exactly at an eigenfrequency f_k, from a space about σ a millionth above
+    /// λ_k: the shift τ = λ_k − σ carries a rounding error ε|σ|, a part in 10⁹ of itself, so
+    /// the response's mode-k term is noise, and the forward error estimate must say so
+    /// (without the rounding in the amplification it passed, 53 % off a dense solve).
+    #[test]
+    fn an_eigenfrequency_next_to_an_interior_shift_is_not_answered() {
+        let (body, inputs) = bar(Damping::None);
+        let opts = crate::eigen::EigenOptions::default();
+        let modes = crate::eigen::eigenpairs(&body, crate::eigen::Request::Lowest(8), &opts);
+        let lambda = modes.unwrap().lambdas[7];
+        let fk = crate::units::lambda_to_hz(lambda);
+        let sigma = lambda * (1.0 + 2e-6);
+        let mut space =
+            ShiftedSpace::new(&body, body.elastic_load(&inputs), sigma, body.n(), Par::Seq)
+                .unwrap();
+        space.grow_for(&[fk], GROW_TO).unwrap();
+        let r = space
+            .solve(fk, Par::Seq, &mut SolutionBuffers::default())
+            .unwrap();
+        let estimate = r.forward_error_estimate();
+        assert!(
+            estimate > crate::sweep::DEFAULT_PROBE_TOL,
+            "{fk} Hz: estimate {estimate:.1e}, amplification {:.1e}",
+            r.amplification
+        );
+        // a part in 10⁶ away, the mode is resolved: amplification about 10⁶
+        let f = fk * (1.0 - 1e-6);
+        let r = space
+            .solve(f, Par::Seq, &mut SolutionBuffers::default())
+            .unwrap();
+        assert!(
+            (1e5..1e7).contains(&r.amplification),
+            "{f} Hz: amplification {:.1e}",
+            r.amplification
+        );
+    }
+
+    /// The amplification is (|λ| + |μ|)/|λ − μ| of the nearest Ritz value, below the
+    /// spectrum and inside it alike, and infinite where the shift's rounding covers λ − μ.
+    #[test]
+    fn the_amplification_is_that_of_the_nearest_mode_with_the_shifts_rounding() {
+        let lambdas = [1.0e6, 4.0e6, 9.0e6];
+        let mu = 3.9e6;
+        let want = (4.0e6 + 3.9e6) / 1.0e5;
+        for sigma in [-2.0e6, 2.5e6, 8.0e6] {
+            let theta: Vec<f64> = lambdas.iter().map(|l| 1.0 / (l - sigma)).collect();
+            let a = amplification(&theta, sigma, c64::new(mu - sigma, 0.0));
+            assert!(
+                (a / want - 1.0).abs() <= 1e-9,
+                "sigma {sigma}: {a} vs {want}"
+            );
+        }
+        // μ = λ: the rounding covers the distance
+        let sigma = 4.0e6 * (1.0 + 1e-9);
+        let theta = [1.0 / (4.0e6 - sigma)];
+        let a = amplification(&theta, sigma, c64::new(4.0e6 - sigma, 0.0));
+        assert_eq!(a, f64::INFINITY);
     }
 
     /// A space too small for a frequency fails its certificate: the certificate can fail.

@@ -811,7 +811,7 @@ impl<'a> Solver<'a> {
     /// returns the factorizations and block solves this cost. The shift σ = −(2π f_max/4)²
     /// lies below the spectrum (K − σM positive definite), near enough to the band that the
     /// band's modes are the space's first: any σ < 0 gives the same responses, up to the
-    /// space's size.
+    /// space's size. A space made by [`Self::count_below`] keeps its σ.
     fn grow_space(
         &self,
         space: &mut Space<'a>,
@@ -822,22 +822,21 @@ impl<'a> Solver<'a> {
         if matches!(space, Space::Unmade) {
             let top = freqs_hz.iter().copied().fold(0.0, f64::max);
             let sigma = -crate::units::hz_to_lambda(top / 4.0);
-            // the basis and M times it within half the memory budget, at most 3000 vectors
-            let max_dim = (self.memory_budget / (32 * self.body.n().max(1))).clamp(1, 3000);
-            let par = if self.threads > 1 {
-                Par::rayon(self.threads)
-            } else {
-                Par::Seq
-            };
             // shifts of K − σM (§3.10, §3.12), or the linearization about s₀ = √−σ (§3.13)
-            let made = crate::pool::with_pool(self.threads, || {
-                let load = self.load.clone();
+            let made = self.with_space_threads(|par| {
                 if self.body.pencil().shifted_space_applies() {
-                    ShiftedSpace::new(self.body, load, sigma, max_dim, par)
+                    self.shifted_space(sigma, par)
                         .map(|s| Box::new(s) as Box<dyn ResponseSpace + 'a>)
                 } else {
-                    LinearizedSpace::new(self.body, load, (-sigma).sqrt(), max_dim, par)
-                        .map(|s| Box::new(s) as Box<dyn ResponseSpace + 'a>)
+                    let max_dim = self.max_space_dim();
+                    LinearizedSpace::new(
+                        self.body,
+                        self.load.clone(),
+                        (-sigma).sqrt(),
+                        max_dim,
+                        par,
+                    )
+                    .map(|s| Box::new(s) as Box<dyn ResponseSpace + 'a>)
                 }
             })?;
             *space = match made {
@@ -854,6 +853,67 @@ impl<'a> Solver<'a> {
             cost.1 += s.block_solves() - before;
         }
         Ok(cost)
+    }
+
+    /// The eigenvalues of K − λM below λ = (2π `f_hz`)², rigid ones included, from the
+    /// inertia of the factor of the shifted Krylov space, made here about σ = λ (§3.10): the
+    /// count and every response of the run from one factorization. A top that is an
+    /// eigenfrequency to working precision is moved a millionth higher. Also returns what
+    /// making the space cost (factorizations, block solves), which is added to
+    /// [`Self::accuracy`]. `None` when no shifted space answers this solver's frequencies
+    /// (general damping, a total response) or its space is made already.
+    ///
+    /// # Errors
+    /// The factorization's errors but [`Error::Singular`] at `f_hz`.
+    pub(crate) fn count_below(&self, f_hz: f64) -> Result<Option<(usize, (usize, usize))>> {
+        let Some(cell) = &self.space else {
+            return Ok(None);
+        };
+        let mut space = cell.lock().unwrap_or_else(|p| p.into_inner());
+        if !matches!(*space, Space::Unmade) || !self.body.pencil().shifted_space_applies() {
+            return Ok(None);
+        }
+        let made = self.with_space_threads(|par| {
+            let at = |f: f64| self.shifted_space(crate::units::hz_to_lambda(f), par);
+            match at(f_hz) {
+                Err(Error::Singular { .. }) => at(f_hz * (1.0 + 1e-6)),
+                r => r,
+            }
+        })??;
+        let below = made.below();
+        let cost = (1, made.block_solves());
+        *space = Space::Made(Box::new(made));
+        self.accuracy
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .add_space_cost(cost);
+        Ok(Some((below, cost)))
+    }
+
+    /// The shifted Krylov space of this solver's load about `sigma` ([`ShiftedSpace::new`]).
+    fn shifted_space(&self, sigma: f64, par: Par) -> Result<ShiftedSpace<'a>> {
+        ShiftedSpace::new(
+            self.body,
+            self.load.clone(),
+            sigma,
+            self.max_space_dim(),
+            par,
+        )
+    }
+
+    /// A space's basis and M times it within half the memory budget, at most 3000 vectors.
+    fn max_space_dim(&self) -> usize {
+        (self.memory_budget / (32 * self.body.n().max(1))).clamp(1, 3000)
+    }
+
+    /// `make` with this solver's threads, in its pool.
+    fn with_space_threads<R: Send>(&self, make: impl FnOnce(Par) -> R + Send) -> Result<R> {
+        let par = if self.threads > 1 {
+            Par::rayon(self.threads)
+        } else {
+            Par::Seq
+        };
+        crate::pool::with_pool(self.threads, || make(par))
     }
 
     /// Calls `f` with the basis Q of this solver's shifted Krylov space (N × k, the one

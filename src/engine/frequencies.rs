@@ -132,6 +132,29 @@ impl<'a> Engine<'a> {
         Ok(rows)
     }
 
+    /// The eigenvalues of K − λM below (2π `f_hz`)², rigid ones included, counted by the
+    /// factor of this process's shifted Krylov space for `response` to `inputs`, made about
+    /// that shift ([`Solver::count_below`]): `None` on a cluster or when no shifted space
+    /// answers this response.
+    ///
+    /// # Errors
+    /// The solver's and the factorization's errors.
+    pub fn count_below(
+        &mut self,
+        response: Response,
+        inputs: &[usize],
+        f_hz: f64,
+    ) -> Result<Option<usize>> {
+        if self.ranks() > 1 || !self.by_space(response) {
+            return Ok(None);
+        }
+        let Some((below, cost)) = self.solver(response, inputs)?.count_below(f_hz)? else {
+            return Ok(None);
+        };
+        self.accuracy.add_space_cost(cost);
+        Ok(Some(below))
+    }
+
     /// Number of ranks on this machine (sharing its memory).
     pub fn node_ranks(&self) -> usize {
         self.cluster().map_or(1, |c| c.node_size().max(1))

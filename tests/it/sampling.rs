@@ -72,6 +72,12 @@ fn report(rom: &Rom) -> &SamplingReport {
     rom.sampling().expect("a sampling report")
 }
 
+/// How far apart two certified responses of one frequency may put a ROM's relative error ε
+/// when they come from different Krylov spaces (the loop's, about the band's top, and a
+/// reference sweep's, below the spectrum): their relative difference, measured 1e-11…3e-11
+/// on the coarse bar (`shifted_space` tests), with a margin.
+const RESPONSES_AGREE: f64 = 1e-9;
+
 fn verified_max(reference: &Reference, rom: &sparsemor::reduce::Rom) -> f64 {
     reference
         .error(rom)
@@ -139,8 +145,11 @@ fn defaults_reach_the_tolerance_and_report_what_was_written() {
         );
         assert!(r.outcome.reached(), "{:?}", r.outcome);
         assert!(v <= tol, "tol {tol:.0e}: 2000-point max {v:.3e}");
+        // a subset max cannot exceed the grid max, but for the responses' own difference:
+        // the loop's space (about the band's top) and the reference's (below the spectrum)
+        // agree to their certificates, ~1e-11 relative
         assert!(
-            stored.error <= v * (1.0 + 1e-9),
+            stored.error <= v + RESPONSES_AGREE,
             "a subset max cannot exceed the grid max"
         );
     }
@@ -462,7 +471,10 @@ fn defaults_reach_the_tolerance_on_the_bracket() {
         );
         assert_eq!(r.outcome, Outcome::Converged);
         assert!(v <= tol, "tol {tol:.0e}: {v:.3e}");
-        assert!(stored <= v * (1.0 + 1e-9), "stored {stored:.4e} vs {v:.4e}");
+        assert!(
+            stored <= v + RESPONSES_AGREE,
+            "stored {stored:.4e} vs {v:.4e}"
+        );
         assert!(r.solves <= 6, "tol {tol:.0e}: {}", r.cost());
     }
 }

@@ -139,7 +139,7 @@ impl<'a> Loop<'a> {
     ) -> Result<Self> {
         let start = Instant::now();
         let mut engine = Engine::new(body, &opts.sweep, opts.cluster.clone());
-        let (plan, part) = plan::plan(body, scene, opts, sampling, &engine)?;
+        let (plan, part) = plan::plan(body, scene, opts, sampling, &mut engine)?;
         let absorbed = engine.absorb(
             &part.split,
             &scene.inputs,

@@ -2,8 +2,9 @@
 //! step 1, step 7 and "Defaults that reach the tolerance"): a [`Plan`] the loop reads and
 //! never changes.
 //!
-//! - The elastic modes in the band c are counted (inertia, one real factorization) only when
-//!   a default needs them: the interface [`Interface::Auto`] becomes the outputs +
+//! - The elastic modes in the band c are counted (inertia: of the shifted Krylov space's
+//!   factor, made about the band's top, when one answers the run, else one real
+//!   factorization of their own) only when a default needs them: the interface [`Interface::Auto`] becomes the outputs +
 //!   max(⌈q/2⌉, ⌈c/2⌉) spread DoFs, the order cap defaults to
 //!   [`SamplingOptions::auto_max_order`] (never below the initial order).
 //! - The growth rule [`Growth::Auto`] is Q-DEIM in one process, the largest fit residuals
@@ -34,7 +35,8 @@ pub(super) struct Plan {
     pub(super) band: [f64; 2],
     /// The elastic modes in the band, when counted.
     pub(super) modes_in_band: Option<usize>,
-    /// Factorizations outside the engine: the inertia count of the modes in the band.
+    /// Factorizations outside the engine: the inertia count of the modes in the band, when
+    /// no shifted space of the engine counted them.
     pub(super) counted: usize,
     /// The growth rule ([`Growth::Auto`] resolved).
     pub(super) growth: Growth,
@@ -67,16 +69,17 @@ pub(super) fn plan(
     scene: &Scene,
     opts: &LineFitOptions,
     sampling: &SamplingOptions,
-    engine: &Engine<'_>,
+    engine: &mut Engine<'_>,
 ) -> Result<(Plan, Partition)> {
     check_tol(sampling.tol)?;
     scene.validate(body.n(), "scene")?;
     let band = positive_band(scene.band_hz);
     let q = scene.outputs.len();
-    let modes_in_band = if needs_modes(&opts.interface, sampling.max_order) {
-        Some(elastic_modes_below(body, band[1])?)
+    let (modes_in_band, counted) = if needs_modes(&opts.interface, sampling.max_order) {
+        let (c, outside) = elastic_modes_below(body, engine, &scene.inputs, band[1])?;
+        (Some(c), outside)
     } else {
-        None
+        (None, 0)
     };
     let part = Partition::new(body, scene, &interface(&opts.interface, q, modes_in_band))?;
     let p = scene.inputs.len();
@@ -140,7 +143,7 @@ pub(super) fn plan(
     let plan = Plan {
         band,
         modes_in_band,
-        counted: usize::from(modes_in_band.is_some()),
+        counted,
         growth,
         threads,
         max_order,
