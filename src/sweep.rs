@@ -29,7 +29,7 @@
 //! there (docs/design.md §3.1).
 
 use crate::body::Body;
-use crate::factor::{Analysis, Backend, Numeric, Storage, SymbolicStats};
+use crate::factor::{off_an_eigenfrequency, Analysis, Backend, Numeric, Storage, SymbolicStats};
 use crate::linearized_space::LinearizedSpace;
 use crate::random::Xorshift;
 use crate::rigid::RigidBody;
@@ -874,11 +874,9 @@ impl<'a> Solver<'a> {
             return Ok(None);
         }
         let made = self.with_space_threads(|par| {
-            let at = |f: f64| self.shifted_space(crate::units::hz_to_lambda(f), par);
-            match at(f_hz) {
-                Err(Error::Singular { .. }) => at(f_hz * (1.0 + 1e-6)),
-                r => r,
-            }
+            off_an_eigenfrequency(f_hz, |f| {
+                self.shifted_space(crate::units::hz_to_lambda(f), par)
+            })
         })??;
         let below = made.below();
         let cost = (1, made.block_solves());

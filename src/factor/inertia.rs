@@ -47,6 +47,19 @@ pub fn count_eigenvalues_below_with(
     Ok(ShiftedIndefinite::new(sym.clone(), pencil, sigma, 1, pool_par())?.below())
 }
 
+/// `at(f_hz)`, or `at(f_hz (1 + 10⁻⁶))` when (2π f_hz)² is an eigenvalue to working
+/// precision ([`Error::Singular`]): a band's top counted, or a space made, a millionth
+/// higher, where the count is no longer ambiguous.
+pub(crate) fn off_an_eigenfrequency<T>(
+    f_hz: f64,
+    mut at: impl FnMut(f64) -> Result<T>,
+) -> Result<T> {
+    match at(f_hz) {
+        Err(Error::Singular { .. }) => at(f_hz * (1.0 + 1e-6)),
+        r => r,
+    }
+}
+
 /// The threads of the rayon pool the caller runs in, sequential outside any pool (a C
 /// caller's process must not start rayon's global pool).
 fn pool_par() -> Par {

@@ -54,7 +54,7 @@ pub use ordering::{symbolic_cholesky_ordered, Order, OrderingChoice};
 pub use refine::{BACKWARD_ERROR_FLOOR, MAX_REFINEMENTS};
 
 pub(crate) use cholesky::Cholesky;
-pub(crate) use inertia::ShiftedIndefinite;
+pub(crate) use inertia::{off_an_eigenfrequency, ShiftedIndefinite};
 
 use crate::pencil::Pencil;
 use crate::Result;

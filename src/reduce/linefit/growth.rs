@@ -6,13 +6,13 @@
 use super::options::Growth;
 use crate::body::Body;
 use crate::engine::Engine;
-use crate::factor::count_eigenvalues_below_with;
+use crate::factor::{count_eigenvalues_below_with, off_an_eigenfrequency};
 use crate::reduce::rom::{FitReport, Rom};
 use crate::reduce::spectrum::rom_spectrum;
 use crate::snapshots::GrowBy;
 use crate::sweep::Response;
 use crate::units::hz_to_lambda;
-use crate::{Error, Result};
+use crate::Result;
 
 /// The number of elastic eigenfrequencies of the body below `f_hz`, exactly, from the
 /// inertia of K − (2πf)²M: the factor of the `engine`'s shifted Krylov space when one
@@ -31,11 +31,9 @@ pub(super) fn elastic_modes_below(
         Some(below) => (below, 0),
         None => {
             let sym = body.symbolic()?;
-            let count = |f: f64| count_eigenvalues_below_with(&sym, body.pencil(), hz_to_lambda(f));
-            let below = match count(f_hz) {
-                Err(Error::Singular { .. }) => count(f_hz * (1.0 + 1e-6))?,
-                r => r?,
-            };
+            let below = off_an_eigenfrequency(f_hz, |f| {
+                count_eigenvalues_below_with(&sym, body.pencil(), hz_to_lambda(f))
+            })?;
             (below, 1)
         }
     };

@@ -4,9 +4,9 @@
 //!
 //! - The elastic modes in the band c are counted (inertia: of the shifted Krylov space's
 //!   factor, made about the band's top, when one answers the run, else one real
-//!   factorization of their own) only when a default needs them: the interface [`Interface::Auto`] becomes the outputs +
-//!   max(⌈q/2⌉, ⌈c/2⌉) spread DoFs, the order cap defaults to
-//!   [`SamplingOptions::auto_max_order`] (never below the initial order).
+//!   factorization of their own) only when a default needs them: the interface
+//!   [`Interface::Auto`] becomes the outputs + max(⌈q/2⌉, ⌈c/2⌉) spread DoFs, the order
+//!   cap defaults to [`SamplingOptions::auto_max_order`] (never below the initial order).
 //! - The growth rule [`Growth::Auto`] is Q-DEIM in one process, the largest fit residuals
 //!   over the ranks (whose snapshots stay on them); Q-DEIM over ranks is refused.
 //! - A step solves as many frequencies as the run has threads over all ranks, at least 4
