@@ -38,7 +38,10 @@ Scene: three nodes at meaningful spots, the x, y, z DoFs of each as inputs and o
 two bolt holes on the mounting (upright) face and the tip of the base; plate - two opposite
 corners and the centre; housing - two opposite flange corners and the bottom centre. The
 node nearest to each point is used. The band runs from 0 to a round number just above the
-13th elastic eigenfrequency (scipy eigsh, shift-invert), unless --band gives it.
+13th elastic eigenfrequency (scipy eigsh, shift-invert), unless --band gives it. With
+--band, --no-check skips that eigsh and the checks on its modes (6 rigid, M definite): at
+~10^6 DoF its sparse LU needs more time and memory than the reduction it prepares; sparsemor's
+own run then checks definiteness and counts the band's modes.
 
 Remote points (the crank always, the bracket with --remote): each bore or bolt-hole surface is
 coupled to a reference point with six DoFs (x, y, z, rx, ry, rz) at the hole's centre on its
@@ -580,10 +583,12 @@ def check(M, freqs):
     return lowest
 
 
-def build(part, h, out_for, band=None, remote=False, weights="uniform", materials="one"):
+def build(part, h, out_for, band=None, remote=False, weights="uniform", materials="one",
+          checked=True):
     """Write one model into out_for(N); return a row of the summary table.
 
-    materials: "one" (steel, Rayleigh damping) or "two" (split_materials(), D.mtx)."""
+    materials: "one" (steel, Rayleigh damping) or "two" (split_materials(), D.mtx).
+    checked=False (band given): no eigsh, no check of the modes, no frequencies printed."""
     start = time.perf_counter()
     builder, _ = PARTS[part]
     remote = remote or part == "crank"
@@ -594,9 +599,12 @@ def build(part, h, out_for, band=None, remote=False, weights="uniform", material
     K, M, nodes, parts = assemble(p, t, split)
     built = time.perf_counter() - start
     D = material_damping(split, parts, K, nodes) if materials == "two" else None
-    freqs = frequencies(K, M, 30)
-    lowest_m = check(M, freqs)
-    band = band or band_from(freqs)
+    if checked:
+        freqs = frequencies(K, M, 30)
+        lowest_m = check(M, freqs)
+        band = band or band_from(freqs)
+    else:
+        freqs, lowest_m = np.zeros(0), float("nan")
     n = K.shape[0]
     out = out_for(n)
     if remote:
@@ -609,9 +617,10 @@ def build(part, h, out_for, band=None, remote=False, weights="uniform", material
     write_model(out, name, K, M, nodes, dofs, band, coupled, D)
     total = time.perf_counter() - start
     elastic = freqs[np.abs(freqs) >= RIGID_HZ]
-    print(f"{out}: N = {n}, tets = {t.shape[1]}, nnz(K) = {K.nnz}, band = 0..{band:g} Hz "
-          f"({int(np.sum(elastic <= band))} elastic modes), built in {built:.1f} s, "
-          f"total {total:.1f} s; min eig of Jacobi-scaled M {lowest_m:.3g}")
+    print(f"{out}: N = {n}, tets = {t.shape[1]}, nnz(K) = {K.nnz}, band = 0..{band:g} Hz, "
+          + (f"({int(np.sum(elastic <= band))} elastic modes), " if checked else "")
+          + f"built in {built:.1f} s, total {total:.1f} s"
+          + (f"; min eig of Jacobi-scaled M {lowest_m:.3g}" if checked else ""))
     if remote:
         for q in coupled:
             print(f"  remote point {q['name']} ({q['kind']}) at {q['position']}: "
@@ -624,6 +633,9 @@ def build(part, h, out_for, band=None, remote=False, weights="uniform", material
     else:
         for q, i in zip(points, dofs[::3]):
             print(f"  scene node {i // 3} at {np.round(nodes[i // 3], 4)} for {q}")
+    if not checked:
+        print("  modes not computed (--no-check)")
+        return part, out, n, K.nnz, band, elastic, built, total
     print("  rigid (Hz):  ", " ".join(f"{f:.3g}" for f in freqs[np.abs(freqs) < RIGID_HZ]))
     print("  elastic (Hz):", " ".join(f"{f:.1f}" for f in elastic))
     return part, out, n, K.nnz, band, elastic, built, total
@@ -662,6 +674,9 @@ def main():
     ap.add_argument("--materials", choices=("one", "two"), default="one",
                     help="one: steel, Rayleigh damping; two: steel and aluminium split at the "
                          "middle of the x extent, material-wise damping written as D.mtx")
+    ap.add_argument("--no-check", action="store_true",
+                    help="with --band (one part): skip scipy's eigsh and the checks on its "
+                         "modes, for bodies of ~10^6 DoF")
     args = ap.parse_args()
     if args.part == "all":
         if args.out_root is None:
@@ -672,8 +687,10 @@ def main():
     else:
         if args.size is None or args.out is None:
             ap.error("one part needs --size and --out")
+        if args.no_check and args.band is None:
+            ap.error("--no-check needs --band (the band comes from the checked modes)")
         build(args.part, args.size, lambda n: args.out, args.band, args.remote, args.weights,
-              args.materials)
+              args.materials, checked=not args.no_check)
 
 
 if __name__ == "__main__":

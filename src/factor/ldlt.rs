@@ -441,7 +441,7 @@ impl<S: std::ops::Deref<Target = Symbolic>, T: FactorScalar> Numeric<S, T> {
         Ok(Numeric {
             l: try_vec(supernodal(&symbolic.sym).len_val())?,
             d_inv: try_vec(n)?,
-            scratch: symbolic.scratch()?,
+            scratch: Some(symbolic.scratch()?),
             second: None,
             x: Mat::zeros(n, rhs),
             solve: std::array::from_fn(|_| SolveScratch {
@@ -462,7 +462,9 @@ pub(super) struct Numeric<S, T> {
     l: Vec<T>,
     /// D⁻¹, in the order of L's columns.
     d_inv: Vec<T>,
-    scratch: Scratch<T>,
+    /// The factorization's work buffers (allocated with the factor, again after
+    /// [`Self::release_scratch`]).
+    scratch: Option<Scratch<T>>,
     /// The second thread's buffers when subtrees run in parallel (allocated on first use).
     second: Option<Scratch<T>>,
     /// The permuted right-hand sides of a solve.
@@ -506,10 +508,14 @@ impl<S: std::ops::Deref<Target = Symbolic>, T: FactorScalar> Numeric<S, T> {
         let s = supernodal(&sy.sym);
         let cpv = s.col_ptr_for_val();
         let mut pivots = Pivots::new(tau);
+        if self.scratch.is_none() {
+            self.scratch = Some(sy.scratch()?);
+        }
+        let first = self.scratch.as_mut().expect("allocated above");
         let split = sy.split.as_ref().filter(|_| par.degree() > 1);
         let Some(split) = split else {
             for sn in 0..s.n_supernodes() {
-                sy.factor_supernode(sn, &mut self.l, 0, a, &mut self.scratch, &mut pivots, par);
+                sy.factor_supernode(sn, &mut self.l, 0, a, first, &mut pivots, par);
             }
             return Ok(pivots);
         };
@@ -539,14 +545,21 @@ impl<S: std::ops::Deref<Target = Symbolic>, T: FactorScalar> Numeric<S, T> {
             }
             pv
         };
-        let scratch = &mut self.scratch;
-        let (a0, a1) = rayon::join(|| run(p0, scratch), || run(p1, second));
+        let (a0, a1) = rayon::join(|| run(p0, &mut *first), || run(p1, second));
         pivots.merge(a0);
         pivots.merge(a1);
         for &sn in &split.top {
-            sy.factor_supernode(sn, &mut self.l, 0, a, &mut self.scratch, &mut pivots, par);
+            sy.factor_supernode(sn, &mut self.l, 0, a, first, &mut pivots, par);
         }
         Ok(pivots)
+    }
+
+    /// Frees the factorization's work buffers (the largest descendant update and dense
+    /// block, per thread): a factor that is solved with, not refactored, does not hold them
+    /// through its solves. The next factorization allocates them again.
+    fn release_scratch(&mut self) {
+        self.scratch = None;
+        self.second = None;
     }
 }
 
@@ -717,6 +730,7 @@ impl RealLdlt {
         let pivots = self
             .0
             .factor_with(&|p: usize| vals[p], f64::EPSILON * amax, par)?;
+        self.0.release_scratch();
         self.0.invert_diagonal(par);
         if !(pivots.hi.is_finite() && pivots.hi > 0.0) {
             return Err(Error::Factor(
