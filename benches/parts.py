@@ -633,11 +633,11 @@ def build(part, h, out_for, band=None, remote=False, weights="uniform", material
     else:
         for q, i in zip(points, dofs[::3]):
             print(f"  scene node {i // 3} at {np.round(nodes[i // 3], 4)} for {q}")
-    if not checked:
+    if checked:
+        print("  rigid (Hz):  ", " ".join(f"{f:.3g}" for f in freqs[np.abs(freqs) < RIGID_HZ]))
+        print("  elastic (Hz):", " ".join(f"{f:.1f}" for f in elastic))
+    else:
         print("  modes not computed (--no-check)")
-        return part, out, n, K.nnz, band, elastic, built, total
-    print("  rigid (Hz):  ", " ".join(f"{f:.3g}" for f in freqs[np.abs(freqs) < RIGID_HZ]))
-    print("  elastic (Hz):", " ".join(f"{f:.1f}" for f in elastic))
     return part, out, n, K.nnz, band, elastic, built, total
 
 
