@@ -16,6 +16,7 @@
 //! full-storage M and K are 1.36 GB beside the pencil's 0.77 GB; docs/design.md §2). The scene
 //! (inputs, outputs, band) is not part of it and is passed to each computation explicitly.
 
+use crate::factor::Storage;
 use crate::model::Model;
 use crate::pencil::Pencil;
 use crate::rigid::RigidBody;
@@ -32,6 +33,8 @@ pub struct Body {
     pencil: Pencil,
     rigid: Option<RigidBody>,
     symbolic: OnceLock<Arc<SymbolicCholesky<usize>>>,
+    /// The memory budget of the run (bytes), if one was set: what the real factors may take.
+    memory_budget: Option<usize>,
 }
 
 impl Body {
@@ -56,6 +59,7 @@ impl Body {
             pencil,
             rigid,
             symbolic: OnceLock::new(),
+            memory_budget: None,
         })
     }
 
@@ -71,6 +75,7 @@ impl Body {
             pencil: self.pencil.restricted(pos, keep),
             rigid: None,
             symbolic: OnceLock::new(),
+            memory_budget: self.memory_budget,
         }
     }
 
@@ -157,6 +162,26 @@ impl Body {
         }
         let s = Arc::new(crate::factor::symbolic_cholesky(&self.pencil)?);
         Ok(self.symbolic.get_or_init(|| s).clone())
+    }
+
+    /// The body with a memory budget for the whole run (`None`: the memory available when a
+    /// factor is made): a real factor that does not fit what is left of it goes to disk
+    /// (docs/design.md §3.1).
+    pub fn with_memory_budget(mut self, bytes: Option<usize>) -> Self {
+        self.memory_budget = bytes;
+        self
+    }
+
+    /// Where a real factor made now keeps L: in memory while it fits the budget less what the
+    /// process holds already ([`Self::with_memory_budget`]), or the memory available.
+    pub(crate) fn factor_storage(&self) -> Storage<'static> {
+        match self.memory_budget {
+            Some(b) => Storage {
+                dir: None,
+                budget: b.saturating_sub(crate::memory::rss_bytes().unwrap_or(0)),
+            },
+            None => Storage::available(),
+        }
     }
 
     /// B (N×p): unit forces at `inputs`.

@@ -48,7 +48,7 @@
 
 use crate::dense::{sym_eigen, MatStack};
 use crate::eigen::project_once;
-use crate::factor::Cholesky;
+use crate::factor::{Cholesky, FactorPlace, RealLdlt};
 use crate::pencil::{Coefficient, Pencil};
 use crate::rigid::RigidBody;
 use crate::shifted_space::{
@@ -148,7 +148,8 @@ impl<'a> LinearizedSpace<'a> {
         let mut vals = vec![0.0; pencil.nnz()];
         pencil.fill_quadratic(s0, &mut vals);
         let p = load.ncols();
-        let mut factor = Cholesky::with_rhs(pencil, body.symbolic()?, par, p)?;
+        let mut factor =
+            Cholesky::with_rhs(pencil, body.symbolic()?, par, p, body.factor_storage())?;
         factor.factor_values(pencil, &vals, par).map_err(|e| {
             Error::Factor(format!(
                 "K + s0 D + s0^2 M (s0 = {s0:.3e}) is not positive definite ({e}): is D \
@@ -421,7 +422,17 @@ impl ResponseSpace for LinearizedSpace<'_> {
             extend: Self::extend,
             sizes: |s: &Self| (s.next_a.ncols(), s.a.ncols()),
         };
-        growth.grow(self, freqs_hz, target).map(|_| ())
+        growth.grow(self, freqs_hz, target)?;
+        self.factor
+            .in_house()
+            .map_or(Ok(()), RealLdlt::check_solves)
+    }
+
+    fn factor_place(&self) -> FactorPlace {
+        self.factor
+            .in_house()
+            .map(RealLdlt::place)
+            .unwrap_or_default()
     }
 
     /// y = (I − τH)⁻¹E₁R₀ by a dense LU (not the eigendecomposition: H is not normal), and

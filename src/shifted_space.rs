@@ -58,7 +58,7 @@
 
 use crate::dense::{scaled_products_into, sym_eigen, MatStack};
 use crate::eigen::{lanczos_step_and_full_pass, project_once, ShiftInvert};
-use crate::factor::{certify, Certificate, CertifyBuffers};
+use crate::factor::{certify, Certificate, CertifyBuffers, FactorPlace};
 use crate::pencil::{Coefficient, Pencil};
 use crate::proportional::{Proportional, Remainder};
 use crate::rigid::RigidBody;
@@ -196,6 +196,9 @@ pub(crate) trait ResponseSpace: Send + Sync {
 
     /// Block solves with the space's factorization so far.
     fn block_solves(&self) -> usize;
+
+    /// Where the space's factor is, and the bytes it moved.
+    fn factor_place(&self) -> FactorPlace;
 
     /// Grows the space until the estimated relative residual at every frequency of
     /// `freqs_hz` is ≤ `target`, the space is invariant, or it is full.
@@ -365,7 +368,14 @@ impl<'a> ShiftedSpace<'a> {
             None => load.clone(),
         };
         let p = b0.ncols();
-        let op = ShiftInvert::new(pencil, body.symbolic()?, sigma, par, p)?;
+        let op = ShiftInvert::new(
+            pencil,
+            body.symbolic()?,
+            sigma,
+            par,
+            p,
+            body.factor_storage(),
+        )?;
         let mut space = ShiftedSpace {
             pencil,
             op,
@@ -393,6 +403,7 @@ impl<'a> ShiftedSpace<'a> {
         space.apply_s(b0.as_mut(), false);
         space.set_next(b0, None);
         space.extend();
+        space.op.check_solves()?;
         Ok(space)
     }
 
@@ -672,10 +683,16 @@ impl ResponseSpace for ShiftedSpace<'_> {
             extend: Self::extend,
             sizes: |s: &Self| (s.next.ncols(), s.dim()),
         };
-        if let Some(e) = growth.grow(self, freqs_hz, target)? {
+        let estimated = growth.grow(self, freqs_hz, target)?;
+        self.op.check_solves()?;
+        if let Some(e) = estimated {
             self.estimated = Some((self.dim(), freqs_hz.to_vec(), e));
         }
         Ok(())
+    }
+
+    fn factor_place(&self) -> FactorPlace {
+        self.op.place()
     }
 
     /// X = Pᵀ A(iω)⁻¹ P B at `freq_hz` from the space, with its certificate (module doc);

@@ -29,7 +29,9 @@
 //! there (docs/design.md §3.1).
 
 use crate::body::Body;
-use crate::factor::{off_an_eigenfrequency, Analysis, Backend, Numeric, Storage, SymbolicStats};
+use crate::factor::{
+    off_an_eigenfrequency, Analysis, Backend, FactorPlace, Numeric, Storage, SymbolicStats,
+};
 use crate::linearized_space::LinearizedSpace;
 use crate::random::Xorshift;
 use crate::rigid::RigidBody;
@@ -212,6 +214,13 @@ pub struct SolveAccuracy {
     /// Largest dimension of the shifted Krylov space.
     #[serde(default, rename = "krylov_dim")]
     pub space_dim: usize,
+    /// Bytes of the spaces' real factors written to disk (0: every factor in memory; this
+    /// rank's spaces), docs/design.md §3.1, "Factor out of core".
+    #[serde(default)]
+    pub space_disk_written: u64,
+    /// Bytes of them read back by the spaces' block solves.
+    #[serde(default)]
+    pub space_disk_read: u64,
     /// Largest relative residual of a response from it (its certificate).
     #[serde(default)]
     pub relative_residual_max: f64,
@@ -440,6 +449,18 @@ impl<'a> Solver<'a> {
     /// The accuracy of every factorization of every run so far.
     pub fn accuracy(&self) -> SolveAccuracy {
         *self.accuracy.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Where the real factor of this solver's response space is, and the bytes it moved
+    /// (in memory when there is no space).
+    pub(crate) fn factor_place(&self) -> FactorPlace {
+        match self.space.as_ref().map(|c| c.lock()) {
+            Some(Ok(space)) => match &*space {
+                Space::Made(s) => s.factor_place(),
+                Space::Unmade | Space::Failed => FactorPlace::default(),
+            },
+            Some(Err(_)) | None => FactorPlace::default(),
+        }
     }
 
     /// The symbolic analysis' measurements.

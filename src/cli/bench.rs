@@ -24,8 +24,9 @@ use std::time::Instant;
 
 #[derive(clap::Args)]
 pub struct BenchArgs {
-    /// What to measure: `sweep` (factorization phases), `reduce` (line-fitting phases) or
-    /// `modes` (the eigensolver against SciPy's eigsh).
+    /// What to measure: `sweep` (factorization phases), `reduce` (line-fitting phases),
+    /// `modes` (the eigensolver against SciPy's eigsh) or `real` (the real factor in memory
+    /// against on disk).
     what: String,
     /// Largest N to include (the 10⁶ bar takes minutes and ~10 GB).
     #[arg(long, default_value_t = 1_100_000)]
@@ -39,8 +40,8 @@ pub struct BenchArgs {
     /// `modes`: largest N for the SciPy reference (its SuperLU fill grows fast).
     #[arg(long, default_value_t = 50_000)]
     scipy_max_n: usize,
-    /// `modes`: model directories measured after the generated bodies, comma-separated (the
-    /// tet10 parts of `python3 benches/parts.py all --out-root DIR`).
+    /// `modes`, `real`: model directories measured after the generated bodies,
+    /// comma-separated (the tet10 parts of `python3 benches/parts.py all --out-root DIR`).
     #[arg(long, value_delimiter = ',')]
     models: Vec<std::path::PathBuf>,
 }
@@ -83,12 +84,13 @@ pub fn run(a: &BenchArgs) -> Result<()> {
     match a.what.as_str() {
         "sweep" => {}
         "reduce" => return reduce_table(a),
+        "real" => return real_table(a),
         "modes" => {
             return super::bench_modes::run(a.max_n, a.scipy_max_n, &a.models, &[1, 2]);
         }
         w => {
             return Err(Error::InvalidSetting(format!(
-                "bench '{w}': available: sweep, reduce, modes"
+                "bench '{w}': available: sweep, reduce, modes, real"
             )))
         }
     }
@@ -340,6 +342,85 @@ fn measure(model: &Model, scene: &Scene, backend: Backend) -> Result<Row> {
 
 /// `bench reduce`: line-fitting (order 14, 20 reference frequencies in the band) per phase
 /// vs N, with the peak RSS of the whole reduction and one factorization's estimated bytes.
+/// `bench real`: the in-house real LDLᵀ of K + (2π·1 Hz)²M on 2 threads with L in memory and
+/// on disk (docs/design.md §3.1, "Factor out of core"): factorization and one 12-column block
+/// solve, the peak RSS of each (the process's, the model's matrices included: `base` is the
+/// RSS before either), bytes written and read.
+fn real_table(a: &BenchArgs) -> Result<()> {
+    use sparsemor::factor::{time_real_factor, Storage};
+    use sparsemor::io::model_dir;
+    println!("| model | N | nnz(L) | symbolic s | base RSS | in core: factor s | solve s | peak RSS | on disk: factor s | solve s | peak RSS | written | read |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let generated = CASES.iter().filter(|c| {
+        BoxSpec {
+            elements: c.elements,
+            ..BoxSpec::paper_bar()
+        }
+        .n_dofs()
+            <= a.max_n
+    });
+    let mut bodies: Vec<Box<dyn Fn() -> Result<(String, Body)>>> = generated
+        .map(|c| {
+            Box::new(move || {
+                let spec = BoxSpec {
+                    elements: c.elements,
+                    size_m: c.size_m,
+                    ..BoxSpec::paper_bar()
+                };
+                Ok((
+                    c.name.to_string(),
+                    Body::new(&sparsemor::fe::bar_model(&spec)?)?,
+                ))
+            }) as Box<dyn Fn() -> Result<(String, Body)>>
+        })
+        .collect();
+    for dir in &a.models {
+        bodies.push(Box::new(move || {
+            let (body, _) = model_dir::read_body(dir)?;
+            Ok((dir.display().to_string(), body))
+        }));
+    }
+    let disk = Storage {
+        dir: None,
+        budget: 0,
+    };
+    for make in bodies {
+        let (name, body) = make()?;
+        if body.n() > a.max_n {
+            continue;
+        }
+        let t = Instant::now();
+        let sym = body.symbolic()?;
+        let symbolic_s = t.elapsed().as_secs_f64();
+        let base = memory::rss_bytes().unwrap_or(0);
+        let mut cells = Vec::new();
+        for storage in [Storage::IN_CORE, disk] {
+            memory::reset_peak_rss();
+            let r = sparsemor::pool::with_pool(2, || {
+                time_real_factor(body.pencil(), sym.clone(), storage, 12, faer::Par::rayon(2))
+            })??;
+            let peak = memory::peak_rss_bytes().unwrap_or(0);
+            cells.push((r, peak));
+        }
+        let [(core, core_peak), (disk, disk_peak)] = [cells[0], cells[1]];
+        println!(
+            "| {name} | {} | {} | {symbolic_s:.2} | {} | {:.2} | {:.3} | {} | {:.2} | {:.3} | {} | {} | {} |",
+            body.n(),
+            core.factor_nnz,
+            human_bytes(base as f64),
+            core.factor_s,
+            core.solve_s,
+            human_bytes(core_peak as f64),
+            disk.factor_s,
+            disk.solve_s,
+            human_bytes(disk_peak as f64),
+            human_bytes(disk.place.written as f64),
+            human_bytes(disk.place.read as f64),
+        );
+    }
+    Ok(())
+}
+
 fn reduce_table(a: &BenchArgs) -> Result<()> {
     use sparsemor::reduce::interface::Interface;
     use sparsemor::reduce::linefit::{LineFitOptions, References};

@@ -590,8 +590,15 @@ mod tests {
         let body = Body::new(&bar_model(&spec).unwrap()).unwrap();
         // below the spectrum (free bar: K − σM positive definite for σ < 0)
         let sigma = -1e4;
-        let mut op =
-            ShiftInvert::new(body.pencil(), body.symbolic().unwrap(), sigma, Par::Seq, 4).unwrap();
+        let mut op = ShiftInvert::new(
+            body.pencil(),
+            body.symbolic().unwrap(),
+            sigma,
+            Par::Seq,
+            4,
+            body.factor_storage(),
+        )
+        .unwrap();
         let (m, b) = (80, 4);
         let mut basis = Basis::new(&op, m, b).unwrap();
         let (solves, me) = basis.expand(&mut op, 0, 0).unwrap();

@@ -10,7 +10,7 @@
 //!   trusted, else LBLᵀ with Bunch–Kaufman pivots ([`ShiftedIndefinite`]), whose inertia also
 //!   gives ν(σ), the number of eigenvalues below σ (Sylvester).
 
-use crate::factor::{Cholesky, ShiftedIndefinite};
+use crate::factor::{Cholesky, FactorPlace, RealLdlt, ShiftedIndefinite, Storage};
 use crate::pencil::{Coefficient, Pencil};
 use crate::{Error, Result};
 use faer::sparse::linalg::cholesky::SymbolicCholesky;
@@ -45,9 +45,10 @@ impl<'a> ShiftInvert<'a> {
         sigma: f64,
         par: Par,
         rhs: usize,
+        storage: Storage<'_>,
     ) -> Result<Self> {
         let factor = if sigma < 0.0 {
-            let mut chol = Cholesky::with_rhs(pencil, sym, par, rhs)?;
+            let mut chol = Cholesky::with_rhs(pencil, sym, par, rhs, storage)?;
             chol.factor(pencil, sigma, par).map_err(|e| {
                 Error::Factor(format!(
                     "K - sigma M (sigma = {sigma:.3e}) is not positive definite ({e}): is M positive definite and K positive semi-definite?"
@@ -55,7 +56,9 @@ impl<'a> ShiftInvert<'a> {
             })?;
             Factor::Definite(chol)
         } else {
-            Factor::Indefinite(ShiftedIndefinite::new(sym, pencil, sigma, rhs, par)?)
+            Factor::Indefinite(ShiftedIndefinite::new(
+                sym, pencil, sigma, rhs, par, storage,
+            )?)
         };
         Ok(ShiftInvert {
             factor,
@@ -97,6 +100,29 @@ impl<'a> ShiftInvert<'a> {
             Factor::Definite(f) => f.factor_nnz(),
             Factor::Indefinite(f) => f.factor_nnz(),
         }
+    }
+
+    /// The in-house real factor, when it is the kernel.
+    fn in_house(&self) -> Option<&RealLdlt> {
+        match &self.factor {
+            Factor::Definite(f) => f.in_house(),
+            Factor::Indefinite(f) => f.in_house(),
+        }
+    }
+
+    /// Where the factor L is and the bytes it moved (in memory for every kernel but the
+    /// in-house LDLᵀ on disk).
+    pub(crate) fn place(&self) -> FactorPlace {
+        self.in_house().map(|f| f.place()).unwrap_or_default()
+    }
+
+    /// Whether every solve so far read its factor (one on disk that could not be read back
+    /// left NaN).
+    ///
+    /// # Errors
+    /// [`Error::Factor`] naming the factor's directory and the read error.
+    pub(crate) fn check_solves(&self) -> Result<()> {
+        self.in_house().map_or(Ok(()), RealLdlt::check_solves)
     }
 
     /// Dimension N.

@@ -313,6 +313,7 @@ impl<'b> Slicer<'b> {
                 s,
                 par,
                 self.opts.block,
+                self.body.factor_storage(),
             ) {
                 Err(Error::Singular { .. }) if attempt < 3 && target.lower.is_finite() => {
                     attempt += 1

@@ -162,7 +162,13 @@ impl<'a> Engine<'a> {
 
     /// The accuracy of every factorization so far, on every rank.
     pub fn accuracy(&self) -> SolveAccuracy {
-        self.accuracy
+        let mut a = self.accuracy;
+        for (_, _, s) in &self.solvers {
+            let place = s.factor_place();
+            a.space_disk_written += place.written;
+            a.space_disk_read += place.read;
+        }
+        a
     }
 
     /// This rank's solver for (response, inputs).

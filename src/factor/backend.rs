@@ -113,6 +113,15 @@ impl Storage<'_> {
         dir: None,
         budget: usize::MAX,
     };
+
+    /// In memory while a factorization fits the memory available now
+    /// ([`crate::memory::available_bytes`]), else in the temporary directory.
+    pub fn available() -> Storage<'static> {
+        Storage {
+            dir: None,
+            budget: crate::memory::available_bytes().unwrap_or(usize::MAX),
+        }
+    }
 }
 
 /// What a backend's analysis predicts for one numeric factorization.

@@ -16,8 +16,8 @@
 //! backend factors the real pencil on it and expands its order pairwise for the 2N form, and
 //! the inertia count factors K − σM on it.
 
-use super::backend::{try_vec, workspace};
-use super::ldlt::RealLdlt;
+use super::backend::{try_vec, workspace, Storage};
+use super::ldlt::{FactorPlace, RealLdlt};
 use super::pattern;
 use crate::pencil::Pencil;
 use crate::{Error, Result};
@@ -73,8 +73,9 @@ impl Cholesky {
         sym: Arc<SymbolicCholesky<usize>>,
         par: Par,
         rhs: usize,
+        storage: Storage<'_>,
     ) -> Result<Self> {
-        match RealLdlt::new(pencil, sym.clone(), rhs)? {
+        match RealLdlt::new(pencil, sym.clone(), rhs, storage)? {
             Some(f) => Ok(Cholesky(Kernel::InHouse(Box::new(f)))),
             None => Self::faer(sym, par, rhs),
         }
@@ -95,6 +96,14 @@ impl Cholesky {
         match &self.0 {
             Kernel::InHouse(f) => f.factor_nnz(),
             Kernel::Faer { l, .. } => l.len(),
+        }
+    }
+
+    /// The in-house factor, when it is the kernel.
+    pub(crate) fn in_house(&self) -> Option<&RealLdlt> {
+        match &self.0 {
+            Kernel::InHouse(f) => Some(f),
+            Kernel::Faer { .. } => None,
         }
     }
 
@@ -175,11 +184,60 @@ pub fn reference_cholesky(pencil: &Pencil) -> Result<(usize, f64, f64)> {
         Ok::<f64, Error>(t.elapsed().as_secs_f64())
     };
     let faer_s = time(Cholesky::faer(sym.clone(), Par::Seq, 1)?)?;
-    let in_house_s = match RealLdlt::new(pencil, sym, 1)? {
+    let in_house_s = match RealLdlt::new(pencil, sym, 1, Storage::IN_CORE)? {
         Some(f) => time(Cholesky(Kernel::InHouse(Box::new(f))))?,
         None => f64::NAN,
     };
     Ok((nnz, faer_s, in_house_s))
+}
+
+/// One real factorization and block solve measured ([`time_real_factor`]).
+#[derive(Clone, Copy, Debug)]
+pub struct RealTiming {
+    /// Entries of L.
+    pub factor_nnz: usize,
+    /// Seconds of the numeric factorization.
+    pub factor_s: f64,
+    /// Seconds of one solve of `rhs` columns.
+    pub solve_s: f64,
+    /// Where L was and the bytes it moved.
+    pub place: FactorPlace,
+}
+
+/// Times the in-house real LDLᵀ of K + σM (σ = (2π·1 Hz)², as [`reference_cholesky`]) kept
+/// where `storage` says, on `par`: its factorization and one solve of `rhs` columns (the
+/// benches' in-core against on-disk rows, `sparsemor bench real`).
+///
+/// # Errors
+/// [`Error::Factor`] when the analysis or the factorization fails or the pattern has no
+/// supernodes; [`Error::Io`] when a factor on disk cannot be written or read.
+pub fn time_real_factor(
+    pencil: &Pencil,
+    sym: Arc<SymbolicCholesky<usize>>,
+    storage: Storage<'_>,
+    rhs: usize,
+    par: Par,
+) -> Result<RealTiming> {
+    let sigma = -(2.0 * std::f64::consts::PI).powi(2);
+    let mut vals = try_vec(pencil.nnz())?;
+    pencil.fill_shifted(sigma, &mut vals);
+    let mut f = RealLdlt::new(pencil, sym, rhs, storage)?
+        .ok_or_else(|| Error::Factor("a pattern without supernodes".into()))?;
+    let t = Instant::now();
+    f.factor(&vals, par)?;
+    let factor_s = t.elapsed().as_secs_f64();
+    drop(vals);
+    let mut x = faer::Mat::<f64>::from_fn(pencil.n(), rhs, |i, j| ((i + 3 * j) % 7) as f64 - 3.0);
+    let t = Instant::now();
+    f.solve(x.as_mut(), par);
+    let solve_s = t.elapsed().as_secs_f64();
+    f.check_solves()?;
+    Ok(RealTiming {
+        factor_nnz: f.factor_nnz(),
+        factor_s,
+        solve_s,
+        place: f.place(),
+    })
 }
 
 #[cfg(test)]
@@ -226,10 +284,23 @@ mod tests {
         scratch.column_normwise().iter().fold(0.0, |m, &e| m.max(e))
     }
 
-    /// The in-house real LDLᵀ (the supernodal path; 1 and 2 threads, in blocks of 3 columns)
-    /// solves K − σM below the spectrum to a normwise backward error of a few ε, as faer's
-    /// LLᵀ does, with every pivot positive; the second factorization of the same factor
-    /// (its work buffers freed after the first) solves as well.
+    /// L in memory, and in a file of the temporary directory (the multifrontal factorization
+    /// of `ldlt::on_disk`, forced by a zero budget).
+    fn places() -> [Storage<'static>; 2] {
+        [
+            Storage::IN_CORE,
+            Storage {
+                dir: None,
+                budget: 0,
+            },
+        ]
+    }
+
+    /// The in-house real LDLᵀ (the supernodal path; 1 and 2 threads, in blocks of 3 columns;
+    /// L in memory and on disk) solves K − σM below the spectrum to a normwise backward error
+    /// of a few ε, as faer's LLᵀ does, with every pivot positive; the second factorization of
+    /// the same factor (its work buffers freed after the first) solves as well, and the
+    /// factor on disk solves as the one in memory to rounding.
     #[test]
     fn in_house_ldlt_solves_like_faer() {
         let pencil = bar_pencil();
@@ -243,19 +314,50 @@ mod tests {
         let mut y = b.clone();
         reference.solve_block(y.as_mut(), Par::Seq);
         let ey = backward_error(&pencil, sigma, &y, &b);
-        let mut f = RealLdlt::new(&pencil, sym.clone(), 3)
-            .unwrap()
-            .expect("the bar is supernodal");
-        for par in [Par::Seq, Par::rayon(2)] {
-            let pivots = f.factor(&vals, par).unwrap();
-            assert_eq!((pivots.negative, pivots.perturbed), (0, 0));
-            let mut x = b.clone();
-            f.solve(x.as_mut(), par);
-            let ex = backward_error(&pencil, sigma, &x, &b);
-            assert!(
-                ex <= 1e-15 && ex <= 10.0 * ey,
-                "in-house {ex:.1e}, faer {ey:.1e}"
-            );
+        let mut solutions = Vec::new();
+        for storage in places() {
+            let mut f = RealLdlt::new(&pencil, sym.clone(), 3, storage)
+                .unwrap()
+                .expect("the bar is supernodal");
+            for par in [Par::Seq, Par::rayon(2)] {
+                let pivots = f.factor(&vals, par).unwrap();
+                assert_eq!((pivots.negative, pivots.perturbed), (0, 0));
+                let mut x = b.clone();
+                f.solve(x.as_mut(), par);
+                let ex = backward_error(&pencil, sigma, &x, &b);
+                assert!(
+                    ex <= 1e-15 && ex <= 10.0 * ey,
+                    "in-house {ex:.1e}, faer {ey:.1e}"
+                );
+                solutions.push(x);
+            }
+            f.check_solves().unwrap();
+            let place = f.place();
+            let bytes = 8 * f.factor_nnz() as u64;
+            match storage.budget {
+                0 => {
+                    // written by both factorizations; each of the 4 block solves (5 columns in
+                    // blocks of 3, twice) reads L forward and back, but for the chunk it
+                    // turns on
+                    assert!(place.on_disk);
+                    assert_eq!(place.written, 2 * bytes);
+                    assert!(
+                        place.read > 6 * bytes && place.read < 8 * bytes,
+                        "{} of {bytes} bytes read",
+                        place.read
+                    );
+                }
+                _ => assert_eq!(place, FactorPlace::default()),
+            }
+        }
+        // in memory the thread count does not change the solution; on disk it differs from
+        // it by rounding, as faer's does (K − σM of a free bar shifted by only (2π·50 Hz)²
+        // is ill-conditioned)
+        let rounding = (&y - &solutions[0]).norm_max();
+        assert_eq!(solutions[1], solutions[0]);
+        for x in &solutions[2..] {
+            let d = (x - &solutions[0]).norm_max();
+            assert!(d <= 10.0 * rounding, "{d:.1e}, faer's {rounding:.1e}");
         }
     }
 
@@ -267,7 +369,8 @@ mod tests {
         let pencil = bar_pencil();
         let sym = Arc::new(symbolic_cholesky(&pencil).unwrap());
         let mut lblt = crate::factor::lblt::Factor::new(&sym, 1).unwrap();
-        let mut f = RealLdlt::new(&pencil, sym.clone(), 1).unwrap().unwrap();
+        let [mut f, mut on_disk] =
+            places().map(|s| RealLdlt::new(&pencil, sym.clone(), 1, s).unwrap().unwrap());
         for hz in [500.0, 3000.0, 9000.0] {
             let sigma = (2.0 * std::f64::consts::PI * hz).powi(2);
             let mut vals = vec![0.0; pencil.nnz()];
@@ -276,13 +379,22 @@ mod tests {
             let pivoted = lblt.factor(&sym, a, Par::Seq).negative;
             assert!(pivoted >= 6, "{hz} Hz: above the rigid modes");
             for par in [Par::Seq, Par::rayon(2)] {
-                let pivots = f.factor(&vals, par).unwrap();
-                assert_eq!(pivots.perturbed, 0);
-                assert_eq!(pivots.negative, pivoted, "{hz} Hz");
+                for f in [&mut f, &mut on_disk] {
+                    let pivots = f.factor(&vals, par).unwrap();
+                    assert_eq!(pivots.perturbed, 0);
+                    assert_eq!(pivots.negative, pivoted, "{hz} Hz");
+                }
             }
             let counted = crate::pool::with_pool(2, || {
-                ShiftedIndefinite::new(sym.clone(), &pencil, sigma, 1, Par::rayon(2))
-                    .map(|f| (f.below(), f.max_l()))
+                ShiftedIndefinite::new(
+                    sym.clone(),
+                    &pencil,
+                    sigma,
+                    1,
+                    Par::rayon(2),
+                    Storage::IN_CORE,
+                )
+                .map(|f| (f.below(), f.max_l()))
             })
             .unwrap()
             .unwrap();

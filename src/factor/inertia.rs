@@ -10,7 +10,7 @@
 //! and the same factor is the shift-invert operator of a spectrum slice whose shift lies
 //! inside the spectrum (where K − σM is indefinite and has no Cholesky factor).
 
-use super::backend::try_vec;
+use super::backend::{try_vec, Storage};
 use super::cholesky::symbolic_cholesky;
 use super::lblt::Factor;
 use super::ldlt::RealLdlt;
@@ -44,7 +44,15 @@ pub fn count_eigenvalues_below_with(
     pencil: &Pencil,
     sigma: f64,
 ) -> Result<usize> {
-    Ok(ShiftedIndefinite::new(sym.clone(), pencil, sigma, 1, pool_par())?.below())
+    Ok(ShiftedIndefinite::new(
+        sym.clone(),
+        pencil,
+        sigma,
+        1,
+        pool_par(),
+        Storage::available(),
+    )?
+    .below())
 }
 
 /// `at(f_hz)`, or `at(f_hz (1 + 10⁻⁶))` when (2π f_hz)² is an eigenvalue to working
@@ -159,12 +167,13 @@ impl<'a> ShiftedIndefinite<'a> {
         sigma: f64,
         rhs: usize,
         par: Par,
+        storage: Storage<'_>,
     ) -> Result<Self> {
         let mut vals = try_vec::<f64>(pencil.nnz())?;
         pencil.fill_shifted(sigma, &mut vals);
         let norm_inf = pattern::symmetric_norm_inf(pencil, |p| vals[p]);
         let mut refine_buffers = Box::<Buffers<f64>>::default();
-        let trusted = static_ldlt(&sym, pencil, &vals, rhs, par, &mut refine_buffers)?;
+        let trusted = static_ldlt(&sym, pencil, &vals, rhs, par, storage, &mut refine_buffers)?;
         let (kernel, below, max_l) = match trusted {
             Some((f, below)) => (Kernel::Static(Box::new(f)), below, 0.0),
             None => {
@@ -202,6 +211,14 @@ impl<'a> ShiftedIndefinite<'a> {
     /// Entries of the factor L.
     pub(crate) fn factor_nnz(&self) -> usize {
         self.sym.len_val()
+    }
+
+    /// The static-pivot LDLᵀ, when it is the kernel.
+    pub(crate) fn in_house(&self) -> Option<&RealLdlt> {
+        match &self.kernel {
+            Kernel::Static(f) => Some(f),
+            Kernel::Pivoted(_) => None,
+        }
     }
 
     /// Largest |l_ij| below the diagonal of the LBLᵀ: the growth of a pivot restricted to
@@ -257,9 +274,10 @@ fn static_ldlt(
     vals: &[f64],
     rhs: usize,
     par: Par,
+    storage: Storage<'_>,
     buffers: &mut Buffers<f64>,
 ) -> Result<Option<(RealLdlt, usize)>> {
-    let Some(mut f) = RealLdlt::new(pencil, sym.clone(), rhs)? else {
+    let Some(mut f) = RealLdlt::new(pencil, sym.clone(), rhs, storage)? else {
         return Ok(None);
     };
     let pivots = f.factor(vals, par)?;

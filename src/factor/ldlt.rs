@@ -42,8 +42,8 @@
 //! solves, zero-diagonal and near-resonance cases included (tests `factor_ldlt`).
 
 use super::backend::{
-    require_pivots, try_vec, Analysed, Backend, Factorization, Footprint, SymbolicFactorization,
-    Values,
+    require_pivots, try_vec, Analysed, Backend, Factorization, Footprint, Storage,
+    SymbolicFactorization, Values,
 };
 use super::lblt;
 use super::ordering::supernode_tree;
@@ -59,7 +59,10 @@ use faer::reborrow::{Reborrow, ReborrowMut};
 use faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky;
 use faer::sparse::linalg::cholesky::{SymbolicCholesky, SymbolicCholeskyRaw};
 use faer::{c64, Accum, Mat, MatMut, MatRef, Par};
+use std::path::Path;
 use std::sync::Arc;
+
+mod on_disk;
 
 /// Diagonal blocks up to this size are factored column by column.
 const UNBLOCKED: usize = 32;
@@ -404,6 +407,18 @@ impl Symbolic {
         Ok((symbolic, Footprint { factor_nnz, bytes }))
     }
 
+    /// Bytes of a real factorization in memory with its buffers (one thread's; a second
+    /// thread's with a [`SubtreeGroups`]) and solves of `rhs` columns.
+    fn real_bytes(&self, rhs: usize) -> usize {
+        let n = self.sym.nrows();
+        let scratch = self.max_update + self.max_cols * self.max_cols.div_ceil(2) + n;
+        let threads = if self.split.is_some() { 2 } else { 1 };
+        8 * (supernodal(&self.sym).len_val()
+            + n
+            + threads * scratch
+            + (n + 2 * self.max_pattern) * (rhs + 1))
+    }
+
     /// The work buffers of one thread of the factorization.
     fn scratch<T: FactorScalar>(&self) -> Result<Scratch<T>> {
         Ok(Scratch {
@@ -686,8 +701,15 @@ impl Symbolic {
 /// The same supernodal LDLᵀ in real arithmetic: P A Pᵀ = L D Lᵀ of a real symmetric A with
 /// values on the pencil's lower pattern (K − σM, K + s₀D + s₀²M), with static pivots. For a
 /// positive definite A every pivot is positive and this is a Cholesky factorization
-/// (L D^{1/2}); the factor owns its analysis, so it lives as long as its user.
-pub(crate) struct RealLdlt(Numeric<Box<Symbolic>, f64>);
+/// (L D^{1/2}); the factor owns its analysis, so it lives as long as its user. L is in memory
+/// (the left-looking factorization) or, when it does not fit the budget, in a file
+/// ([`on_disk`], multifrontal).
+pub(crate) struct RealLdlt(Place);
+
+enum Place {
+    InCore(Numeric<Box<Symbolic>, f64>),
+    OnDisk(Box<on_disk::OnDisk>),
+}
 
 /// The pivots of one [`RealLdlt`] factorization.
 #[derive(Clone, Copy, Debug)]
@@ -702,36 +724,75 @@ pub(crate) struct RealPivots {
     pub(crate) ratio: f64,
 }
 
+/// Where a [`RealLdlt`]'s L is and what it moved.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FactorPlace {
+    /// L is in a file.
+    pub on_disk: bool,
+    /// Bytes of L written to the file so far.
+    pub written: u64,
+    /// Bytes of L read from the file so far.
+    pub read: u64,
+}
+
 impl RealLdlt {
     /// The analysis on `sym` (the pencil's [`super::symbolic_cholesky`]) and the factor's
     /// storage, for solves of up to `rhs` columns at once; `None` when `sym` has no
-    /// supernodes (a pattern without off-diagonal entries).
+    /// supernodes (a pattern without off-diagonal entries). L is kept in memory when the
+    /// in-core factorization fits `storage.budget` and no `storage.dir` is given, else in an
+    /// unnamed file in `storage.dir` (the temporary directory by default).
     ///
     /// # Errors
     /// [`Error::Factor`] when the analysis finds an entry outside L's pattern or memory is
-    /// short.
+    /// short; [`Error::Io`] when no file can be made for a factor on disk.
     pub(crate) fn new(
         pencil: &Pencil,
         sym: Arc<SymbolicCholesky<usize>>,
         rhs: usize,
+        storage: Storage<'_>,
     ) -> Result<Option<Self>> {
         if !matches!(sym.raw(), SymbolicCholeskyRaw::Supernodal(_)) {
             return Ok(None);
         }
-        let (symbolic, _) = Symbolic::new(pencil, sym, rhs.max(1))?;
-        Ok(Some(RealLdlt(Numeric::new(Box::new(symbolic))?)))
+        let rhs = rhs.max(1);
+        let (symbolic, _) = Symbolic::new(pencil, sym, rhs)?;
+        let place = if storage.dir.is_none() && symbolic.real_bytes(rhs) <= storage.budget {
+            Place::InCore(Numeric::new(Box::new(symbolic))?)
+        } else {
+            let plan = on_disk::Plan::new(&symbolic);
+            let dir = storage
+                .dir
+                .map_or_else(std::env::temp_dir, Path::to_path_buf);
+            Place::OnDisk(Box::new(on_disk::OnDisk::new(
+                Box::new(symbolic),
+                plan,
+                &dir,
+                rhs,
+            )?))
+        };
+        Ok(Some(RealLdlt(place)))
     }
 
     /// Factors the matrix with values `vals` on the pencil's lower pattern, pivots below
     /// ε·max|aᵢⱼ| perturbed (counted, not repeated with a larger threshold: a caller that
     /// needs a definite or exactly counted A refuses a perturbed factor).
+    ///
+    /// # Errors
+    /// [`Error::Factor`] on a non-finite or all-zero pivot or short memory; [`Error::Io`]
+    /// when a factor on disk cannot be written.
     pub(crate) fn factor(&mut self, vals: &[f64], par: Par) -> Result<RealPivots> {
         let amax = vals.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        let pivots = self
-            .0
-            .factor_with(&|p: usize| vals[p], f64::EPSILON * amax, par)?;
-        self.0.release_scratch();
-        self.0.invert_diagonal(par);
+        let a = |p: usize| vals[p];
+        let tau = f64::EPSILON * amax;
+        let pivots = match &mut self.0 {
+            Place::InCore(f) => {
+                let pivots = f.factor_with(&a, tau, par)?;
+                f.release_scratch();
+                f.invert_diagonal(par);
+                pivots
+            }
+            Place::OnDisk(f) => f.factor(&a, tau, par)?,
+        };
         if !(pivots.hi.is_finite() && pivots.hi > 0.0) {
             return Err(Error::Factor(
                 "the real LDLᵀ factorization met a non-finite or all-zero pivot (NaN in the \
@@ -748,16 +809,53 @@ impl RealLdlt {
 
     /// Entries of L.
     pub(crate) fn factor_nnz(&self) -> usize {
-        self.0.l.len()
+        match &self.0 {
+            Place::InCore(f) => f.l.len(),
+            Place::OnDisk(f) => f.factor_nnz(),
+        }
     }
 
-    /// X ← A⁻¹X in place, in blocks of the `rhs` columns of [`Self::new`].
+    /// Where L is, and the bytes it moved.
+    pub(crate) fn place(&self) -> FactorPlace {
+        match &self.0 {
+            Place::InCore(_) => FactorPlace::default(),
+            Place::OnDisk(f) => FactorPlace {
+                on_disk: true,
+                written: f.written,
+                read: f.read,
+            },
+        }
+    }
+
+    /// X ← A⁻¹X in place, in blocks of the `rhs` columns of [`Self::new`]. A factor on disk
+    /// that cannot be read leaves X NaN and keeps the error for [`Self::check_solves`].
     pub(crate) fn solve(&mut self, mut x: MatMut<'_, f64>, par: Par) {
-        let width = self.0.x.ncols();
         let k = x.ncols();
-        for c in (0..k).step_by(width) {
-            self.0
-                .solve_block(x.rb_mut().subcols_mut(c, width.min(k - c)), par);
+        match &mut self.0 {
+            Place::InCore(f) => {
+                let width = f.x.ncols();
+                for c in (0..k).step_by(width) {
+                    f.solve_block(x.rb_mut().subcols_mut(c, width.min(k - c)), par);
+                }
+            }
+            Place::OnDisk(f) => {
+                let width = f.width();
+                for c in (0..k).step_by(width) {
+                    f.solve_block(x.rb_mut().subcols_mut(c, width.min(k - c)), par);
+                }
+            }
+        }
+    }
+
+    /// Whether every solve so far read its factor.
+    ///
+    /// # Errors
+    /// [`Error::Factor`] naming the directory and the read error of a factor on disk that
+    /// could not be read back (those solutions are NaN).
+    pub(crate) fn check_solves(&self) -> Result<()> {
+        match &self.0 {
+            Place::OnDisk(f) => f.failure().map_or(Ok(()), Err),
+            Place::InCore(_) => Ok(()),
         }
     }
 }
@@ -832,14 +930,8 @@ impl<S: std::ops::Deref<Target = Symbolic>, T: FactorScalar> Numeric<S, T> {
         let sy: &Symbolic = &self.symbolic;
         let s = supernodal(&sy.sym);
         let (n, k) = (rhs.nrows(), rhs.ncols());
-        let fwd = &sy.fwd;
         let mut x = self.x.as_mut().submatrix_mut(0, 0, n, k);
-        let b = rhs.rb();
-        by_columns(x.rb_mut(), par, |c, mut xc| {
-            for (i, &f) in fwd.iter().enumerate() {
-                xc[i] = b[(f, c)];
-            }
-        });
+        permute(&sy.fwd, rhs.rb(), x.rb_mut(), par);
         let [s0, s1] = &mut self.solve;
         let solver = Sweep { sy, l: &self.l };
         let all = 0..s.n_supernodes();
@@ -875,12 +967,7 @@ impl<S: std::ops::Deref<Target = Symbolic>, T: FactorScalar> Numeric<S, T> {
                 );
             }
         }
-        let d_inv = &self.d_inv;
-        by_columns(x.rb_mut(), par, |_, xc| {
-            for (v, d) in xc.iter_mut().zip(d_inv) {
-                *v *= *d;
-            }
-        });
+        scale_rows(x.rb_mut(), &self.d_inv, par);
         match sy.split.as_ref() {
             None => solver.substitute(Direction::Backward, all.rev(), x.rb_mut(), 0, s0, &[], par),
             Some(split) => {
@@ -913,13 +1000,35 @@ impl<S: std::ops::Deref<Target = Symbolic>, T: FactorScalar> Numeric<S, T> {
                 });
             }
         }
-        let x = x.rb();
-        by_columns(rhs, par, |c, mut bc| {
-            for (i, &f) in fwd.iter().enumerate() {
-                bc[f] = x[(i, c)];
-            }
-        });
+        unpermute(&sy.fwd, x.rb(), rhs, par);
     }
+}
+
+/// X ← P B: row i of `x` is row `fwd[i]` of `b`.
+fn permute<T: FactorScalar>(fwd: &[usize], b: MatRef<'_, T>, x: MatMut<'_, T>, par: Par) {
+    by_columns(x, par, |c, mut xc| {
+        for (i, &f) in fwd.iter().enumerate() {
+            xc[i] = b[(f, c)];
+        }
+    });
+}
+
+/// B ← Pᵀ X, the inverse of [`permute`].
+fn unpermute<T: FactorScalar>(fwd: &[usize], x: MatRef<'_, T>, b: MatMut<'_, T>, par: Par) {
+    by_columns(b, par, |c, mut bc| {
+        for (i, &f) in fwd.iter().enumerate() {
+            bc[f] = x[(i, c)];
+        }
+    });
+}
+
+/// X ← D⁻¹ X, `d_inv` the diagonal of D⁻¹.
+fn scale_rows<T: FactorScalar>(x: MatMut<'_, T>, d_inv: &[T], par: Par) {
+    by_columns(x, par, |_, xc| {
+        for (v, d) in xc.iter_mut().zip(d_inv) {
+            *v *= *d;
+        }
+    });
 }
 
 /// `f(c, column c of x)` for every column, on two threads (each half of the columns) when
@@ -1027,42 +1136,77 @@ impl<T: FactorScalar> Sweep<'_, T> {
     ) {
         let s = supernodal(&self.sy.sym);
         let begin = s.supernode_begin();
-        let k = x.ncols();
-        let one = T::ONE;
-        let in_top = |r: usize| top_pos.get(r).copied().filter(|&t| t != usize::MAX);
         for sn in sns {
             let (top, bot) = self.panel(sn);
-            let pat = pattern(s, sn);
-            let p = par_for((top.nrows() + pat.len()) * top.nrows() * k, par);
-            let mut g = sc.gathered.as_mut().submatrix_mut(0, 0, pat.len(), k);
-            match direction {
-                Direction::Forward => {
-                    let mut xs = x.rb_mut().subrows_mut(begin[sn] - r0, top.nrows());
-                    solve_unit_lower_triangular_in_place(top, xs.rb_mut(), p);
-                    matmul(g.rb_mut(), Accum::Replace, bot, xs.rb(), one, p);
-                    for c in 0..k {
-                        for (i, &r) in pat.iter().enumerate() {
-                            match in_top(r) {
-                                Some(t) => sc.top[(t, c)] += g[(i, c)],
-                                None => x[(r - r0, c)] -= g[(i, c)],
-                            }
-                        }
+            let at = Rows {
+                first: begin[sn] - r0,
+                pattern: pattern(s, sn),
+                r0,
+                top_pos,
+            };
+            substitute_panel(direction, top, bot, &at, x.rb_mut(), sc, par);
+        }
+    }
+}
+
+/// Where one supernode's panel acts in a substitution: its first row in `x` and its pattern
+/// (global rows, `x` holding rows from `r0` on but for the top's, `top_pos`; see
+/// [`Sweep::substitute`]).
+struct Rows<'a> {
+    first: usize,
+    pattern: &'a [usize],
+    r0: usize,
+    top_pos: &'a [usize],
+}
+
+/// One supernode's step of a substitution with its panel [`top`; `bot`]: forward, x_s ←
+/// top⁻¹ x_s and the pattern's rows less bot·x_s; backward, x_s ← top⁻ᵀ (x_s − botᵀ x_pattern).
+fn substitute_panel<T: FactorScalar>(
+    direction: Direction,
+    top: MatRef<'_, T>,
+    bot: MatRef<'_, T>,
+    at: &Rows<'_>,
+    mut x: MatMut<'_, T>,
+    sc: &mut SolveScratch<T>,
+    par: Par,
+) {
+    let k = x.ncols();
+    let one = T::ONE;
+    let Rows {
+        first,
+        pattern: pat,
+        r0,
+        top_pos,
+    } = *at;
+    let in_top = |r: usize| top_pos.get(r).copied().filter(|&t| t != usize::MAX);
+    let p = par_for((top.nrows() + pat.len()) * top.nrows() * k, par);
+    let mut g = sc.gathered.as_mut().submatrix_mut(0, 0, pat.len(), k);
+    match direction {
+        Direction::Forward => {
+            let mut xs = x.rb_mut().subrows_mut(first, top.nrows());
+            solve_unit_lower_triangular_in_place(top, xs.rb_mut(), p);
+            matmul(g.rb_mut(), Accum::Replace, bot, xs.rb(), one, p);
+            for c in 0..k {
+                for (i, &r) in pat.iter().enumerate() {
+                    match in_top(r) {
+                        Some(t) => sc.top[(t, c)] += g[(i, c)],
+                        None => x[(r - r0, c)] -= g[(i, c)],
                     }
-                }
-                Direction::Backward => {
-                    for c in 0..k {
-                        for (i, &r) in pat.iter().enumerate() {
-                            g[(i, c)] = match in_top(r) {
-                                Some(t) => sc.top[(t, c)],
-                                None => x[(r - r0, c)],
-                            };
-                        }
-                    }
-                    let mut xs = x.rb_mut().subrows_mut(begin[sn] - r0, top.nrows());
-                    matmul(xs.rb_mut(), Accum::Add, bot.transpose(), g.rb(), -one, p);
-                    solve_unit_upper_triangular_in_place(top.transpose(), xs, p);
                 }
             }
+        }
+        Direction::Backward => {
+            for c in 0..k {
+                for (i, &r) in pat.iter().enumerate() {
+                    g[(i, c)] = match in_top(r) {
+                        Some(t) => sc.top[(t, c)],
+                        None => x[(r - r0, c)],
+                    };
+                }
+            }
+            let mut xs = x.rb_mut().subrows_mut(first, top.nrows());
+            matmul(xs.rb_mut(), Accum::Add, bot.transpose(), g.rb(), -one, p);
+            solve_unit_upper_triangular_in_place(top.transpose(), xs, p);
         }
     }
 }

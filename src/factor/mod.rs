@@ -47,7 +47,7 @@ mod refine;
 pub mod umfpack;
 
 pub use backend::{Backend, Storage, LU_MAX_N};
-pub use cholesky::{reference_cholesky, symbolic_cholesky};
+pub use cholesky::{reference_cholesky, symbolic_cholesky, time_real_factor, RealTiming};
 pub use inertia::{count_eigenvalues_below, count_eigenvalues_below_with};
 pub use lblt::PivotStats;
 pub use ordering::{symbolic_cholesky_ordered, Order, OrderingChoice};
@@ -55,6 +55,8 @@ pub use refine::{BACKWARD_ERROR_FLOOR, MAX_REFINEMENTS};
 
 pub(crate) use cholesky::Cholesky;
 pub(crate) use inertia::{off_an_eigenfrequency, ShiftedIndefinite};
+pub use ldlt::FactorPlace;
+pub(crate) use ldlt::RealLdlt;
 
 use crate::pencil::Pencil;
 use crate::Result;

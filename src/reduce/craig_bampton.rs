@@ -304,7 +304,7 @@ fn constraint_modes(
     let n_i = interior.len();
     let nb = k_ib.ncols();
     let block = BLOCK.min(nb);
-    let mut chol = Cholesky::with_rhs(pencil, sym.clone(), par, block)?;
+    let mut chol = Cholesky::with_rhs(pencil, sym.clone(), par, block, inner.factor_storage())?;
     let spd = chol.factor(pencil, 0.0, par).is_ok();
     let analysis;
     let mut lblt = None;
