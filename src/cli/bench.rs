@@ -347,77 +347,62 @@ fn measure(model: &Model, scene: &Scene, backend: Backend) -> Result<Row> {
 /// solve, the peak RSS of each (the process's, the model's matrices included: `base` is the
 /// RSS before either), bytes written and read.
 fn real_table(a: &BenchArgs) -> Result<()> {
-    use sparsemor::factor::{time_real_factor, Storage};
     use sparsemor::io::model_dir;
     println!("| model | N | nnz(L) | symbolic s | base RSS | in core: factor s | solve s | peak RSS | on disk: factor s | solve s | peak RSS | written | read |");
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
-    let generated = CASES.iter().filter(|c| {
-        BoxSpec {
-            elements: c.elements,
+    for case in &CASES {
+        let spec = BoxSpec {
+            elements: case.elements,
+            size_m: case.size_m,
             ..BoxSpec::paper_bar()
+        };
+        if spec.n_dofs() <= a.max_n {
+            real_row(case.name, &Body::new(&sparsemor::fe::bar_model(&spec)?)?)?;
         }
-        .n_dofs()
-            <= a.max_n
-    });
-    let mut bodies: Vec<Box<dyn Fn() -> Result<(String, Body)>>> = generated
-        .map(|c| {
-            Box::new(move || {
-                let spec = BoxSpec {
-                    elements: c.elements,
-                    size_m: c.size_m,
-                    ..BoxSpec::paper_bar()
-                };
-                Ok((
-                    c.name.to_string(),
-                    Body::new(&sparsemor::fe::bar_model(&spec)?)?,
-                ))
-            }) as Box<dyn Fn() -> Result<(String, Body)>>
-        })
-        .collect();
-    for dir in &a.models {
-        bodies.push(Box::new(move || {
-            let (body, _) = model_dir::read_body(dir)?;
-            Ok((dir.display().to_string(), body))
-        }));
     }
-    let disk = Storage {
+    for dir in &a.models {
+        let (body, _) = model_dir::read_body(dir)?;
+        if body.n() <= a.max_n {
+            real_row(&dir.display().to_string(), &body)?;
+        }
+    }
+    Ok(())
+}
+
+/// One row of [`real_table`].
+fn real_row(name: &str, body: &Body) -> Result<()> {
+    use sparsemor::factor::{time_real_factor, Storage};
+    let t = Instant::now();
+    let sym = body.symbolic()?;
+    let symbolic_s = t.elapsed().as_secs_f64();
+    let base = memory::rss_bytes().unwrap_or(0);
+    let on_disk = Storage {
         dir: None,
         budget: 0,
     };
-    for make in bodies {
-        let (name, body) = make()?;
-        if body.n() > a.max_n {
-            continue;
-        }
-        let t = Instant::now();
-        let sym = body.symbolic()?;
-        let symbolic_s = t.elapsed().as_secs_f64();
-        let base = memory::rss_bytes().unwrap_or(0);
-        let mut cells = Vec::new();
-        for storage in [Storage::IN_CORE, disk] {
-            memory::reset_peak_rss();
-            let r = sparsemor::pool::with_pool(2, || {
-                time_real_factor(body.pencil(), sym.clone(), storage, 12, faer::Par::rayon(2))
-            })??;
-            let peak = memory::peak_rss_bytes().unwrap_or(0);
-            cells.push((r, peak));
-        }
-        let [(core, core_peak), (disk, disk_peak)] = [cells[0], cells[1]];
-        println!(
-            "| {name} | {} | {} | {symbolic_s:.2} | {} | {:.2} | {:.3} | {} | {:.2} | {:.3} | {} | {} | {} |",
-            body.n(),
-            core.factor_nnz,
-            human_bytes(base as f64),
-            core.factor_s,
-            core.solve_s,
-            human_bytes(core_peak as f64),
-            disk.factor_s,
-            disk.solve_s,
-            human_bytes(disk_peak as f64),
-            human_bytes(disk.place.written as f64),
-            human_bytes(disk.place.read as f64),
-        );
+    let mut cells = Vec::new();
+    for storage in [Storage::IN_CORE, on_disk] {
+        memory::reset_peak_rss();
+        let r = sparsemor::pool::with_pool(2, || {
+            time_real_factor(body.pencil(), sym.clone(), storage, 12, faer::Par::rayon(2))
+        })??;
+        cells.push((r, memory::peak_rss_bytes().unwrap_or(0)));
     }
+    let [(core, core_peak), (disk, disk_peak)] = [cells[0], cells[1]];
+    println!(
+        "| {name} | {} | {} | {symbolic_s:.2} | {} | {:.2} | {:.3} | {} | {:.2} | {:.3} | {} | {} | {} |",
+        body.n(),
+        core.factor_nnz,
+        human_bytes(base as f64),
+        core.factor_s,
+        core.solve_s,
+        human_bytes(core_peak as f64),
+        disk.factor_s,
+        disk.solve_s,
+        human_bytes(disk_peak as f64),
+        human_bytes(disk.place.written as f64),
+        human_bytes(disk.place.read as f64),
+    );
     Ok(())
 }
 

@@ -378,9 +378,9 @@ pub fn solve_summary(a: &sparsemor::sweep::SolveAccuracy) -> String {
             match a.space_disk_written {
                 0 => String::new(),
                 w => format!(
-                    "; factor on disk: {:.2} GB written, {:.2} GB read",
-                    w as f64 / 1e9,
-                    a.space_disk_read as f64 / 1e9
+                    "; factor on disk: {} written, {} read",
+                    super::args::human_bytes(w as f64),
+                    super::args::human_bytes(a.space_disk_read as f64)
                 ),
             }
         ));

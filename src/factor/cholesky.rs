@@ -17,8 +17,8 @@
 //! the inertia count factors K − σM on it.
 
 use super::backend::{try_vec, workspace, Storage};
-use super::ldlt::{FactorPlace, RealLdlt};
 use super::pattern;
+use super::real_ldlt::{FactorPlace, RealLdlt};
 use crate::pencil::Pencil;
 use crate::{Error, Result};
 use faer::dyn_stack::{MemBuffer, MemStack};
@@ -285,7 +285,7 @@ mod tests {
     }
 
     /// L in memory, and in a file of the temporary directory (the multifrontal factorization
-    /// of `ldlt::on_disk`, forced by a zero budget).
+    /// of `factor::on_disk`, forced by a zero budget).
     fn places() -> [Storage<'static>; 2] {
         [
             Storage::IN_CORE,

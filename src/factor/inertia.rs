@@ -13,8 +13,8 @@
 use super::backend::{try_vec, Storage};
 use super::cholesky::symbolic_cholesky;
 use super::lblt::Factor;
-use super::ldlt::RealLdlt;
 use super::pattern;
+use super::real_ldlt::RealLdlt;
 use super::refine::{refine, Buffers, Stop};
 use crate::pencil::Pencil;
 use crate::{Error, Result};

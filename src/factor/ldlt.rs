@@ -42,8 +42,8 @@
 //! solves, zero-diagonal and near-resonance cases included (tests `factor_ldlt`).
 
 use super::backend::{
-    require_pivots, try_vec, Analysed, Backend, Factorization, Footprint, Storage,
-    SymbolicFactorization, Values,
+    require_pivots, try_vec, Analysed, Backend, Factorization, Footprint, SymbolicFactorization,
+    Values,
 };
 use super::lblt;
 use super::ordering::supernode_tree;
@@ -59,10 +59,7 @@ use faer::reborrow::{Reborrow, ReborrowMut};
 use faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky;
 use faer::sparse::linalg::cholesky::{SymbolicCholesky, SymbolicCholeskyRaw};
 use faer::{c64, Accum, Mat, MatMut, MatRef, Par};
-use std::path::Path;
 use std::sync::Arc;
-
-mod on_disk;
 
 /// Diagonal blocks up to this size are factored column by column.
 const UNBLOCKED: usize = 32;
@@ -76,7 +73,7 @@ const UNBLOCKED_SOLVE: usize = 8;
 const PAR_MIN_WORK: usize = 1 << 21;
 
 /// `par` for a dense operation of `work` multiply-adds, else sequential.
-fn par_for(work: usize, par: Par) -> Par {
+pub(super) fn par_for(work: usize, par: Par) -> Par {
     if work >= PAR_MIN_WORK {
         par
     } else {
@@ -132,31 +129,31 @@ impl FactorScalar for c64 {
 /// The analysis: the supernodal structure, where each entry of A lands in L, and which
 /// supernodes update which.
 pub(super) struct Symbolic {
-    sym: Arc<SymbolicCholesky<usize>>,
+    pub(super) sym: Arc<SymbolicCholesky<usize>>,
     /// The fill-reducing order: row i of P A Pᵀ is row `fwd[i]` of A.
-    fwd: Vec<usize>,
+    pub(super) fwd: Vec<usize>,
     /// The entries of A by supernode, each supernode's in the order of the pencil's pattern:
     /// (position p in the pencil's lower pattern, position in L's values), supernode s's at
     /// `assembly[assembly_ptr[s]..assembly_ptr[s + 1]]`.
-    assembly: Vec<(usize, usize)>,
-    assembly_ptr: Vec<usize>,
+    pub(super) assembly: Vec<(usize, usize)>,
+    pub(super) assembly_ptr: Vec<usize>,
     /// Supernodes d updating supernode s: `desc[desc_ptr[s]..desc_ptr[s + 1]]`, increasing.
     desc_ptr: Vec<usize>,
     desc: Vec<usize>,
     /// Largest descendant update (rows × columns) and largest supernode pattern: workspace.
     max_update: usize,
-    max_pattern: usize,
-    max_cols: usize,
+    pub(super) max_pattern: usize,
+    pub(super) max_cols: usize,
     max_rhs: usize,
     /// Independent subtrees of the elimination tree for two threads, if it has any worth it.
-    split: Option<SubtreeGroups>,
+    pub(super) split: Option<SubtreeGroups>,
 }
 
 /// Two groups of independent subtrees of the supernodal elimination tree (each subtree a
 /// contiguous range of supernodes, faer's order being a postorder) and the supernodes above
 /// them: with two threads, each group is factored on its own thread, then the top with the
 /// threads inside the dense products.
-struct SubtreeGroups {
+pub(super) struct SubtreeGroups {
     /// Supernode ranges [first, last + 1) of each group's subtrees.
     groups: [Vec<(usize, usize)>; 2],
     /// The supernodes in no subtree of a group, increasing.
@@ -293,7 +290,7 @@ pub(super) fn analyse(
 }
 
 /// The supernodal part of `sym` ([`analyse`] checks it before a [`Symbolic`] is built).
-fn supernodal(sym: &SymbolicCholesky<usize>) -> &SymbolicSupernodalCholesky<usize> {
+pub(super) fn supernodal(sym: &SymbolicCholesky<usize>) -> &SymbolicSupernodalCholesky<usize> {
     match sym.raw() {
         SymbolicCholeskyRaw::Supernodal(s) => s,
         SymbolicCholeskyRaw::Simplicial(_) => {
@@ -303,14 +300,14 @@ fn supernodal(sym: &SymbolicCholesky<usize>) -> &SymbolicSupernodalCholesky<usiz
 }
 
 /// Rows of supernode `s`'s pattern (below its diagonal block).
-fn pattern(s: &SymbolicSupernodalCholesky<usize>, sn: usize) -> &[usize] {
+pub(super) fn pattern(s: &SymbolicSupernodalCholesky<usize>, sn: usize) -> &[usize] {
     s.supernode(sn).pattern()
 }
 
 impl Symbolic {
     /// The analysis of the damped pencil on `sym_n`, the ordered symbolic Cholesky of its
     /// N×N pattern.
-    fn new(
+    pub(super) fn new(
         pencil: &Pencil,
         sym_n: Arc<SymbolicCholesky<usize>>,
         max_rhs: usize,
@@ -409,7 +406,7 @@ impl Symbolic {
 
     /// Bytes of a real factorization in memory with its buffers (one thread's; a second
     /// thread's with a [`SubtreeGroups`]) and solves of `rhs` columns.
-    fn real_bytes(&self, rhs: usize) -> usize {
+    pub(super) fn real_bytes(&self, rhs: usize) -> usize {
         let n = self.sym.nrows();
         let scratch = self.max_update + self.max_cols * self.max_cols.div_ceil(2) + n;
         let threads = if self.split.is_some() { 2 } else { 1 };
@@ -446,7 +443,7 @@ impl SymbolicFactorization for Symbolic {
 
 impl<S: std::ops::Deref<Target = Symbolic>, T: FactorScalar> Numeric<S, T> {
     /// The factor's storage and buffers on `symbolic`, not yet factored.
-    fn new(symbolic: S) -> Result<Self> {
+    pub(super) fn new(symbolic: S) -> Result<Self> {
         let n = symbolic.sym.nrows();
         let rhs = symbolic.max_rhs + 1;
         let (max_pattern, top) = (
@@ -474,7 +471,7 @@ impl<S: std::ops::Deref<Target = Symbolic>, T: FactorScalar> Numeric<S, T> {
 pub(super) struct Numeric<S, T> {
     symbolic: S,
     /// L (strictly lower part) and D (its diagonal) in faer's supernodal layout.
-    l: Vec<T>,
+    pub(super) l: Vec<T>,
     /// D⁻¹, in the order of L's columns.
     d_inv: Vec<T>,
     /// The factorization's work buffers (allocated with the factor, again after
@@ -483,7 +480,7 @@ pub(super) struct Numeric<S, T> {
     /// The second thread's buffers when subtrees run in parallel (allocated on first use).
     second: Option<Scratch<T>>,
     /// The permuted right-hand sides of a solve.
-    x: Mat<T>,
+    pub(super) x: Mat<T>,
     /// The solve's buffers for each of the two groups of a [`SubtreeGroups`] (the first alone
     /// without one).
     solve: [SolveScratch<T>; 2],
@@ -492,11 +489,11 @@ pub(super) struct Numeric<S, T> {
 }
 
 /// The buffers of one thread of a solve.
-struct SolveScratch<T> {
+pub(super) struct SolveScratch<T> {
     /// One supernode's pattern rows, gathered.
-    gathered: Mat<T>,
+    pub(super) gathered: Mat<T>,
     /// A group's contributions to the top's rows (forward), or the top's solution (backward).
-    top: Mat<T>,
+    pub(super) top: Mat<T>,
 }
 
 /// The work buffers of one thread of the factorization.
@@ -513,7 +510,7 @@ impl<S: std::ops::Deref<Target = Symbolic>, T: FactorScalar> Numeric<S, T> {
     /// One left-looking factorization of the matrix with lower-pattern entries `a(p)` with
     /// the static pivot threshold `tau`: with more than one thread and a [`SubtreeGroups`],
     /// its two groups of subtrees in parallel first.
-    fn factor_with(
+    pub(super) fn factor_with(
         &mut self,
         a: &(impl Fn(usize) -> T + Sync),
         tau: f64,
@@ -572,7 +569,7 @@ impl<S: std::ops::Deref<Target = Symbolic>, T: FactorScalar> Numeric<S, T> {
     /// Frees the factorization's work buffers (the largest descendant update and dense
     /// block, per thread): a factor that is solved with, not refactored, does not hold them
     /// through its solves. The next factorization allocates them again.
-    fn release_scratch(&mut self) {
+    pub(super) fn release_scratch(&mut self) {
         self.scratch = None;
         self.second = None;
     }
@@ -581,7 +578,7 @@ impl<S: std::ops::Deref<Target = Symbolic>, T: FactorScalar> Numeric<S, T> {
 impl<S: std::ops::Deref<Target = Symbolic>, T: FactorScalar> Numeric<S, T> {
     /// D⁻¹ from the factor's diagonal, for the solves: with threads, the supernodes in two
     /// halves.
-    fn invert_diagonal(&mut self, par: Par) {
+    pub(super) fn invert_diagonal(&mut self, par: Par) {
         let s = supernodal(&self.symbolic.sym);
         let (begin, end, cpv) = (s.supernode_begin(), s.supernode_end(), s.col_ptr_for_val());
         let l = &self.l;
@@ -698,168 +695,6 @@ impl Symbolic {
     }
 }
 
-/// The same supernodal LDLᵀ in real arithmetic: P A Pᵀ = L D Lᵀ of a real symmetric A with
-/// values on the pencil's lower pattern (K − σM, K + s₀D + s₀²M), with static pivots. For a
-/// positive definite A every pivot is positive and this is a Cholesky factorization
-/// (L D^{1/2}); the factor owns its analysis, so it lives as long as its user. L is in memory
-/// (the left-looking factorization) or, when it does not fit the budget, in a file
-/// ([`on_disk`], multifrontal).
-pub(crate) struct RealLdlt(Place);
-
-enum Place {
-    InCore(Numeric<Box<Symbolic>, f64>),
-    OnDisk(Box<on_disk::OnDisk>),
-}
-
-/// The pivots of one [`RealLdlt`] factorization.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct RealPivots {
-    /// Pivots below 0: by Sylvester's law the number of negative eigenvalues of A when none
-    /// was perturbed.
-    pub(crate) negative: usize,
-    /// Pivots of magnitude below ε·max|aᵢⱼ|, replaced by ±ε·max|aᵢⱼ| (A singular to working
-    /// precision).
-    pub(crate) perturbed: usize,
-    /// min |dᵢ| / max |dᵢ|.
-    pub(crate) ratio: f64,
-}
-
-/// Where a [`RealLdlt`]'s L is and what it moved.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct FactorPlace {
-    /// L is in a file.
-    pub on_disk: bool,
-    /// Bytes of L written to the file so far.
-    pub written: u64,
-    /// Bytes of L read from the file so far.
-    pub read: u64,
-}
-
-impl RealLdlt {
-    /// The analysis on `sym` (the pencil's [`super::symbolic_cholesky`]) and the factor's
-    /// storage, for solves of up to `rhs` columns at once; `None` when `sym` has no
-    /// supernodes (a pattern without off-diagonal entries). L is kept in memory when the
-    /// in-core factorization fits `storage.budget` and no `storage.dir` is given, else in an
-    /// unnamed file in `storage.dir` (the temporary directory by default).
-    ///
-    /// # Errors
-    /// [`Error::Factor`] when the analysis finds an entry outside L's pattern or memory is
-    /// short; [`Error::Io`] when no file can be made for a factor on disk.
-    pub(crate) fn new(
-        pencil: &Pencil,
-        sym: Arc<SymbolicCholesky<usize>>,
-        rhs: usize,
-        storage: Storage<'_>,
-    ) -> Result<Option<Self>> {
-        if !matches!(sym.raw(), SymbolicCholeskyRaw::Supernodal(_)) {
-            return Ok(None);
-        }
-        let rhs = rhs.max(1);
-        let (symbolic, _) = Symbolic::new(pencil, sym, rhs)?;
-        let place = if storage.dir.is_none() && symbolic.real_bytes(rhs) <= storage.budget {
-            Place::InCore(Numeric::new(Box::new(symbolic))?)
-        } else {
-            let plan = on_disk::Plan::new(&symbolic);
-            let dir = storage
-                .dir
-                .map_or_else(std::env::temp_dir, Path::to_path_buf);
-            Place::OnDisk(Box::new(on_disk::OnDisk::new(
-                Box::new(symbolic),
-                plan,
-                &dir,
-                rhs,
-            )?))
-        };
-        Ok(Some(RealLdlt(place)))
-    }
-
-    /// Factors the matrix with values `vals` on the pencil's lower pattern, pivots below
-    /// ε·max|aᵢⱼ| perturbed (counted, not repeated with a larger threshold: a caller that
-    /// needs a definite or exactly counted A refuses a perturbed factor).
-    ///
-    /// # Errors
-    /// [`Error::Factor`] on a non-finite or all-zero pivot or short memory; [`Error::Io`]
-    /// when a factor on disk cannot be written.
-    pub(crate) fn factor(&mut self, vals: &[f64], par: Par) -> Result<RealPivots> {
-        let amax = vals.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        let a = |p: usize| vals[p];
-        let tau = f64::EPSILON * amax;
-        let pivots = match &mut self.0 {
-            Place::InCore(f) => {
-                let pivots = f.factor_with(&a, tau, par)?;
-                f.release_scratch();
-                f.invert_diagonal(par);
-                pivots
-            }
-            Place::OnDisk(f) => f.factor(&a, tau, par)?,
-        };
-        if !(pivots.hi.is_finite() && pivots.hi > 0.0) {
-            return Err(Error::Factor(
-                "the real LDLᵀ factorization met a non-finite or all-zero pivot (NaN in the \
-                 model?)"
-                    .into(),
-            ));
-        }
-        Ok(RealPivots {
-            negative: pivots.negative,
-            perturbed: pivots.perturbed,
-            ratio: pivots.lo / pivots.hi,
-        })
-    }
-
-    /// Entries of L.
-    pub(crate) fn factor_nnz(&self) -> usize {
-        match &self.0 {
-            Place::InCore(f) => f.l.len(),
-            Place::OnDisk(f) => f.factor_nnz(),
-        }
-    }
-
-    /// Where L is, and the bytes it moved.
-    pub(crate) fn place(&self) -> FactorPlace {
-        match &self.0 {
-            Place::InCore(_) => FactorPlace::default(),
-            Place::OnDisk(f) => FactorPlace {
-                on_disk: true,
-                written: f.written,
-                read: f.read,
-            },
-        }
-    }
-
-    /// X ← A⁻¹X in place, in blocks of the `rhs` columns of [`Self::new`]. A factor on disk
-    /// that cannot be read leaves X NaN and keeps the error for [`Self::check_solves`].
-    pub(crate) fn solve(&mut self, mut x: MatMut<'_, f64>, par: Par) {
-        let k = x.ncols();
-        match &mut self.0 {
-            Place::InCore(f) => {
-                let width = f.x.ncols();
-                for c in (0..k).step_by(width) {
-                    f.solve_block(x.rb_mut().subcols_mut(c, width.min(k - c)), par);
-                }
-            }
-            Place::OnDisk(f) => {
-                let width = f.width();
-                for c in (0..k).step_by(width) {
-                    f.solve_block(x.rb_mut().subcols_mut(c, width.min(k - c)), par);
-                }
-            }
-        }
-    }
-
-    /// Whether every solve so far read its factor.
-    ///
-    /// # Errors
-    /// [`Error::Factor`] naming the directory and the read error of a factor on disk that
-    /// could not be read back (those solutions are NaN).
-    pub(crate) fn check_solves(&self) -> Result<()> {
-        match &self.0 {
-            Place::OnDisk(f) => f.failure().map_or(Ok(()), Err),
-            Place::InCore(_) => Ok(()),
-        }
-    }
-}
-
 impl Factorization for Numeric<&Symbolic, c64> {
     fn factor(&mut self, a: &Values<'_>, freq_hz: f64, par: Par) -> Result<()> {
         // max |aᵢⱼ|, exact in any grouping: on two threads, halves
@@ -926,7 +761,7 @@ impl<S: std::ops::Deref<Target = Symbolic>, T: FactorScalar> Numeric<S, T> {
     /// own buffer, added to the top before the top is solved; backward, the top first, then
     /// the groups read its solution from a copy. The groups run the same way on one thread,
     /// so the solution does not depend on the thread count.
-    fn solve_block(&mut self, rhs: MatMut<'_, T>, par: Par) {
+    pub(super) fn solve_block(&mut self, rhs: MatMut<'_, T>, par: Par) {
         let sy: &Symbolic = &self.symbolic;
         let s = supernodal(&sy.sym);
         let (n, k) = (rhs.nrows(), rhs.ncols());
@@ -1005,7 +840,12 @@ impl<S: std::ops::Deref<Target = Symbolic>, T: FactorScalar> Numeric<S, T> {
 }
 
 /// X ← P B: row i of `x` is row `fwd[i]` of `b`.
-fn permute<T: FactorScalar>(fwd: &[usize], b: MatRef<'_, T>, x: MatMut<'_, T>, par: Par) {
+pub(super) fn permute<T: FactorScalar>(
+    fwd: &[usize],
+    b: MatRef<'_, T>,
+    x: MatMut<'_, T>,
+    par: Par,
+) {
     by_columns(x, par, |c, mut xc| {
         for (i, &f) in fwd.iter().enumerate() {
             xc[i] = b[(f, c)];
@@ -1014,7 +854,12 @@ fn permute<T: FactorScalar>(fwd: &[usize], b: MatRef<'_, T>, x: MatMut<'_, T>, p
 }
 
 /// B ← Pᵀ X, the inverse of [`permute`].
-fn unpermute<T: FactorScalar>(fwd: &[usize], x: MatRef<'_, T>, b: MatMut<'_, T>, par: Par) {
+pub(super) fn unpermute<T: FactorScalar>(
+    fwd: &[usize],
+    x: MatRef<'_, T>,
+    b: MatMut<'_, T>,
+    par: Par,
+) {
     by_columns(b, par, |c, mut bc| {
         for (i, &f) in fwd.iter().enumerate() {
             bc[f] = x[(i, c)];
@@ -1023,7 +868,7 @@ fn unpermute<T: FactorScalar>(fwd: &[usize], x: MatRef<'_, T>, b: MatMut<'_, T>,
 }
 
 /// X ← D⁻¹ X, `d_inv` the diagonal of D⁻¹.
-fn scale_rows<T: FactorScalar>(x: MatMut<'_, T>, d_inv: &[T], par: Par) {
+pub(super) fn scale_rows<T: FactorScalar>(x: MatMut<'_, T>, d_inv: &[T], par: Par) {
     by_columns(x, par, |_, xc| {
         for (v, d) in xc.iter_mut().zip(d_inv) {
             *v *= *d;
@@ -1056,7 +901,7 @@ fn by_columns<T: FactorScalar>(
 
 /// Forward (L y = b) or backward (Lᵀ x = z) substitution.
 #[derive(Clone, Copy)]
-enum Direction {
+pub(super) enum Direction {
     Forward,
     Backward,
 }
@@ -1152,16 +997,16 @@ impl<T: FactorScalar> Sweep<'_, T> {
 /// Where one supernode's panel acts in a substitution: its first row in `x` and its pattern
 /// (global rows, `x` holding rows from `r0` on but for the top's, `top_pos`; see
 /// [`Sweep::substitute`]).
-struct Rows<'a> {
-    first: usize,
-    pattern: &'a [usize],
-    r0: usize,
-    top_pos: &'a [usize],
+pub(super) struct Rows<'a> {
+    pub(super) first: usize,
+    pub(super) pattern: &'a [usize],
+    pub(super) r0: usize,
+    pub(super) top_pos: &'a [usize],
 }
 
 /// One supernode's step of a substitution with its panel [`top`; `bot`]: forward, x_s ←
 /// top⁻¹ x_s and the pattern's rows less bot·x_s; backward, x_s ← top⁻ᵀ (x_s − botᵀ x_pattern).
-fn substitute_panel<T: FactorScalar>(
+pub(super) fn substitute_panel<T: FactorScalar>(
     direction: Direction,
     top: MatRef<'_, T>,
     bot: MatRef<'_, T>,
@@ -1278,18 +1123,18 @@ fn subtract_update<T: FactorScalar>(
 }
 
 /// The pivots of one factorization: the static threshold and what was seen.
-struct Pivots {
+pub(super) struct Pivots {
     tau: f64,
-    lo: f64,
-    hi: f64,
-    perturbed: usize,
+    pub(super) lo: f64,
+    pub(super) hi: f64,
+    pub(super) perturbed: usize,
     /// Real pivots below 0 (taken after any perturbation).
-    negative: usize,
+    pub(super) negative: usize,
 }
 
 impl Pivots {
     /// No pivot seen yet, threshold `tau`.
-    fn new(tau: f64) -> Self {
+    pub(super) fn new(tau: f64) -> Self {
         Pivots {
             tau,
             lo: f64::INFINITY,
@@ -1393,7 +1238,7 @@ fn dense_ldlt<T: FactorScalar>(
 
 /// The supernode's panel [A₁₁; A₂₁] (`ncols` columns, lower part of A₁₁ used) becomes
 /// [L₁₁ with D on its diagonal; L₂₁]: A₁₁ = L₁₁ D L₁₁ᵀ, then L₂₁ = A₂₁ L₁₁⁻ᵀ D⁻¹.
-fn factor_panel<T: FactorScalar>(
+pub(super) fn factor_panel<T: FactorScalar>(
     panel: MatMut<'_, T>,
     work: &mut [T],
     pivots: &mut Pivots,

@@ -40,8 +40,10 @@ mod ldlt;
 mod lu;
 #[cfg(feature = "mumps")]
 pub mod mumps;
+mod on_disk;
 mod ordering;
 mod pattern;
+mod real_ldlt;
 mod refine;
 #[cfg(feature = "umfpack")]
 pub mod umfpack;
@@ -55,8 +57,8 @@ pub use refine::{BACKWARD_ERROR_FLOOR, MAX_REFINEMENTS};
 
 pub(crate) use cholesky::Cholesky;
 pub(crate) use inertia::{off_an_eigenfrequency, ShiftedIndefinite};
-pub use ldlt::FactorPlace;
-pub(crate) use ldlt::RealLdlt;
+pub use real_ldlt::FactorPlace;
+pub(crate) use real_ldlt::RealLdlt;
 
 use crate::pencil::Pencil;
 use crate::Result;

@@ -850,6 +850,41 @@ fn ctrl_c_stops_a_long_sweep_and_writes_nothing() {
     );
 }
 
+/// A real factor that does not fit `--memory-gb` goes to an unnamed file in the temporary
+/// directory: the run says so with the bytes it moved, reaches the tolerance with the same
+/// order and errors as in memory, and leaves the directory empty.
+#[test]
+fn a_factor_beyond_the_memory_budget_goes_to_disk_and_leaves_nothing() {
+    let work = scratch("factor_on_disk");
+    let tmp = work.join("tmp");
+    std::fs::create_dir_all(&tmp).unwrap();
+    let reduce = |out: &str, budget: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_sparsemor"))
+            .args(["reduce", bar_str(), "--method", "linefit", "--tol", "1e-3"])
+            .args(budget)
+            .args(["--out", out])
+            .env("TMPDIR", &tmp)
+            .current_dir(&work)
+            .output()
+            .expect("run sparsemor");
+        let stdout = text(&out.stdout);
+        assert!(out.status.success(), "{stdout}{}", text(&out.stderr));
+        stdout
+    };
+    let in_memory = reduce("memory", &[]);
+    let on_disk = reduce("disk", &["--memory-gb", "0.01"]);
+    assert!(!in_memory.contains("factor on disk"), "{in_memory}");
+    assert!(on_disk.contains("factor on disk:"), "{on_disk}");
+    let reached = |s: &str| {
+        s.lines()
+            .find(|l| l.starts_with("tolerance 1.0e-3 reached"))
+            .map(str::to_owned)
+    };
+    assert!(reached(&in_memory).is_some(), "{in_memory}");
+    assert_eq!(reached(&in_memory), reached(&on_disk));
+    assert!(entries(&tmp).is_empty(), "left {:?} behind", entries(&tmp));
+}
+
 /// The elastic part of a free body is finite at 0 Hz: `sweep --band 0:1000 --part elastic`
 /// works (the model's own band starts at 0); the total at 0 Hz is refused with the reason.
 #[test]

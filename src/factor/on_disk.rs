@@ -8,8 +8,9 @@
 //! its update block U_s = F₂₂ − L₂₁ D₁ L₂₁ᵀ (lower triangle, packed) waits in memory for the
 //! parent. The factored panel [L₁₁; L₂₁] goes to an unnamed temporary file at once, in the
 //! order and layout of L's values in memory, so the file is written front to back exactly
-//! once. In memory at any time: the largest front, the update blocks waiting for their
-//! parents, D⁻¹ and the solve's vectors, never L. The arithmetic of
+//! once. In memory at any time: one front (allocated zeroed for each supernode and touched
+//! only in its lower triangle, so a large front's upper pages are never mapped), the update
+//! blocks waiting for their parents, D⁻¹ and the solve's vectors, never L. The arithmetic of
 //! each entry of L differs from the left-looking in-core factor only in the order of the
 //! subtractions, so the two factors agree to rounding (tested).
 //!
@@ -18,12 +19,12 @@
 //! it is open): the system reclaims it when the factor is dropped or the process ends, however
 //! it ends.
 
-use super::{
-    factor_panel, par_for, pattern, substitute_panel, supernodal, Direction, Pivots, Rows,
-    SolveScratch, Symbolic,
+use super::backend::try_vec;
+use super::ldlt::{
+    factor_panel, par_for, pattern, permute, scale_rows, substitute_panel, supernodal, unpermute,
+    Direction, Pivots, Rows, SolveScratch, Symbolic,
 };
-use crate::factor::backend::try_vec;
-use crate::factor::ordering::supernode_tree;
+use super::ordering::supernode_tree;
 use crate::{Error, Result};
 use faer::linalg::matmul::triangular::{self, BlockStructure};
 use faer::reborrow::{Reborrow, ReborrowMut};
@@ -40,33 +41,24 @@ const UPDATE_BLOCK: usize = 256;
 /// few pages, so that the small factors there are read in many chunks.
 const CHUNK_BYTES: usize = if cfg!(test) { 1 << 14 } else { 1 << 24 };
 
-/// What the multifrontal factorization needs beyond the in-core analysis.
+/// What the multifrontal factorization needs beyond the in-core analysis: the children of
+/// each supernode in the supernodal elimination tree.
 pub(super) struct Plan {
-    /// Children of each supernode in the supernodal elimination tree.
     children: Vec<Vec<usize>>,
-    /// Largest front, (c₁ − c₀ + pattern)² entries.
-    max_front: usize,
 }
 
 impl Plan {
-    /// The tree and the largest front of the multifrontal factorization on `sy`.
+    /// The tree of the multifrontal factorization on `sy`.
     pub(super) fn new(sy: &Symbolic) -> Plan {
         let s = supernodal(&sy.sym);
-        let (begin, end) = (s.supernode_begin(), s.supernode_end());
         let (_, parent) = supernode_tree(s);
         let mut children = vec![Vec::new(); s.n_supernodes()];
-        let mut max_front = 0;
-        for sn in 0..s.n_supernodes() {
-            let nrows = end[sn] - begin[sn] + pattern(s, sn).len();
-            max_front = max_front.max(nrows * nrows);
-            if let Some(p) = parent[sn] {
+        for (sn, p) in parent.into_iter().enumerate() {
+            if let Some(p) = p {
                 children[p].push(sn);
             }
         }
-        Plan {
-            children,
-            max_front,
-        }
+        Plan { children }
     }
 }
 
@@ -179,7 +171,6 @@ impl OnDisk {
         self.file.set_len(0).map_err(io)?;
         self.file.seek(SeekFrom::Start(0)).map_err(io)?;
         let mut out = BufWriter::with_capacity(CHUNK_BYTES, &self.file);
-        let mut front: Vec<f64> = try_vec(self.plan.max_front)?;
         let mut ld: Vec<f64> = try_vec(UPDATE_BLOCK * sy.max_pattern)?;
         let mut dense: Vec<f64> = try_vec(sy.max_cols * sy.max_cols.div_ceil(2))?;
         let mut local = vec![usize::MAX; sy.sym.nrows()];
@@ -193,8 +184,10 @@ impl OnDisk {
             for (i, &r) in pat.iter().enumerate() {
                 local[r] = ncols + i;
             }
-            let f = &mut front[..nrows * nrows];
-            f.fill(0.0);
+            // a new zeroed front: a large one gets fresh pages from the system, and only its
+            // lower triangle is ever touched, so the upper one stays unmapped
+            let mut front = try_zeroed(nrows * nrows)?;
+            let f = &mut front[..];
             // A's entries land where they land in the panel: the front's first columns
             for &(p, q) in &sy.assembly[sy.assembly_ptr[sn]..sy.assembly_ptr[sn + 1]] {
                 f[q - cpv[sn]] += a(p);
@@ -242,14 +235,14 @@ impl OnDisk {
         let mut x = std::mem::replace(&mut self.x, Mat::zeros(0, 0));
         let result = {
             let mut xk = x.as_mut().submatrix_mut(0, 0, n, k);
-            super::permute(&self.symbolic.fwd, rhs.rb(), xk.rb_mut(), par);
+            permute(&self.symbolic.fwd, rhs.rb(), xk.rb_mut(), par);
             let ns = supernodal(&self.symbolic.sym).n_supernodes();
             self.substitute(Direction::Forward, xk.rb_mut(), par, 0..ns)
                 .and_then(|()| {
-                    super::scale_rows(xk.rb_mut(), &self.d_inv, par);
+                    scale_rows(xk.rb_mut(), &self.d_inv, par);
                     self.substitute(Direction::Backward, xk.rb_mut(), par, 0..ns)
                 })
-                .map(|()| super::unpermute(&self.symbolic.fwd, xk.rb(), rhs.rb_mut(), par))
+                .map(|()| unpermute(&self.symbolic.fwd, xk.rb(), rhs.rb_mut(), par))
         };
         self.x = x;
         if let Err(e) = result {
@@ -339,6 +332,12 @@ impl OnDisk {
     }
 }
 
+/// `len` zeros, fallibly, from zeroed memory (not written: see [`OnDisk::factor`]).
+fn try_zeroed(len: usize) -> Result<Box<[f64]>> {
+    bytemuck::allocation::try_zeroed_slice_box(len)
+        .map_err(|()| Error::Factor(format!("cannot allocate a front of {len} entries")))
+}
+
 /// Adds a child's update block `u` (packed lower triangle by columns on the child's pattern
 /// rows `rows`) into the front `f` (`nrows` × `nrows`, column-major) of the supernode with
 /// columns `cols`, whose pattern rows have `local` set.
@@ -407,7 +406,7 @@ fn schur_update(panel: MatRef<'_, f64>, mut f22: MatMut<'_, f64>, ld: &mut [f64]
 
 #[cfg(test)]
 mod tests {
-    use super::super::RealLdlt;
+    use crate::factor::RealLdlt;
     use crate::factor::{symbolic_cholesky, Storage};
     use crate::fe::{assemble, BoxSpec};
     use crate::model::{Damping, Model};
