@@ -99,11 +99,13 @@ impl std::fmt::Display for Backend {
 /// Where an analysis' factorizations keep their factors.
 #[derive(Clone, Copy, Debug)]
 pub struct Storage<'a> {
-    /// A directory for the factors (backend `mumps` only); `None`: in memory while one
-    /// factorization fits `budget`.
+    /// A directory for the factors (of the sweep: backend `mumps` only; a real LDLᵀ,
+    /// `RealLdlt`, then keeps L there); `None`: in memory while one factorization fits
+    /// `budget`.
     pub dir: Option<&'a std::path::Path>,
-    /// Bytes one factorization may take in memory; beyond it MUMPS keeps its factors in the
-    /// temporary directory (the other backends have no such choice).
+    /// Bytes one factorization may take in memory; beyond it MUMPS and the real LDLᵀ keep
+    /// their factors in the temporary directory (the sweep's other backends have no such
+    /// choice).
     pub budget: usize,
 }
 
