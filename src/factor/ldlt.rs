@@ -135,8 +135,8 @@ pub(super) struct Symbolic {
     /// The entries of A by supernode, each supernode's in the order of the pencil's pattern:
     /// (position p in the pencil's lower pattern, position in L's values), supernode s's at
     /// `assembly[assembly_ptr[s]..assembly_ptr[s + 1]]`.
-    pub(super) assembly: Vec<(usize, usize)>,
-    pub(super) assembly_ptr: Vec<usize>,
+    assembly: Vec<(usize, usize)>,
+    assembly_ptr: Vec<usize>,
     /// Supernodes d updating supernode s: `desc[desc_ptr[s]..desc_ptr[s + 1]]`, increasing.
     desc_ptr: Vec<usize>,
     desc: Vec<usize>,
@@ -603,6 +603,20 @@ impl<S: std::ops::Deref<Target = Symbolic>, T: FactorScalar> Numeric<S, T> {
 }
 
 impl Symbolic {
+    /// Adds A's entries of supernode `sn` to `panel`, its values laid out as L's (a front's
+    /// first columns have the same layout).
+    pub(super) fn assemble<T: FactorScalar>(
+        &self,
+        sn: usize,
+        panel: &mut [T],
+        a: &(impl Fn(usize) -> T + Sync),
+    ) {
+        let first = supernodal(&self.sym).col_ptr_for_val()[sn];
+        for &(p, q) in &self.assembly[self.assembly_ptr[sn]..self.assembly_ptr[sn + 1]] {
+            panel[q - first] += a(p);
+        }
+    }
+
     /// Factors supernode `sn` (left-looking): assembles its panel from `a`, subtracts the
     /// updates of its descendants, factors the diagonal block and solves the rows below.
     /// `l` holds L's values from position `base` on, `sn` and all its descendants included.
@@ -628,11 +642,8 @@ impl Symbolic {
         }
         let (head, tail) = l.split_at_mut(cpv[sn] - base);
         let panel = &mut tail[..nrows * ncols];
-        // A's entries into the zeroed panel
         panel.fill(T::ZERO);
-        for &(p, q) in &self.assembly[self.assembly_ptr[sn]..self.assembly_ptr[sn + 1]] {
-            panel[q - cpv[sn]] += a(p);
-        }
+        self.assemble(sn, panel, a);
         let mut ls = MatMut::from_column_major_slice_mut(panel, nrows, ncols);
         for &d in &self.desc[self.desc_ptr[sn]..self.desc_ptr[sn + 1]] {
             let dpat = pattern(s, d);

@@ -148,7 +148,7 @@ impl OnDisk {
     ) -> Result<Pivots> {
         let sy = &*self.symbolic;
         let s = supernodal(&sy.sym);
-        let (begin, end, cpv) = (s.supernode_begin(), s.supernode_end(), s.col_ptr_for_val());
+        let (begin, end) = (s.supernode_begin(), s.supernode_end());
         let bytes = 8 * s.len_val() as u64;
         if let Some(free) = crate::memory::free_disk_bytes(&self.dir) {
             if free < bytes {
@@ -188,10 +188,7 @@ impl OnDisk {
             // lower triangle is ever touched, so the upper one stays unmapped
             let mut front = try_zeroed(nrows * nrows)?;
             let f = &mut front[..];
-            // A's entries land where they land in the panel: the front's first columns
-            for &(p, q) in &sy.assembly[sy.assembly_ptr[sn]..sy.assembly_ptr[sn + 1]] {
-                f[q - cpv[sn]] += a(p);
-            }
+            sy.assemble(sn, f, a);
             for &c in &self.plan.children[sn] {
                 let u = std::mem::take(&mut updates[c]);
                 extend_add(f, nrows, (c0, c1), &local, pattern(s, c), &u)?;
