@@ -152,8 +152,9 @@ pub(super) trait SymbolicFactorization: Send + Sync {
     /// The backend this analysis is of (a backend may hand a pattern it does not support to
     /// another: the LDLᵀ gives a diagonal pattern to the LBLᵀ).
     fn backend(&self) -> Backend;
-    /// Allocates the buffers of one numeric factorization.
-    fn numeric(&self) -> Result<Box<dyn Factorization + '_>>;
+    /// Allocates the buffers of one numeric factorization of `pencil` (the pencil the
+    /// analysis was made on).
+    fn numeric(&self, pencil: &Pencil) -> Result<Box<dyn Factorization + '_>>;
     /// The ordered symbolic Cholesky of the N×N pattern that a pivoting fallback reuses, for
     /// a backend that pivots statically (the complex LDLᵀ); `None` for those that pivot
     /// themselves.

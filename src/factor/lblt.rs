@@ -110,7 +110,7 @@ impl SymbolicFactorization for Symbolic {
         Backend::FaerLblt
     }
 
-    fn numeric(&self) -> Result<Box<dyn Factorization + '_>> {
+    fn numeric(&self, _pencil: &Pencil) -> Result<Box<dyn Factorization + '_>> {
         // the real path solves Re and Im of a complex block side by side
         let rhs = if self.pattern2.is_some() {
             self.max_rhs

@@ -60,6 +60,7 @@ use faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky;
 use faer::sparse::linalg::cholesky::{SymbolicCholesky, SymbolicCholeskyRaw};
 use faer::{c64, Accum, Mat, MatMut, MatRef, Par};
 use std::sync::Arc;
+use std::sync::OnceLock;
 
 /// Diagonal blocks up to this size are factored column by column.
 const UNBLOCKED: usize = 32;
@@ -132,11 +133,10 @@ pub(super) struct Symbolic {
     pub(super) sym: Arc<SymbolicCholesky<usize>>,
     /// The fill-reducing order: row i of P A Pᵀ is row `fwd[i]` of A.
     pub(super) fwd: Vec<usize>,
-    /// The entries of A by supernode, each supernode's in the order of the pencil's pattern:
-    /// (position p in the pencil's lower pattern, position in L's values), supernode s's at
-    /// `assembly[assembly_ptr[s]..assembly_ptr[s + 1]]`.
-    assembly: Vec<(usize, usize)>,
-    assembly_ptr: Vec<usize>,
+    /// Where A's entries land in L, built by [`Self::prepare`] for the first numeric factor:
+    /// an analysis that is never factored (the sweep's beside a response space) does not
+    /// hold its 16 bytes per entry of A.
+    assembly: OnceLock<Assembly>,
     /// Supernodes d updating supernode s: `desc[desc_ptr[s]..desc_ptr[s + 1]]`, increasing.
     desc_ptr: Vec<usize>,
     desc: Vec<usize>,
@@ -147,6 +147,14 @@ pub(super) struct Symbolic {
     max_rhs: usize,
     /// Independent subtrees of the elimination tree for two threads, if it has any worth it.
     pub(super) split: Option<SubtreeGroups>,
+}
+
+/// The entries of A by supernode, each supernode's in the order of the pencil's pattern:
+/// (position p in the pencil's lower pattern, position in L's values), supernode s's at
+/// `entries[ptr[s]..ptr[s + 1]]`.
+struct Assembly {
+    entries: Vec<(usize, usize)>,
+    ptr: Vec<usize>,
 }
 
 /// Two groups of independent subtrees of the supernodal elimination tree (each subtree a
@@ -315,49 +323,12 @@ impl Symbolic {
         let n = pencil.n();
         let s = supernodal(&sym_n);
         let ns = s.n_supernodes();
-        let (begin, end, cpv) = (s.supernode_begin(), s.supernode_end(), s.col_ptr_for_val());
+        let (begin, end) = (s.supernode_begin(), s.supernode_end());
         let (owner, parent) = supernode_tree(s);
-        let (fwd, inv) = match sym_n.perm() {
-            Some(p) => (p.arrays().0.to_vec(), p.arrays().1.to_vec()),
-            None => ((0..n).collect(), (0..n).collect()),
+        let fwd = match sym_n.perm() {
+            Some(p) => p.arrays().0.to_vec(),
+            None => (0..n).collect(),
         };
-        // where entry (i, j) of A lands: (max, min) of the permuted indices, in the panel of
-        // the supernode owning the column; grouped by that supernode (a counting sort: the
-        // order inside a supernode does not matter, each position gets one entry)
-        let (cp, ri) = (pencil.col_ptr(), pencil.row_idx());
-        let owner_of = |p: usize, j: usize| owner[inv[ri[p]].min(inv[j])];
-        let mut assembly_ptr = vec![0usize; ns + 1];
-        for j in 0..n {
-            for p in cp[j]..cp[j + 1] {
-                assembly_ptr[owner_of(p, j) + 1] += 1;
-            }
-        }
-        for sn in 0..ns {
-            assembly_ptr[sn + 1] += assembly_ptr[sn];
-        }
-        let mut next = assembly_ptr[..ns].to_vec();
-        let mut assembly: Vec<(usize, usize)> = try_vec(ri.len())?;
-        for j in 0..n {
-            for p in cp[j]..cp[j + 1] {
-                let (a, b) = (inv[ri[p]], inv[j]);
-                let (row, col) = (a.max(b), a.min(b));
-                let sn = owner[col];
-                let ncols = end[sn] - begin[sn];
-                let pat = pattern(s, sn);
-                let local = if row < end[sn] {
-                    row - begin[sn]
-                } else {
-                    ncols
-                        + pat.binary_search(&row).map_err(|_| {
-                            Error::Factor(
-                                "symbolic analysis: an entry of A outside the pattern of L".into(),
-                            )
-                        })?
-                };
-                assembly[next[sn]] = (p, cpv[sn] + (col - begin[sn]) * (ncols + pat.len()) + local);
-                next[sn] += 1;
-            }
-        }
         // descendants: d updates every supernode owning a row of its pattern
         let mut lists: Vec<Vec<usize>> = vec![Vec::new(); ns];
         let (mut max_update, mut max_pattern, mut max_cols) = (0, 0, 0);
@@ -387,12 +358,11 @@ impl Symbolic {
         let bytes = 16 * (factor_nnz + n)
             + scratch * if split.is_some() { 2 } else { 1 }
             + 16 * (n + max_pattern) * (max_rhs + 1)
-            + 8 * (2 * assembly.len() + desc.len());
+            + 8 * (2 * pencil.row_idx().len() + desc.len());
         let symbolic = Symbolic {
             sym: sym_n,
             fwd,
-            assembly,
-            assembly_ptr,
+            assembly: OnceLock::new(),
             desc_ptr,
             desc,
             max_update,
@@ -402,6 +372,65 @@ impl Symbolic {
             split,
         };
         Ok((symbolic, Footprint { factor_nnz, bytes }))
+    }
+
+    /// Builds where A's entries land in L (once; later calls return at once): entry (i, j)
+    /// goes to (max, min) of its permuted indices in the panel of the supernode owning the
+    /// column. Every numeric factor on this analysis calls it first, with the pencil whose
+    /// pattern the analysis was made on.
+    ///
+    /// # Errors
+    /// [`Error::Factor`] when an entry of A lies outside L's pattern or memory is short.
+    pub(super) fn prepare(&self, pencil: &Pencil) -> Result<()> {
+        if self.assembly.get().is_some() {
+            return Ok(());
+        }
+        let s = supernodal(&self.sym);
+        let (n, ns) = (pencil.n(), s.n_supernodes());
+        let (begin, end, cpv) = (s.supernode_begin(), s.supernode_end(), s.col_ptr_for_val());
+        let (owner, _) = supernode_tree(s);
+        let inv = match self.sym.perm() {
+            Some(p) => p.arrays().1.to_vec(),
+            None => (0..n).collect(),
+        };
+        // grouped by supernode (a counting sort: the order inside a supernode does not
+        // matter, each position gets one entry)
+        let (cp, ri) = (pencil.col_ptr(), pencil.row_idx());
+        let mut ptr = vec![0usize; ns + 1];
+        for j in 0..n {
+            for p in cp[j]..cp[j + 1] {
+                ptr[owner[inv[ri[p]].min(inv[j])] + 1] += 1;
+            }
+        }
+        for sn in 0..ns {
+            ptr[sn + 1] += ptr[sn];
+        }
+        let mut next = ptr[..ns].to_vec();
+        let mut entries: Vec<(usize, usize)> = try_vec(ri.len())?;
+        for j in 0..n {
+            for p in cp[j]..cp[j + 1] {
+                let (a, b) = (inv[ri[p]], inv[j]);
+                let (row, col) = (a.max(b), a.min(b));
+                let sn = owner[col];
+                let ncols = end[sn] - begin[sn];
+                let pat = pattern(s, sn);
+                let local = if row < end[sn] {
+                    row - begin[sn]
+                } else {
+                    ncols
+                        + pat.binary_search(&row).map_err(|_| {
+                            Error::Factor(
+                                "symbolic analysis: an entry of A outside the pattern of L".into(),
+                            )
+                        })?
+                };
+                entries[next[sn]] = (p, cpv[sn] + (col - begin[sn]) * (ncols + pat.len()) + local);
+                next[sn] += 1;
+            }
+        }
+        // a concurrent call may have set it first: the same map
+        let _ = self.assembly.set(Assembly { entries, ptr });
+        Ok(())
     }
 
     /// Bytes of a real factorization in memory with its buffers (one thread's; a second
@@ -436,7 +465,8 @@ impl SymbolicFactorization for Symbolic {
         Some(self.sym.clone())
     }
 
-    fn numeric(&self) -> Result<Box<dyn Factorization + '_>> {
+    fn numeric(&self, pencil: &Pencil) -> Result<Box<dyn Factorization + '_>> {
+        self.prepare(pencil)?;
         Ok(Box::new(Numeric::<_, c64>::new(self)?))
     }
 }
@@ -612,7 +642,11 @@ impl Symbolic {
         a: &(impl Fn(usize) -> T + Sync),
     ) {
         let first = supernodal(&self.sym).col_ptr_for_val()[sn];
-        for &(p, q) in &self.assembly[self.assembly_ptr[sn]..self.assembly_ptr[sn + 1]] {
+        let asm = self
+            .assembly
+            .get()
+            .expect("a numeric factor prepares its analysis (Symbolic::prepare)");
+        for &(p, q) in &asm.entries[asm.ptr[sn]..asm.ptr[sn + 1]] {
             panel[q - first] += a(p);
         }
     }

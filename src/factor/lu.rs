@@ -63,7 +63,7 @@ impl SymbolicFactorization for Symbolic {
         Backend::FaerLu
     }
 
-    fn numeric(&self) -> Result<Box<dyn Factorization + '_>> {
+    fn numeric(&self, _pencil: &Pencil) -> Result<Box<dyn Factorization + '_>> {
         let (sym, nnz) = (&self.sym, self.src.len());
         let (lu, req) = if self.real {
             // the real path solves Re and Im of a complex block side by side

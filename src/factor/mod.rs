@@ -235,7 +235,7 @@ impl Analysis {
     /// # Errors
     /// [`Error::Factor`](crate::Error::Factor) when the workspace cannot be allocated.
     pub fn numeric(&self, pencil: &Pencil) -> Result<Numeric<'_>> {
-        let factors = self.symbolic.numeric()?;
+        let factors = self.symbolic.numeric(pencil)?;
         let mut numeric = Numeric {
             analysis: self,
             factors,
@@ -373,7 +373,7 @@ impl<'a> Numeric<'a> {
             return Ok(false);
         };
         if self.pivoting.is_none() {
-            self.pivoting = Some(SymbolicFactorization::numeric(symbolic)?);
+            self.pivoting = Some(SymbolicFactorization::numeric(symbolic, pencil)?);
         }
         // the LBLᵀ reads arrays: gathered now unless they are (the supported K never gets
         // here: it is factored with the LDLᵀ's static pivots or not at all)

@@ -71,6 +71,7 @@ impl RealLdlt {
         }
         let rhs = rhs.max(1);
         let (symbolic, _) = Symbolic::new(pencil, sym, rhs)?;
+        symbolic.prepare(pencil)?;
         let place = if storage.dir.is_none() && symbolic.real_bytes(rhs) <= storage.budget {
             Place::InCore(Box::new(Numeric::new(Box::new(symbolic))?))
         } else {

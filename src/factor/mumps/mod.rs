@@ -148,7 +148,7 @@ impl SymbolicFactorization for Symbolic {
         ranks()
     }
 
-    fn numeric(&self) -> Result<Box<dyn Factorization + '_>> {
+    fn numeric(&self, _pencil: &Pencil) -> Result<Box<dyn Factorization + '_>> {
         let mut instance = Instance::new(self.out_of_core.as_deref())?;
         instance.set_pattern(self);
         Ok(Box::new(Numeric {

@@ -785,7 +785,7 @@ impl SymbolicFactorization for Symbolic {
         Backend::Umfpack
     }
 
-    fn numeric(&self) -> Result<Box<dyn Factorization + '_>> {
+    fn numeric(&self, _pencil: &Pencil) -> Result<Box<dyn Factorization + '_>> {
         let nnz = self.src.len();
         Ok(Box::new(Numeric {
             symbolic: self,
