@@ -133,10 +133,10 @@ pub(super) struct Symbolic {
     pub(super) sym: Arc<SymbolicCholesky<usize>>,
     /// The fill-reducing order: row i of P A Pᵀ is row `fwd[i]` of A.
     pub(super) fwd: Vec<usize>,
-    /// Where A's entries land in L, built by [`Self::prepare`] for the first numeric factor:
-    /// an analysis that is never factored (the sweep's beside a response space) does not
-    /// hold its 16 bytes per entry of A.
-    assembly: OnceLock<Assembly>,
+    /// Where A's entries land in L, built once by [`Self::prepare`] for the first numeric
+    /// factor (or why it could not be): an analysis that is never factored (the sweep's
+    /// beside a response space) does not hold its 16 bytes per entry of A.
+    assembly: OnceLock<std::result::Result<Assembly, String>>,
     /// Supernodes d updating supernode s: `desc[desc_ptr[s]..desc_ptr[s + 1]]`, increasing.
     desc_ptr: Vec<usize>,
     desc: Vec<usize>,
@@ -374,17 +374,28 @@ impl Symbolic {
         Ok((symbolic, Footprint { factor_nnz, bytes }))
     }
 
-    /// Builds where A's entries land in L (once; later calls return at once): entry (i, j)
-    /// goes to (max, min) of its permuted indices in the panel of the supernode owning the
-    /// column. Every numeric factor on this analysis calls it first, with the pencil whose
-    /// pattern the analysis was made on.
+    /// Builds where A's entries land in L, once: concurrent callers (the sweep's workers
+    /// allocating their factors) wait for the first, later ones return at once. Every numeric
+    /// factor on this analysis calls it first, with the pencil whose pattern the analysis was
+    /// made on.
     ///
     /// # Errors
     /// [`Error::Factor`] when an entry of A lies outside L's pattern or memory is short.
     pub(super) fn prepare(&self, pencil: &Pencil) -> Result<()> {
-        if self.assembly.get().is_some() {
-            return Ok(());
+        match self.assembly.get_or_init(|| {
+            self.assembly_of(pencil).map_err(|e| match e {
+                Error::Factor(why) => why,
+                other => other.to_string(),
+            })
+        }) {
+            Ok(_) => Ok(()),
+            Err(why) => Err(Error::Factor(why.clone())),
         }
+    }
+
+    /// Where A's entries land in L: entry (i, j) goes to (max, min) of its permuted indices
+    /// in the panel of the supernode owning the column.
+    fn assembly_of(&self, pencil: &Pencil) -> Result<Assembly> {
         let s = supernodal(&self.sym);
         let (n, ns) = (pencil.n(), s.n_supernodes());
         let (begin, end, cpv) = (s.supernode_begin(), s.supernode_end(), s.col_ptr_for_val());
@@ -428,9 +439,7 @@ impl Symbolic {
                 next[sn] += 1;
             }
         }
-        // a concurrent call may have set it first: the same map
-        let _ = self.assembly.set(Assembly { entries, ptr });
-        Ok(())
+        Ok(Assembly { entries, ptr })
     }
 
     /// Bytes of a real factorization in memory with its buffers (one thread's; a second
@@ -642,10 +651,9 @@ impl Symbolic {
         a: &(impl Fn(usize) -> T + Sync),
     ) {
         let first = supernodal(&self.sym).col_ptr_for_val()[sn];
-        let asm = self
-            .assembly
-            .get()
-            .expect("a numeric factor prepares its analysis (Symbolic::prepare)");
+        let Some(Ok(asm)) = self.assembly.get() else {
+            unreachable!("a numeric factor is made only on a prepared analysis (Symbolic::prepare)")
+        };
         for &(p, q) in &asm.entries[asm.ptr[sn]..asm.ptr[sn + 1]] {
             panel[q - first] += a(p);
         }
