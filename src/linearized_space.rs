@@ -27,7 +27,7 @@
 //! (I − τH) y = E₁R₀, has the residual (I − τOp) z − z₀ = −τ W y_last, whose norm
 //! |τ| ‖G^{1/2} y_last‖ (G = WᵀW) is known at every frequency from the k × k matrices alone;
 //! with H = XΛX⁻¹, y(τ) = X (I − τΛ)⁻¹ X⁻¹E₁R₀ costs O(kp) per frequency. The space grows
-//! until that estimate is ≤ [`GROW_TO`] relative to ‖z₀‖ at the frequencies asked; each
+//! until that estimate is ≤ [`GROW_TO`](crate::shifted_space::GROW_TO) relative to ‖z₀‖ at the frequencies asked; each
 //! response is then certified by its true residual b − A(iω)x with the exact pencil, as every
 //! response of the shifted space is.
 //!
@@ -53,7 +53,7 @@ use crate::pencil::{Coefficient, Pencil};
 use crate::rigid::RigidBody;
 use crate::shifted_space::{
     append_columns, complex_product, lift, m_orthonormalize, orthonormalize, Growth, Lifted,
-    ResponseSpace, Rows, RowsAnswer, Solution, SolutionBuffers, GROW_TO,
+    ResponseSpace, Rows, RowsAnswer, Solution, SolutionBuffers, ANSWERS,
 };
 use crate::units::hz_to_omega;
 use crate::{Error, Result};
@@ -211,7 +211,7 @@ impl<'a> LinearizedSpace<'a> {
             .collect();
         let mut c = project_once(self.q.as_ref(), self.mq.as_ref(), &mut x, self.par);
         c += project_once(self.q.as_ref(), self.mq.as_ref(), &mut x, self.par);
-        let (qn, mqn, rn) = m_orthonormalize(self.pencil, x.as_ref(), &scale);
+        let (qn, mqn, rn) = m_orthonormalize(self.pencil, x.as_ref(), None, &scale);
         let e = qn.ncols();
         append_columns(
             [&mut self.q, &mut self.mq],
@@ -241,7 +241,9 @@ impl<'a> LinearizedSpace<'a> {
             return false;
         }
         let w = stack(self.next_a.as_ref(), self.next_b.as_ref());
-        let (vn, _, coef) = orthonormalize(w.as_ref(), &self.next_scale, |v| v.as_mat().to_owned());
+        let (vn, _, coef) = orthonormalize(w.as_ref(), w.as_ref(), &self.next_scale, |v| {
+            v.as_mat().to_owned()
+        });
         let bn = vn.ncols();
         let eta = self.q.ncols();
         if bn == 0 {
@@ -488,7 +490,7 @@ impl ResponseSpace for LinearizedSpace<'_> {
         let answered = self
             .estimates(freqs_hz)
             .into_iter()
-            .map(|e| e <= 100.0 * GROW_TO)
+            .map(|e| e <= ANSWERS)
             .collect();
         let h = Arc::new(Rows::new(h, answered));
         self.answered = Some(RowsAnswer {
@@ -552,6 +554,7 @@ mod tests {
     use crate::fe::{assemble, BoxSpec};
     use crate::model::{Damping, Model, Structural};
     use crate::shifted_space::tests::{bar_with, krylov_vs_factored_body, responses};
+    use crate::shifted_space::GROW_TO;
     use crate::sparse::{linear_combination, Csc, Triplets};
     use crate::sweep::SolveMethod;
     use proptest::prelude::*;

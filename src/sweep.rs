@@ -35,7 +35,7 @@ use crate::factor::{
 use crate::linearized_space::LinearizedSpace;
 use crate::random::Xorshift;
 use crate::rigid::RigidBody;
-use crate::shifted_space::{ResponseSpace, Rows, ShiftedSpace, SolutionBuffers, GROW_TO};
+use crate::shifted_space::{ResponseSpace, Rows, ShiftedSpace, SolutionBuffers, ANSWERS, GROW_TO};
 pub use crate::shifted_space::{
     CERTIFIED_BACKWARD_ERROR, CERTIFIED_NORMWISE_BACKWARD_ERROR, CERTIFIED_RELATIVE_RESIDUAL,
 };
@@ -973,7 +973,8 @@ impl<'a> Solver<'a> {
             }
         }
         let wanted: Vec<f64> = freqs_hz.iter().copied().filter(|&f| f > 0.0).collect();
-        let cost = self.grow_space(&mut space, &wanted, GROW_TO)?;
+        // grown as far as the rows are answered, not to the certified responses' target
+        let cost = self.grow_space(&mut space, &wanted, ANSWERS)?;
         self.accuracy
             .lock()
             .unwrap_or_else(|p| p.into_inner())
