@@ -32,7 +32,7 @@
 //! unit loads at the pivots is C A⁻¹ Cᵀ: the functionals' transfer function, exactly. Nothing
 //! is dense but the r × |support| block of the rows.
 
-use crate::sparse::{Csc, Triplets};
+use crate::sparse::{from_parts, lower_triangle, mirror_lower, Csc};
 use crate::{Error, Result};
 use faer::linalg::solvers::Solve;
 use faer::Par;
@@ -455,7 +455,7 @@ fn from_columns(rows: usize, cols: Vec<Vec<(usize, f64)>>) -> Csc {
         }
         ptr.push(idx.len());
     }
-    crate::sparse::from_parts(rows, ptr.len() - 1, ptr, idx, val)
+    from_parts(rows, ptr.len() - 1, ptr, idx, val)
 }
 
 /// TᵀAT of a symmetric A, exactly symmetric: the lower triangle of the product, mirrored.
@@ -475,17 +475,15 @@ pub fn congruence(a: &Csc, t: &Csc) -> Result<Csc> {
         .to_col_major()
         .map_err(|e| Error::Factor(format!("coupled model: {e:?}")))?;
     let tat = product(tt.as_ref(), at.as_ref())?;
+    drop(at);
+    // faer's product has sorted columns, so its lower triangle mirrors into sorted full
+    // storage without a sort
     let n = tat.ncols();
-    let mut lower = Triplets::default();
-    for j in 0..n {
-        let rows = tat.row_idx_of_col_raw(j);
-        for (&i, &v) in rows.iter().zip(tat.val_of_col(j)) {
-            if i >= j {
-                lower.push(i, j, v);
-            }
-        }
-    }
-    Ok(lower.into_csc(n, true))
+    let (col_ptr, row_idx, val) = lower_triangle(tat.as_ref());
+    drop(tat);
+    let (full_ptr, full_row, src) = mirror_lower(n, &col_ptr, &row_idx);
+    let full_val = src.iter().map(|&p| val[p]).collect();
+    Ok(from_parts(n, n, full_ptr, full_row, full_val))
 }
 
 #[cfg(test)]

@@ -48,9 +48,10 @@ pub fn asymmetry(a: SparseColMatRef<'_, usize, f64>) -> (f64, f64) {
 /// The lower triangle (row ≥ column) of a full-storage matrix, as (col_ptr, row_idx, values).
 pub fn lower_triangle(a: SparseColMatRef<'_, usize, f64>) -> (Vec<usize>, Vec<usize>, Vec<f64>) {
     let n = a.ncols();
+    let lower = (a.compute_nnz() + n) / 2;
     let mut col_ptr = Vec::with_capacity(n + 1);
-    let mut row_idx = Vec::new();
-    let mut val = Vec::new();
+    let mut row_idx = Vec::with_capacity(lower);
+    let mut val = Vec::with_capacity(lower);
     col_ptr.push(0);
     for j in 0..n {
         for (i, &v) in a
@@ -251,19 +252,49 @@ impl Triplets {
     }
 }
 
-/// a M + b K + E of full-storage matrices, entry by entry in that order (full storage).
+/// a M + b K + E of full-storage matrices, entry by entry in that order (full storage): each
+/// column the merge of the three sorted columns, an entry's terms summed as a M, then b K,
+/// then E, without a sort (the 0.76 M-DoF crank's coupled matrices have 0.3 G entries).
 pub fn linear_combination(a: f64, m: &Csc, b: f64, k: &Csc, e: Option<&Csc>) -> Csc {
-    let mut out = Triplets::default();
-    for (x, s) in [(Some(m), a), (Some(k), b), (e, 1.0)] {
-        let Some(x) = x else { continue };
-        for j in 0..x.ncols() {
-            let rows = x.symbolic().row_idx_of_col_raw(j);
-            for (&i, &v) in rows.iter().zip(x.val_of_col(j)) {
-                out.push(i, j, s * v);
+    let n = m.ncols();
+    let terms: Vec<(&Csc, f64)> = [(Some(m), a), (Some(k), b), (e, 1.0)]
+        .into_iter()
+        .filter_map(|(x, s)| x.map(|x| (x, s)))
+        .collect();
+    let bound: usize = terms.iter().map(|(x, _)| x.compute_nnz()).sum();
+    let mut col_ptr = Vec::with_capacity(n + 1);
+    let mut row_idx = Vec::with_capacity(bound);
+    let mut val = Vec::with_capacity(bound);
+    col_ptr.push(0);
+    let mut at = vec![0usize; terms.len()];
+    for j in 0..n {
+        let cols: Vec<(&[usize], &[f64])> = terms
+            .iter()
+            .map(|(x, _)| (x.symbolic().row_idx_of_col_raw(j), x.val_of_col(j)))
+            .collect();
+        at.iter_mut().for_each(|p| *p = 0);
+        // the next row: the least one not yet taken from any of the columns
+        while let Some(i) = cols
+            .iter()
+            .zip(&at)
+            .filter_map(|((r, _), &p)| r.get(p))
+            .min()
+        {
+            let i = *i;
+            let mut sum: Option<f64> = None;
+            for (((rows, vals), p), (_, scale)) in cols.iter().zip(at.iter_mut()).zip(&terms) {
+                if rows.get(*p) == Some(&i) {
+                    let v = scale * vals[*p];
+                    sum = Some(sum.map_or(v, |s| s + v));
+                    *p += 1;
+                }
             }
+            row_idx.push(i);
+            val.push(sum.unwrap_or(0.0));
         }
+        col_ptr.push(row_idx.len());
     }
-    out.into_csc(m.nrows(), false)
+    from_parts(n, n, col_ptr, row_idx, val)
 }
 
 #[cfg(test)]
@@ -302,5 +333,43 @@ mod tests {
         assert_eq!(full.to_dense(), dense);
         let (lcp, lri, lval) = lower_triangle(full.as_ref());
         assert_eq!((lcp, lri, lval), (col_ptr, row_idx, val));
+    }
+
+    /// a M + b K + E has the union pattern and, entry by entry, the dense sums in that order.
+    #[test]
+    fn linear_combination_is_the_dense_one_on_the_union_pattern() {
+        let mut rng = crate::random::Xorshift::new(5);
+        let n = 9;
+        let mut random = |density: f64| {
+            let mut t = Triplets::default();
+            for j in 0..n {
+                for i in j..n {
+                    if i == j || rng.next_centred() + 0.5 < density {
+                        t.push(i, j, rng.next_centred());
+                    }
+                }
+            }
+            t.into_csc(n, true)
+        };
+        let (m, k, e) = (random(0.3), random(0.5), random(0.2));
+        let (a, b) = (-0.7, 1.3);
+        let sum = linear_combination(a, &m, b, &k, Some(&e));
+        let (dm, dk, de) = (m.to_dense(), k.to_dense(), e.to_dense());
+        let ds = sum.to_dense();
+        for j in 0..n {
+            let rows = sum.symbolic().row_idx_of_col_raw(j);
+            assert!(rows.windows(2).all(|w| w[0] < w[1]), "column {j} sorted");
+            for i in 0..n {
+                let stored = rows.contains(&i);
+                let any = [&dm, &dk, &de].iter().any(|x| x[(i, j)] != 0.0);
+                assert_eq!(stored, any, "({i}, {j}) in the union pattern");
+                assert_eq!(ds[(i, j)], (a * dm[(i, j)] + b * dk[(i, j)]) + de[(i, j)]);
+            }
+        }
+        let without = linear_combination(a, &m, b, &k, None).to_dense();
+        assert_eq!(
+            without,
+            Mat::from_fn(n, n, |i, j| a * dm[(i, j)] + b * dk[(i, j)])
+        );
     }
 }
