@@ -27,9 +27,9 @@
 //! (I − τH) y = E₁R₀, has the residual (I − τOp) z − z₀ = −τ W y_last, whose norm
 //! |τ| ‖G^{1/2} y_last‖ (G = WᵀW) is known at every frequency from the k × k matrices alone;
 //! with H = XΛX⁻¹, y(τ) = X (I − τΛ)⁻¹ X⁻¹E₁R₀ costs O(kp) per frequency. The space grows
-//! until that estimate is ≤ [`GROW_TO`](crate::shifted_space::GROW_TO) relative to ‖z₀‖ at the frequencies asked; each
-//! response is then certified by its true residual b − A(iω)x with the exact pencil, as every
-//! response of the shifted space is.
+//! until that estimate is ≤ [`GROW_TO`](crate::shifted_space::GROW_TO) relative to ‖z₀‖ at
+//! the frequencies asked; each response is then certified by its true residual b − A(iω)x
+//! with the exact pencil, as every response of the shifted space is.
 //!
 //! Both halves of every basis vector lie in the span of one M-orthonormal basis Q of
 //! N-vectors (the second half of Op's image is a combination of its first half and of u):

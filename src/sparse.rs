@@ -267,11 +267,14 @@ pub fn linear_combination(a: f64, m: &Csc, b: f64, k: &Csc, e: Option<&Csc>) -> 
     let mut val = Vec::with_capacity(bound);
     col_ptr.push(0);
     let mut at = vec![0usize; terms.len()];
+    let mut cols: Vec<(&[usize], &[f64])> = Vec::with_capacity(terms.len());
     for j in 0..n {
-        let cols: Vec<(&[usize], &[f64])> = terms
-            .iter()
-            .map(|(x, _)| (x.symbolic().row_idx_of_col_raw(j), x.val_of_col(j)))
-            .collect();
+        cols.clear();
+        cols.extend(
+            terms
+                .iter()
+                .map(|(x, _)| (x.symbolic().row_idx_of_col_raw(j), x.val_of_col(j))),
+        );
         at.iter_mut().for_each(|p| *p = 0);
         // the next row: the least one not yet taken from any of the columns
         while let Some(i) = cols
