@@ -479,23 +479,33 @@ impl Pencil {
 
     /// The damping counterpart of a mass term `m` and a stiffness term `k` (the same
     /// operation applied to M and K, e.g. VᵀMV and VᵀKV, or MV and KV): 0 without damping,
-    /// α m + β k for Rayleigh damping, and `explicit()` (the operation applied to D through
-    /// [`Self::mul`] with [`Coefficient::Damping`]) for an explicit matrix. The one place
-    /// where the damping model is applied to products.
+    /// α m + β k for Rayleigh damping or an explicit D whose split is proportional (§3.12),
+    /// α m + β k plus `apply` with E for a low-rank remainder E = UÊUᵀ (a product on its DoFs J
+    /// alone), and `apply` with D's own product for any other D. `apply` performs the
+    /// operation given X ↦ D X (or E X). The one place where the damping model is applied to
+    /// products; the split's terms are D's to its rounding (§3.12).
     pub fn damping_term(
         &self,
         m: &Mat<f64>,
         k: &Mat<f64>,
-        explicit: impl FnOnce() -> Mat<f64>,
+        apply: impl FnOnce(&dyn Fn(MatRef<'_, f64>) -> Mat<f64>) -> Mat<f64>,
     ) -> Mat<f64> {
-        match self.d {
-            DampingValues::Zero => Mat::zeros(m.nrows(), m.ncols()),
-            DampingValues::Rayleigh { alpha, beta } => {
-                Mat::from_fn(m.nrows(), m.ncols(), |i, j| {
-                    alpha * m[(i, j)] + beta * k[(i, j)]
-                })
+        let proportional = |alpha: f64, beta: f64| {
+            Mat::from_fn(m.nrows(), m.ncols(), |i, j| {
+                alpha * m[(i, j)] + beta * k[(i, j)]
+            })
+        };
+        match (&self.d, &self.split) {
+            (DampingValues::Zero, _) => Mat::zeros(m.nrows(), m.ncols()),
+            (DampingValues::Rayleigh { alpha, beta }, _) => proportional(*alpha, *beta),
+            (DampingValues::Matrix(_), Split::Proportional(p)) => proportional(p.alpha, p.beta),
+            (DampingValues::Matrix(_), Split::LowRank(p, r)) => {
+                let e = apply(&|x| r.viscous_product(x));
+                proportional(p.alpha, p.beta) + e
             }
-            DampingValues::Matrix(_) => explicit(),
+            (DampingValues::Matrix(_), Split::General(..)) => {
+                apply(&|x| self.mul(Coefficient::Damping, x))
+            }
         }
     }
 
@@ -693,25 +703,80 @@ mod tests {
     /// A free 1×1×6 bar (N = 84) with damping `d`: Rayleigh, or an explicit D = a·M + b·K
     /// with its own values (mass-like diagonal shift so that D differs from both).
     fn model(explicit: bool, a: f64, b: f64) -> Model {
+        if explicit {
+            let diagonal = |i: usize, j: usize| if i == j { 0.5 } else { 0.0 };
+            return explicit_model([1, 1, 6], a, b, diagonal);
+        }
+        let mut m = bar([1, 1, 6]);
+        m.damping = Damping::Rayleigh { alpha: a, beta: b };
+        m
+    }
+
+    fn bar(elements: [usize; 3]) -> Model {
         let spec = BoxSpec {
-            elements: [1, 1, 6],
+            elements,
             ..BoxSpec::paper_bar()
         };
-        let mut m = bar_model(&spec).unwrap();
-        m.damping = if explicit {
-            let mut d = m.stiffness.clone();
-            let (mass, stiff) = (m.mass.to_dense(), m.stiffness.to_dense());
-            for j in 0..d.ncols() {
-                let rows = d.symbolic().row_idx_of_col_raw(j).to_vec();
-                for (v, i) in d.val_of_col_mut(j).iter_mut().zip(rows) {
-                    *v = a * mass[(i, j)] + b * stiff[(i, j)] + if i == j { 0.5 } else { 0.0 };
-                }
+        bar_model(&spec).unwrap()
+    }
+
+    /// The bar with `elements` and an explicit D = a·M + b·K + E on K's pattern, E's entries
+    /// `extra(i, j)`.
+    fn explicit_model(
+        elements: [usize; 3],
+        a: f64,
+        b: f64,
+        extra: impl Fn(usize, usize) -> f64,
+    ) -> Model {
+        let mut m = bar(elements);
+        let mut d = m.stiffness.clone();
+        let (mass, stiff) = (m.mass.to_dense(), m.stiffness.to_dense());
+        for j in 0..d.ncols() {
+            let rows = d.symbolic().row_idx_of_col_raw(j).to_vec();
+            for (v, i) in d.val_of_col_mut(j).iter_mut().zip(rows) {
+                *v = a * mass[(i, j)] + b * stiff[(i, j)] + extra(i, j);
             }
-            Damping::Matrix(d)
-        } else {
-            Damping::Rayleigh { alpha: a, beta: b }
-        };
+        }
+        m.damping = Damping::Matrix(d);
         m
+    }
+
+    /// The damping term of the operation X ↦ X x is D x to rounding whichever way the split
+    /// takes it: α M x + β K x for a proportional D, plus E x on J for a low-rank remainder,
+    /// D's own product otherwise.
+    #[test]
+    fn the_damping_term_is_the_product_with_d_for_every_split() {
+        let (a, b) = (3.0, 2e-5);
+        // a dashpot of 40 N·s/m between DoFs 0 and 3 (one element couples them)
+        let dashpot = |i: usize, j: usize| match (i, j) {
+            (0, 0) | (3, 3) => 40.0,
+            (0, 3) | (3, 0) => -40.0,
+            _ => 0.0,
+        };
+        let cases: [(&dyn Fn(usize, usize) -> f64, &str); 3] = [
+            (&|_, _| 0.0, "proportional"),
+            (&dashpot, "low rank"),
+            (&|i, j| if i == j { 0.5 } else { 0.0 }, "general"),
+        ];
+        for (extra, kind) in cases {
+            let model = explicit_model([2, 2, 10], a, b, extra);
+            let pencil = Pencil::new(&model);
+            let found = match pencil.split() {
+                Split::Proportional(_) => "proportional",
+                Split::LowRank(..) => "low rank",
+                Split::General(..) => "general",
+            };
+            assert_eq!(found, kind);
+            let n = model.n();
+            let x = Mat::from_fn(n, 3, |i, j| ((i * 7 + j * 13) % 17) as f64 - 8.0);
+            let (mx, kx) = (
+                pencil.mul(Coefficient::Mass, x.as_ref()),
+                pencil.mul(Coefficient::Stiffness, x.as_ref()),
+            );
+            let term = pencil.damping_term(&mx, &kx, |d| d(x.as_ref()));
+            let want = dense(&model, Coefficient::Damping) * &x;
+            assert!(rel(&term, &want) <= 1e-13, "{kind}: {}", rel(&term, &want));
+        }
     }
 
     fn dense(model: &Model, which: Coefficient) -> Mat<f64> {
@@ -806,10 +871,11 @@ mod tests {
                     }
                 }
             }
-            let (m, k) = (Mat::from_fn(2, 2, |i, j| (i + j) as f64), Mat::identity(2, 2));
-            let term = pencil.damping_term(&m, &k, || Mat::full(2, 2, 7.0));
-            let want = if explicit { Mat::full(2, 2, 7.0) } else { &m * a + &k * b };
-            prop_assert_eq!(term, want);
+            if !explicit {
+                let (m, k) = (Mat::from_fn(2, 2, |i, j| (i + j) as f64), Mat::identity(2, 2));
+                let term = pencil.damping_term(&m, &k, |_| Mat::full(2, 2, 7.0));
+                prop_assert_eq!(term, &m * a + &k * b);
+            }
         }
     }
 }

@@ -152,9 +152,8 @@ impl RigidBody {
         let mv0 = pencil.mul(Coefficient::Mass, v0.as_ref());
         let m0 = sym((v0.transpose() * &mv0).as_ref());
         // K V0 = 0 on a free body, so the stiffness part of Rayleigh damping drops out
-        let d0 = pencil.damping_term(&m0, &Mat::zeros(6, 6), || {
-            let dv0 = pencil.mul(Coefficient::Damping, v0.as_ref());
-            sym((v0.transpose() * dv0).as_ref())
+        let d0 = pencil.damping_term(&m0, &Mat::zeros(6, 6), |d| {
+            sym((v0.transpose() * d(v0.as_ref())).as_ref())
         });
         let llt = m0.llt(faer::Side::Lower).map_err(|_| {
             Error::InvalidModel(

@@ -73,9 +73,7 @@ pub fn project(body: &Body, scene: &Scene, v: MatRef<'_, f64>) -> Projected {
     let sym = |a: Mat<f64>| sym(a.as_ref());
     let mr = sym(v.transpose() * pencil.mul(Coefficient::Mass, v));
     let kr = sym(v.transpose() * pencil.mul(Coefficient::Stiffness, v));
-    let dr = pencil.damping_term(&mr, &kr, || {
-        sym(v.transpose() * pencil.mul(Coefficient::Damping, v))
-    });
+    let dr = pencil.damping_term(&mr, &kr, |d| sym(v.transpose() * d(v)));
     let k4r = pencil.structural_term(&kr, || {
         sym(v.transpose() * pencil.mul(Coefficient::Structural, v))
     });

@@ -37,7 +37,7 @@ impl Indicator {
         let pb = body.elastic_load(&rom.inputs);
         let mv = pencil.mul(Coefficient::Mass, v.as_ref());
         let kv = pencil.mul(Coefficient::Stiffness, v.as_ref());
-        let dv = pencil.damping_term(&mv, &kv, || pencil.mul(Coefficient::Damping, v.as_ref()));
+        let dv = pencil.damping_term(&mv, &kv, |d| d(v.as_ref()));
         let hv = pencil.structural_term(&kv, || pencil.mul(Coefficient::Structural, v.as_ref()));
         let blocks = [Some(&mv), Some(&dv), Some(&kv), hv.as_ref()];
         let blocks: Vec<&Mat<f64>> = blocks.into_iter().flatten().collect();
