@@ -35,7 +35,7 @@ use crate::factor::{
 use crate::linearized_space::LinearizedSpace;
 use crate::random::Xorshift;
 use crate::rigid::RigidBody;
-use crate::shifted_space::{ResponseSpace, Rows, ShiftedSpace, SolutionBuffers, ANSWERS, GROW_TO};
+use crate::shifted_space::{ResponseSpace, Rows, ShiftedSpace, SolutionBuffers, GROW_TO};
 pub use crate::shifted_space::{
     CERTIFIED_BACKWARD_ERROR, CERTIFIED_NORMWISE_BACKWARD_ERROR, CERTIFIED_RELATIVE_RESIDUAL,
 };
@@ -324,7 +324,17 @@ pub struct Solver<'a> {
 
 /// Rounds of growing the Krylov space for responses that failed their certificate (the
 /// target 100× tighter each round) before their frequencies are factored.
-const KRYLOV_ROUNDS: usize = 3;
+const KRYLOV_ROUNDS: usize = 4;
+
+/// The estimates a Krylov space is grown to, round by round, for the responses the sweep
+/// certifies: [`GROW_TO`], then 100× tighter for those whose certificate failed (§3.10).
+pub(crate) fn growth_targets() -> impl Iterator<Item = f64> {
+    (0..KRYLOV_ROUNDS).scan(GROW_TO, |t, _| {
+        let now = *t;
+        *t /= 100.0;
+        Some(now)
+    })
+}
 
 /// Why a frequency's response did not come from the Krylov space.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -544,8 +554,7 @@ impl<'a> Solver<'a> {
             let mut space = cell.lock().unwrap_or_else(|p| p.into_inner());
             // a response that fails its certificate asks for a larger space, with a target
             // 100× tighter each round, before its frequency is factored
-            let mut target = GROW_TO;
-            for _ in 0..KRYLOV_ROUNDS {
+            for target in growth_targets() {
                 let wanted: Vec<usize> = pending
                     .iter()
                     .copied()
@@ -573,7 +582,6 @@ impl<'a> Solver<'a> {
                         .filter(|&&(_, why)| why == Fallback::Factor)
                         .map(|&(k, _)| k),
                 );
-                target /= 100.0;
             }
         }
         pending.extend(factor_now);
@@ -974,7 +982,7 @@ impl<'a> Solver<'a> {
         }
         let wanted: Vec<f64> = freqs_hz.iter().copied().filter(|&f| f > 0.0).collect();
         // grown as far as the rows are answered, not to the certified responses' target
-        let cost = self.grow_space(&mut space, &wanted, ANSWERS)?;
+        let cost = self.grow_space(&mut space, &wanted, GROW_TO)?;
         self.accuracy
             .lock()
             .unwrap_or_else(|p| p.into_inner())
