@@ -457,23 +457,30 @@ impl Pencil {
         self.scatter_product(vals, x, y);
     }
 
-    /// y ← X x on the union pattern's lower triangle: each entry adds to two rows.
+    /// y ← X x on the union pattern's lower triangle: each entry adds to two rows. Row j,
+    /// whose columns left of j are summed when column j is reached, takes column j's entries
+    /// in registers and is stored once (the same sums in the same order as adding each to
+    /// y_j in memory).
     fn scatter_product<const W: usize>(&self, vals: &[f64], x: &[[f64; W]], y: &mut [[f64; W]]) {
         y.fill([0.0; W]);
         for j in 0..self.n {
             let xj = x[j];
             let range = self.col_ptr[j]..self.col_ptr[j + 1];
+            let mut own = y[j];
             for (&i, &a) in self.row_idx[range.clone()].iter().zip(&vals[range]) {
-                for c in 0..W {
-                    y[i][c] += a * xj[c];
-                }
-                if i != j {
+                if i == j {
+                    for c in 0..W {
+                        own[c] += a * xj[c];
+                    }
+                } else {
                     let xi = x[i];
                     for c in 0..W {
-                        y[j][c] += a * xi[c];
+                        y[i][c] += a * xj[c];
+                        own[c] += a * xi[c];
                     }
                 }
             }
+            y[j] = own;
         }
     }
 
