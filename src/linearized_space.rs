@@ -211,7 +211,9 @@ impl<'a> LinearizedSpace<'a> {
             .collect();
         let mut c = project_once(self.q.as_ref(), self.mq.as_ref(), &mut x, self.par);
         c += project_once(self.q.as_ref(), self.mq.as_ref(), &mut x, self.par);
-        let (qn, mqn, rn) = m_orthonormalize(self.pencil, x.as_ref(), None, &scale);
+        // M of what is left, in one blocked pass rather than one pass per column
+        let mx = self.pencil.mul(Coefficient::Mass, x.as_ref());
+        let (qn, mqn, rn) = m_orthonormalize(self.pencil, x.as_ref(), Some(mx.as_ref()), &scale);
         let e = qn.ncols();
         append_columns(
             [&mut self.q, &mut self.mq],
