@@ -760,7 +760,8 @@ mod tests {
             (0, 3) | (3, 0) => -40.0,
             _ => 0.0,
         };
-        let cases: [(&dyn Fn(usize, usize) -> f64, &str); 3] = [
+        type Extra<'a> = &'a dyn Fn(usize, usize) -> f64;
+        let cases: [(Extra, &str); 3] = [
             (&|_, _| 0.0, "proportional"),
             (&dashpot, "low rank"),
             (&|i, j| if i == j { 0.5 } else { 0.0 }, "general"),
