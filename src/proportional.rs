@@ -355,14 +355,14 @@ struct Fit {
 /// thresholds (no proportional part to speak of).
 fn fit(m: &[f64], k: &[f64], x: &[f64]) -> Result<Fit, Fit> {
     let fitted = sampled_fit(m, k, x).map_or_else(|| robust_fit(m, k, x), Ok);
-    let nonzero = || (0..x.len()).filter(|&q| x[q] != 0.0);
+    let nonzero = x.iter().filter(|&&v| v != 0.0).count();
     match fitted {
-        Ok(f) if f.outliers.len() <= nonzero().count() => Ok(f),
-        Err(f) if 2 * nonzero().count() >= x.len() => Err(f),
+        Ok(f) if f.outliers.len() <= nonzero => Ok(f),
+        Err(f) if 2 * nonzero >= x.len() => Err(f),
         _ => Ok(Fit {
             a: 0.0,
             b: 0.0,
-            outliers: nonzero().collect(),
+            outliers: (0..x.len()).filter(|&q| x[q] != 0.0).collect(),
         }),
     }
 }

@@ -329,11 +329,7 @@ const KRYLOV_ROUNDS: usize = 4;
 /// The estimates a Krylov space is grown to, round by round, for the responses the sweep
 /// certifies: [`GROW_TO`], then 100× tighter for those whose certificate failed (§3.10).
 pub(crate) fn growth_targets() -> impl Iterator<Item = f64> {
-    (0..KRYLOV_ROUNDS).scan(GROW_TO, |t, _| {
-        let now = *t;
-        *t /= 100.0;
-        Some(now)
-    })
+    (0..KRYLOV_ROUNDS).map(|round| GROW_TO / 100f64.powi(round as i32))
 }
 
 /// Why a frequency's response did not come from the Krylov space.
