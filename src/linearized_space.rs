@@ -414,6 +414,12 @@ impl ResponseSpace for LinearizedSpace<'_> {
         self.next_a.ncols() > 0 && self.dim() < self.max_dim
     }
 
+    /// Made about s₀ = √−σ > 0, a real shift of the linearization: never inside the
+    /// spectrum.
+    fn interior(&self) -> bool {
+        false
+    }
+
     fn block_solves(&self) -> usize {
         self.block_solves
     }

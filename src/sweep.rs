@@ -544,43 +544,21 @@ impl<'a> Solver<'a> {
             states: Mutex::new(Vec::new()),
         };
         let mut pending: Vec<usize> = (0..freqs_hz.len()).collect();
-        let mut factor_now = Vec::new();
         let mut space_cost = (0, 0);
         if let Some(cell) = &self.space {
             let mut space = cell.lock().unwrap_or_else(|p| p.into_inner());
-            // a response that fails its certificate asks for a larger space, with a target
-            // 100× tighter each round, before its frequency is factored
-            for target in growth_targets() {
-                let wanted: Vec<usize> = pending
-                    .iter()
-                    .copied()
-                    .filter(|&k| freqs_hz[k] > 0.0)
-                    .collect();
-                if wanted.is_empty() {
-                    break;
-                }
-                let f: Vec<f64> = wanted.iter().map(|&k| freqs_hz[k]).collect();
-                let cost = self.grow_space(&mut space, &f, target)?;
-                space_cost = (space_cost.0 + cost.0, space_cost.1 + cost.1);
-                let Space::Made(s) = &*space else {
-                    break;
-                };
-                let failed = self.phase(&run, &wanted, Some(s.as_ref()))?;
-                pending.retain(|k| !wanted.contains(k) || failed.iter().any(|(j, _)| j == k));
-                if !failed.iter().any(|&(_, why)| why == Fallback::Grow) || !s.can_grow() {
-                    break;
-                }
-                // only the frequencies a larger space may answer go round again
-                pending.retain(|k| !failed.contains(&(*k, Fallback::Factor)));
-                factor_now.extend(
-                    failed
-                        .iter()
-                        .filter(|&&(_, why)| why == Fallback::Factor)
-                        .map(|&(k, _)| k),
-                );
+            let mut factor = Vec::new();
+            let mut answer = |space: &mut Space<'a>| {
+                self.answer_from_space(&run, space, &mut pending, &mut factor, &mut space_cost)
+            };
+            // the space about line-fitting's interior shift gives way to one below the
+            // spectrum when its responses fail their certificates at every target (§3.10)
+            if answer(&mut space)? && matches!(&*space, Space::Made(s) if s.interior()) {
+                *space = Space::Unmade;
+                answer(&mut space)?;
             }
+            pending.extend(factor);
         }
-        pending.extend(factor_now);
         if !pending.is_empty() {
             self.phase(&run, &pending, None)?;
         }
@@ -606,6 +584,62 @@ impl<'a> Solver<'a> {
                 .collect(),
             stats,
         ))
+    }
+
+    /// Answers the frequencies `pending` (indices into the run's list) from the space, made by
+    /// the first call, growing it for the responses that fail their certificates with a
+    /// target 100× tighter each round ([`growth_targets`]): the answered leave `pending`,
+    /// those the space cannot answer move to `factor`. Returns whether some still fail their
+    /// certificates after the last round or with the space full (they stay in `pending`).
+    fn answer_from_space<S, I, F>(
+        &self,
+        run: &Run<'_, S, I, F>,
+        space: &mut Space<'a>,
+        pending: &mut Vec<usize>,
+        factor: &mut Vec<usize>,
+        cost: &mut (usize, usize),
+    ) -> Result<bool>
+    where
+        S: Send,
+        I: Fn() -> S + Sync,
+        F: Fn(&mut S, Snapshot<'_>) -> Result<()> + Sync,
+    {
+        for target in growth_targets() {
+            let wanted: Vec<usize> = pending
+                .iter()
+                .copied()
+                .filter(|&k| run.freqs_hz[k] > 0.0)
+                .collect();
+            if wanted.is_empty() {
+                return Ok(false);
+            }
+            let f: Vec<f64> = wanted.iter().map(|&k| run.freqs_hz[k]).collect();
+            let made = self.grow_space(space, &f, target)?;
+            *cost = (cost.0 + made.0, cost.1 + made.1);
+            let Space::Made(s) = &*space else {
+                return Ok(false);
+            };
+            let failed = self.phase(run, &wanted, Some(s.as_ref()))?;
+            pending.retain(|k| {
+                !wanted.contains(k)
+                    || failed
+                        .iter()
+                        .any(|&(j, why)| j == *k && why == Fallback::Grow)
+            });
+            factor.extend(
+                failed
+                    .iter()
+                    .filter(|&&(_, why)| why == Fallback::Factor)
+                    .map(|&(k, _)| k),
+            );
+            if !failed.iter().any(|&(_, why)| why == Fallback::Grow) {
+                return Ok(false);
+            }
+            if !s.can_grow() {
+                return Ok(true);
+            }
+        }
+        Ok(true)
     }
 
     /// Solves the frequencies `items` (indices into the run's list) on parallel workers:
