@@ -1214,6 +1214,19 @@ pub(crate) mod tests {
         (Body::new(&model).unwrap(), inputs)
     }
 
+    /// The damping of the tests about an interior shift.
+    const LIGHT: Damping = Damping::Rayleigh {
+        alpha: 0.0,
+        beta: 1e-5,
+    };
+
+    /// The body's 8th eigenvalue (rigid ones included).
+    fn eighth_eigenvalue(body: &Body) -> f64 {
+        let opts = crate::eigen::EigenOptions::default();
+        let modes = crate::eigen::eigenpairs(body, crate::eigen::Request::Lowest(8), &opts);
+        modes.unwrap().lambdas[7]
+    }
+
     /// a M + b K + the entries `extra` (full storage, both triangles given).
     fn combined(model: &Model, a: f64, b: f64, extra: &[(usize, usize, f64)]) -> Csc {
         let mut t = crate::sparse::Triplets::default();
@@ -1306,12 +1319,21 @@ pub(crate) mod tests {
         freqs: &[f64],
         method: SolveMethod,
     ) -> (Vec<Mat<c64>>, Vec<FreqStats>) {
-        let opts = SweepOptions {
+        let solver = Solver::new(body, inputs, Kind::Elastic, &one_thread(method)).unwrap();
+        solver_responses(&solver, freqs)
+    }
+
+    /// One thread and `method`, the sweep's defaults otherwise.
+    fn one_thread(method: SolveMethod) -> SweepOptions {
+        SweepOptions {
             threads: 1,
             method,
             ..SweepOptions::default()
-        };
-        let solver = Solver::new(body, inputs, Kind::Elastic, &opts).unwrap();
+        }
+    }
+
+    /// `solver`'s responses and stats at `freqs`.
+    fn solver_responses(solver: &Solver<'_>, freqs: &[f64]) -> (Vec<Mat<c64>>, Vec<FreqStats>) {
         let out = Mutex::new(vec![Mat::<c64>::zeros(0, 0); freqs.len()]);
         let (_, stats) = solver
             .run(
@@ -1520,9 +1542,7 @@ pub(crate) mod tests {
     #[test]
     fn an_eigenfrequency_next_to_an_interior_shift_is_not_answered() {
         let (body, inputs) = bar(Damping::None);
-        let opts = crate::eigen::EigenOptions::default();
-        let modes = crate::eigen::eigenpairs(&body, crate::eigen::Request::Lowest(8), &opts);
-        let lambda = modes.unwrap().lambdas[7];
+        let lambda = eighth_eigenvalue(&body);
         let fk = crate::units::lambda_to_hz(lambda);
         let sigma = lambda * (1.0 + 2e-6);
         let mut space =
@@ -1556,13 +1576,8 @@ pub(crate) mod tests {
     /// 1.6e-10…2.5e-9); the projection formed with K does not.
     #[test]
     fn an_interior_shift_next_to_an_eigenvalue_answers_the_band() {
-        let (body, inputs) = bar(Damping::Rayleigh {
-            alpha: 0.0,
-            beta: 1e-5,
-        });
-        let opts = crate::eigen::EigenOptions::default();
-        let modes = crate::eigen::eigenpairs(&body, crate::eigen::Request::Lowest(8), &opts);
-        let sigma = modes.unwrap().lambdas[7] * (1.0 + 1e-4);
+        let (body, inputs) = bar(LIGHT);
+        let sigma = eighth_eigenvalue(&body) * (1.0 + 1e-4);
         let mut space =
             ShiftedSpace::new(&body, body.elastic_load(&inputs), sigma, body.n(), Par::Seq)
                 .unwrap();
@@ -1583,36 +1598,22 @@ pub(crate) mod tests {
     /// factored, the responses equal factored ones.
     #[test]
     fn a_stalled_interior_space_gives_way_to_one_below_the_spectrum() {
-        let (body, inputs) = bar(Damping::Rayleigh {
-            alpha: 0.0,
-            beta: 1e-5,
-        });
-        let opts = crate::eigen::EigenOptions::default();
-        let modes = crate::eigen::eigenpairs(&body, crate::eigen::Request::Lowest(8), &opts);
-        let top = crate::units::lambda_to_hz(modes.unwrap().lambdas[7]) * (1.0 + 1e-6);
-        let opts = SweepOptions {
-            threads: 1,
-            ..SweepOptions::default()
-        };
-        let solver = Solver::new(&body, &inputs, Kind::Elastic, &opts).unwrap();
+        let (body, inputs) = bar(LIGHT);
+        let top = crate::units::lambda_to_hz(eighth_eigenvalue(&body)) * (1.0 + 1e-6);
+        let solver = Solver::new(
+            &body,
+            &inputs,
+            Kind::Elastic,
+            &one_thread(SolveMethod::Auto),
+        )
+        .unwrap();
         assert!(solver.count_below(top).unwrap().is_some());
         let freqs = [3.0, 117.0, 640.0];
-        let out = Mutex::new(vec![Mat::<c64>::zeros(0, 0); freqs.len()]);
-        let (_, stats) = solver
-            .run(
-                &freqs,
-                || (),
-                |_, s| {
-                    out.lock().unwrap()[s.index] = s.x.to_owned();
-                    Ok(())
-                },
-                &crate::sweep::no_progress,
-            )
-            .unwrap();
+        let (x, stats) = solver_responses(&solver, &freqs);
         assert!(stats.iter().all(FreqStats::from_space), "{stats:?}");
         assert_eq!(solver.accuracy().space_factorizations, 2);
         let (x0, _) = responses(&body, &inputs, &freqs, SolveMethod::Factored);
-        for ((x, x0), f) in out.into_inner().unwrap().iter().zip(&x0).zip(freqs) {
+        for ((x, x0), f) in x.iter().zip(&x0).zip(freqs) {
             let d = (x - x0).norm_l2() / x0.norm_l2();
             assert!(d <= 1e-8, "{f} Hz: relative difference {d:.2e}");
         }
