@@ -420,6 +420,10 @@ impl ResponseSpace for LinearizedSpace<'_> {
         false
     }
 
+    fn into_basis(self: Box<Self>) -> Mat<f64> {
+        self.q
+    }
+
     fn block_solves(&self) -> usize {
         self.block_solves
     }

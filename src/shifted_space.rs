@@ -215,6 +215,9 @@ pub(crate) trait ResponseSpace: Send + Sync {
     /// Vectors in the basis.
     fn dim(&self) -> usize;
 
+    /// The basis alone, the factor and the rest of the space dropped.
+    fn into_basis(self: Box<Self>) -> Mat<f64>;
+
     /// The space may still grow (it is neither invariant nor full).
     fn can_grow(&self) -> bool;
 
@@ -789,6 +792,10 @@ impl ResponseSpace for ShiftedSpace<'_> {
         self.sigma > 0.0
     }
 
+    fn into_basis(self: Box<Self>) -> Mat<f64> {
+        self.q
+    }
+
     /// Block solves with K − σM so far.
     fn block_solves(&self) -> usize {
         self.block_solves
@@ -1320,7 +1327,8 @@ pub(crate) mod tests {
         method: SolveMethod,
     ) -> (Vec<Mat<c64>>, Vec<FreqStats>) {
         let solver = Solver::new(body, inputs, Kind::Elastic, &one_thread(method)).unwrap();
-        solver_responses(&solver, freqs)
+        let (x, _, stats) = solver_responses(&solver, freqs);
+        (x, stats)
     }
 
     /// One thread and `method`, the sweep's defaults otherwise.
@@ -1332,21 +1340,25 @@ pub(crate) mod tests {
         }
     }
 
-    /// `solver`'s responses and stats at `freqs`.
-    fn solver_responses(solver: &Solver<'_>, freqs: &[f64]) -> (Vec<Mat<c64>>, Vec<FreqStats>) {
-        let out = Mutex::new(vec![Mat::<c64>::zeros(0, 0); freqs.len()]);
+    /// `solver`'s responses at `freqs`, whether each came with coefficients, and the stats.
+    fn solver_responses(
+        solver: &Solver<'_>,
+        freqs: &[f64],
+    ) -> (Vec<Mat<c64>>, Vec<bool>, Vec<FreqStats>) {
+        let out = Mutex::new(vec![(Mat::<c64>::zeros(0, 0), false); freqs.len()]);
         let (_, stats) = solver
             .run(
                 freqs,
                 || (),
                 |_, s| {
-                    out.lock().unwrap()[s.index] = s.x.to_owned();
+                    out.lock().unwrap()[s.index] = (s.x.to_owned(), s.coefficients.is_some());
                     Ok(())
                 },
                 &crate::sweep::no_progress,
             )
             .unwrap();
-        (out.into_inner().unwrap(), stats)
+        let (x, spanned) = out.into_inner().unwrap().into_iter().unzip();
+        (x, spanned, stats)
     }
 
     /// The largest relative difference (Frobenius) between the Krylov space's certified
@@ -1595,7 +1607,8 @@ pub(crate) mod tests {
     /// The sweep's space made about a band top a millionth above an eigenfrequency (as
     /// line-fitting's count makes it) fails its certificates at every target; the sweep then
     /// answers from a space below the spectrum: two factorizations in all, no frequency
-    /// factored, the responses equal factored ones.
+    /// factored, the responses equal factored ones and handed out whole (kept snapshots'
+    /// coefficients refer to the first space's basis, which stays).
     #[test]
     fn a_stalled_interior_space_gives_way_to_one_below_the_spectrum() {
         let (body, inputs) = bar(LIGHT);
@@ -1609,9 +1622,14 @@ pub(crate) mod tests {
         .unwrap();
         assert!(solver.count_below(top).unwrap().is_some());
         let freqs = [3.0, 117.0, 640.0];
-        let (x, stats) = solver_responses(&solver, &freqs);
+        let (x, spanned, stats) = solver_responses(&solver, &freqs);
         assert!(stats.iter().all(FreqStats::from_space), "{stats:?}");
         assert_eq!(solver.accuracy().space_factorizations, 2);
+        // the replaced space's basis is the one coefficients refer to, so the new space's
+        // responses come whole
+        assert!(spanned.iter().all(|&s| !s));
+        let kept = solver.with_basis(|q| q.map(|q| q.ncols()));
+        assert!(kept.is_some_and(|k| k != stats[0].space_dim), "{kept:?}");
         let (x0, _) = responses(&body, &inputs, &freqs, SolveMethod::Factored);
         for ((x, x0), f) in x.iter().zip(&x0).zip(freqs) {
             let d = (x - x0).norm_l2() / x0.norm_l2();

@@ -296,8 +296,9 @@ pub struct Snapshot<'a> {
     pub freq_hz: f64,
     /// Full-state response X (N × p).
     pub x: MatRef<'a, c64>,
-    /// X = Q c in the basis Q of the solver's shifted Krylov space, when the space answered
-    /// ([`Solver::with_basis`], docs/design.md §3.10): c (k × p).
+    /// X = Q c in the basis Q of [`Solver::with_basis`], when the solver's shifted Krylov
+    /// space answered and Q is its basis (not after the sweep replaced that space,
+    /// docs/design.md §3.10): c (k × p).
     pub coefficients: Option<MatRef<'a, c64>>,
 }
 
@@ -320,6 +321,10 @@ pub struct Solver<'a> {
     /// The shifted Krylov space ([`SolveMethod::Auto`] on a proportionally damped body; made
     /// by the first run that has a frequency > 0); `None` when every frequency is factored.
     space: Option<Mutex<Space<'a>>>,
+    /// The basis of the space about line-fitting's interior shift once the sweep replaced
+    /// that space (§3.10; its factor dropped): the coefficients of the responses it answered
+    /// refer to it ([`Self::with_basis`]); its successor's responses are handed out whole.
+    retired: Mutex<Option<Mat<f64>>>,
 }
 
 /// Rounds of growing the Krylov space for responses that failed their certificate (the
@@ -449,6 +454,7 @@ impl<'a> Solver<'a> {
                 .map(|rb| (rb.supports(), body.pencil().stiffness_diagonal_max())),
             accuracy: Mutex::new(SolveAccuracy::default()),
             space: space_applies(body, response, opts).then(|| Mutex::new(Space::Unmade)),
+            retired: Mutex::new(None),
         })
     }
 
@@ -554,7 +560,10 @@ impl<'a> Solver<'a> {
             // the space about line-fitting's interior shift gives way to one below the
             // spectrum when its responses fail their certificates at every target (§3.10)
             if answer(&mut space)? && matches!(&*space, Space::Made(s) if s.interior()) {
-                *space = Space::Unmade;
+                if let Space::Made(old) = std::mem::replace(&mut *space, Space::Unmade) {
+                    *self.retired.lock().unwrap_or_else(|p| p.into_inner()) =
+                        Some(old.into_basis());
+                }
                 answer(&mut space)?;
             }
             pending.extend(factor);
@@ -693,6 +702,12 @@ impl<'a> Solver<'a> {
             states.resize_with(len, || None);
         }
         let failed = Mutex::new(Vec::new());
+        // coefficients refer to the basis of `with_basis`: none once the space was replaced
+        let spanned = self
+            .retired
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .is_none();
         let worker = |w: usize| {
             let mut state = run.states.lock().unwrap_or_else(|p| p.into_inner())[w]
                 .take()
@@ -714,7 +729,7 @@ impl<'a> Solver<'a> {
                                 index: k,
                                 freq_hz: f,
                                 x: spaced.x(),
-                                coefficients: Some(r.coefficients.as_ref()),
+                                coefficients: spanned.then(|| r.coefficients.as_ref()),
                             },
                         )
                         .map(|()| Some(st)),
@@ -974,8 +989,12 @@ impl<'a> Solver<'a> {
     }
 
     /// Calls `f` with the basis Q of this solver's shifted Krylov space (N × k, the one
-    /// [`Snapshot::coefficients`] refer to), or with `None` when it has none.
+    /// [`Snapshot::coefficients`] refer to; the replaced space's once the sweep replaced it),
+    /// or with `None` when it has none.
     pub(crate) fn with_basis<R>(&self, f: impl FnOnce(Option<MatRef<'_, f64>>) -> R) -> R {
+        if let Some(q) = &*self.retired.lock().unwrap_or_else(|p| p.into_inner()) {
+            return f(Some(q.as_ref()));
+        }
         let Some(cell) = &self.space else {
             return f(None);
         };
