@@ -62,9 +62,9 @@
 //! the mode nearest μ, with the rounding of τ in it ([`amplification`]), and a caller factors
 //! such a frequency instead.
 //!
-//! Cost: one real factorization (a quarter of a complex one's flops) and one block
-//! solve and one product with K per block of the basis; per frequency a k × p solve, the product Q y (O(N k p)) and
-//! the certificate (one pass over the pattern). Memory: Q and MQ, 16 N k bytes, and per worker
+//! Cost: one real factorization (a quarter of a complex one's flops), and one block solve
+//! and one product with K per block of the basis; per frequency a k × p solve, the product
+//! Q y (O(N k p)) and the certificate (one pass over the pattern). Memory: Q and MQ, 16 N k bytes, and per worker
 //! the blocks of one response ([`SolutionBuffers`], kept from one frequency to the next).
 //!
 //! The shift-invariant Krylov space for shifted systems: Freund, "Solution of shifted linear
@@ -547,16 +547,16 @@ impl<'a> ShiftedSpace<'a> {
             1.0,
             self.par,
         );
+        // both triangles (the eigensolver reads the lower one)
         self.kq.resize_with(kn, kn, |_, _| 0.0);
-        for j in 0..kn - k {
-            for i in 0..k {
-                self.kq[(i, k + j)] = cross[(i, j)];
-                self.kq[(k + j, i)] = cross[(i, j)];
-            }
-            for i in 0..kn - k {
-                self.kq[(k + i, k + j)] = 0.5 * (cross[(k + i, j)] + cross[(k + j, i)]);
-            }
-        }
+        self.kq
+            .as_mut()
+            .submatrix_mut(0, k, kn, kn - k)
+            .copy_from(&cross);
+        self.kq
+            .as_mut()
+            .submatrix_mut(k, 0, kn - k, kn)
+            .copy_from(cross.transpose());
         let p = self.load.ncols();
         let mut qbn = Mat::<f64>::zeros(kn - k, self.qb.ncols());
         matmul(
@@ -569,14 +569,11 @@ impl<'a> ShiftedSpace<'a> {
         );
         if let Some(r) = self.remainder {
             // U = P_J W: its products from the rows J alone
-            for (i, &d) in r.dofs.iter().enumerate() {
-                for c in 0..r.rank() {
-                    let w = r.basis[(i, c)];
-                    for a in 0..kn - k {
-                        qbn[(a, p + c)] += qn[(d, a)] * w;
-                    }
-                }
-            }
+            let qj = Mat::<f64>::from_fn(r.dofs.len(), kn - k, |i, a| qn[(r.dofs[i], a)]);
+            let uq = r.basis.transpose() * &qj;
+            qbn.as_mut()
+                .subcols_mut(p, r.rank())
+                .copy_from(uq.transpose());
         }
         let cols = self.qb.ncols();
         self.qb.resize_with(kn, cols, |i, j| qbn[(i - k, j)]);
