@@ -32,10 +32,9 @@
 //! unit loads at the pivots is C A⁻¹ Cᵀ: the functionals' transfer function, exactly. Nothing
 //! is dense but the r × |support| block of the rows.
 
-use crate::sparse::{from_parts, lower_triangle, mirror_lower, Csc};
+use crate::sparse::{from_parts, Csc};
 use crate::{Error, Result};
 use faer::linalg::solvers::Solve;
-use faer::Par;
 
 /// How a remote point is tied to its nodes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -458,32 +457,194 @@ fn from_columns(rows: usize, cols: Vec<Vec<(usize, f64)>>) -> Csc {
     from_parts(rows, ptr.len() - 1, ptr, idx, val)
 }
 
-/// TᵀAT of a symmetric A, exactly symmetric: the lower triangle of the product, mirrored.
+/// TᵀAT of a symmetric A (N × N, both triangles stored) and T (N × n), exactly symmetric:
+/// its lower triangle is computed and mirrored (docs/design.md §3.11).
+///
+/// Column j of the lower triangle is (Tᵀ y)_{i ≥ j} with y = A t_j: y is gathered from the
+/// columns of A that t_j touches, then every entry y_r is spread along row r of T from
+/// column j on. Both steps accumulate in dense scratch vectors with a list of the entries
+/// touched, so the work is the number of products that reach the lower triangle and no
+/// intermediate matrix (A T, or the full product) is formed. Columns are computed in
+/// chunks on the current thread pool; each column's sums run in one fixed order, so the
+/// result does not depend on the number of threads.
 ///
 /// # Errors
-/// [`Error::Factor`] when the product's storage cannot be allocated.
+/// [`Error::InvalidSetting`] when the sizes disagree; [`Error::Factor`] when T's row
+/// storage cannot be formed.
 pub fn congruence(a: &Csc, t: &Csc) -> Result<Csc> {
-    let product = |l: faer::sparse::SparseColMatRef<'_, usize, f64>,
-                   r: faer::sparse::SparseColMatRef<'_, usize, f64>| {
-        faer::sparse::linalg::matmul::sparse_sparse_matmul(l, r, 1.0, Par::Seq)
-            .map_err(|e| Error::Factor(format!("coupled model: {e:?}")))
-    };
-    let at = product(a.as_ref(), t.as_ref())?;
-    let tt = t
+    congruence_in_chunks(a, t, 1024)
+}
+
+/// [`congruence`] with the columns computed `chunk` at a time.
+fn congruence_in_chunks(a: &Csc, t: &Csc, chunk: usize) -> Result<Csc> {
+    use rayon::prelude::*;
+    let (n, m) = (t.nrows(), t.ncols());
+    if a.nrows() != n || a.ncols() != n {
+        return Err(Error::InvalidSetting(format!(
+            "coupled model: a {} x {} matrix and a change of variables of {n} rows",
+            a.nrows(),
+            a.ncols()
+        )));
+    }
+    // T by rows: column r of Tᵀ holds row r of T, its columns increasing
+    let rows_of_t = t
         .as_ref()
         .transpose()
         .to_col_major()
         .map_err(|e| Error::Factor(format!("coupled model: {e:?}")))?;
-    let tat = product(tt.as_ref(), at.as_ref())?;
-    drop(at);
-    // faer's product has sorted columns, so its lower triangle mirrors into sorted full
-    // storage without a sort
-    let n = tat.ncols();
-    let (col_ptr, row_idx, val) = lower_triangle(tat.as_ref());
-    drop(tat);
-    let (full_ptr, full_row, src) = mirror_lower(n, &col_ptr, &row_idx);
-    let full_val = src.iter().map(|&p| val[p]).collect();
-    Ok(from_parts(n, n, full_ptr, full_row, full_val))
+    let (a, t, tr) = (a.as_ref(), t.as_ref(), rows_of_t.as_ref());
+    let chunks: Vec<Lower> = (0..m.div_ceil(chunk))
+        .into_par_iter()
+        .map_init(
+            || Scratch::new(n, m),
+            |s, c| {
+                let mut out = Lower::new(c * chunk);
+                for j in c * chunk..((c + 1) * chunk).min(m) {
+                    s.column(a, t, tr, j, &mut out);
+                }
+                out.rows.shrink_to_fit();
+                out.vals.shrink_to_fit();
+                out
+            },
+        )
+        .collect();
+    Ok(mirrored(m, chunks))
+}
+
+/// The full storage of the symmetric m × m matrix whose lower triangle's columns are those
+/// of `chunks` in order: each entry (i, j), i > j, is also put at (j, i). Column c receives
+/// the rows j < c from the columns before it, in increasing j, and then its own rows ≥ c,
+/// so every column comes out sorted. Each chunk is freed once it is spread.
+fn mirrored(m: usize, chunks: Vec<Lower>) -> Csc {
+    let mut ptr = vec![0usize; m + 1];
+    for (j, rows, _) in chunks.iter().flat_map(Lower::columns) {
+        ptr[j + 1] += rows.len();
+        for &i in rows.iter().filter(|&&i| i != j) {
+            ptr[i + 1] += 1;
+        }
+    }
+    for j in 0..m {
+        ptr[j + 1] += ptr[j];
+    }
+    let mut next = ptr[..m].to_vec();
+    let (mut row_idx, mut val) = (vec![0usize; ptr[m]], vec![0.0; ptr[m]]);
+    for chunk in chunks {
+        for (j, rows, vals) in chunk.columns() {
+            for (&i, &v) in rows.iter().zip(vals) {
+                (row_idx[next[j]], val[next[j]]) = (i, v);
+                next[j] += 1;
+                if i != j {
+                    (row_idx[next[i]], val[next[i]]) = (j, v);
+                    next[i] += 1;
+                }
+            }
+        }
+    }
+    from_parts(m, m, ptr, row_idx, val)
+}
+
+/// Consecutive columns of a lower triangle, from column `first`: each column's end in
+/// `rows`/`vals`.
+struct Lower {
+    first: usize,
+    ends: Vec<usize>,
+    rows: Vec<usize>,
+    vals: Vec<f64>,
+}
+
+impl Lower {
+    fn new(first: usize) -> Self {
+        Lower {
+            first,
+            ends: Vec::new(),
+            rows: Vec::new(),
+            vals: Vec::new(),
+        }
+    }
+
+    /// (column, rows, values) of each column.
+    fn columns(&self) -> impl Iterator<Item = (usize, &[usize], &[f64])> {
+        (0..self.ends.len()).map(move |k| {
+            let range = if k == 0 { 0 } else { self.ends[k - 1] }..self.ends[k];
+            (self.first + k, &self.rows[range.clone()], &self.vals[range])
+        })
+    }
+}
+
+/// A sparse vector accumulated in dense storage: the values, the entries touched (in the
+/// order first touched) and, per entry, the column that touched it last (`usize::MAX`:
+/// none yet), so that starting the next column costs nothing.
+struct Accumulator {
+    val: Vec<f64>,
+    mark: Vec<usize>,
+    touched: Vec<usize>,
+}
+
+impl Accumulator {
+    fn new(n: usize) -> Self {
+        Accumulator {
+            val: vec![0.0; n],
+            mark: vec![usize::MAX; n],
+            touched: Vec::new(),
+        }
+    }
+
+    /// Entry i += v, for column j.
+    fn add(&mut self, i: usize, v: f64, j: usize) {
+        if self.mark[i] != j {
+            self.mark[i] = j;
+            self.val[i] = 0.0;
+            self.touched.push(i);
+        }
+        self.val[i] += v;
+    }
+}
+
+/// One thread's accumulators for [`congruence`]: y = A t_j over A's rows and z = Tᵀy over
+/// T's columns.
+struct Scratch {
+    y: Accumulator,
+    z: Accumulator,
+}
+
+impl Scratch {
+    fn new(n: usize, m: usize) -> Self {
+        Scratch {
+            y: Accumulator::new(n),
+            z: Accumulator::new(m),
+        }
+    }
+
+    /// Appends column j of the lower triangle of TᵀAT to `out` (`tr` = T by rows).
+    fn column(
+        &mut self,
+        a: faer::sparse::SparseColMatRef<'_, usize, f64>,
+        t: faer::sparse::SparseColMatRef<'_, usize, f64>,
+        tr: faer::sparse::SparseColMatRef<'_, usize, f64>,
+        j: usize,
+        out: &mut Lower,
+    ) {
+        let (y, z) = (&mut self.y, &mut self.z);
+        y.touched.clear();
+        for (k, &tkj) in t.row_idx_of_col(j).zip(t.val_of_col(j)) {
+            for (r, &ark) in a.row_idx_of_col(k).zip(a.val_of_col(k)) {
+                y.add(r, ark * tkj, j);
+            }
+        }
+        z.touched.clear();
+        let (idx, val) = (tr.row_idx(), tr.val());
+        for &r in &y.touched {
+            let range = tr.col_range(r);
+            let from = range.start + idx[range.clone()].partition_point(|&i| i < j);
+            for (&i, &tri) in idx[from..range.end].iter().zip(&val[from..range.end]) {
+                z.add(i, tri * y.val[r], j);
+            }
+        }
+        z.touched.sort_unstable();
+        out.rows.extend_from_slice(&z.touched);
+        out.vals.extend(z.touched.iter().map(|&i| z.val[i]));
+        out.ends.push(out.rows.len());
+    }
 }
 
 #[cfg(test)]
@@ -543,6 +704,56 @@ mod tests {
             nodes: set,
             weights: Vec::new(),
             kind,
+        }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(32))]
+        /// TᵀAT equals the dense product to rounding and is exactly symmetric, for a random
+        /// symmetric A and a random T with the shapes couplings give: unit columns, dense
+        /// rows (a pivot's) and long columns (a rigid point's), computed in chunks of any size.
+        #[test]
+        fn congruence_is_the_dense_product(
+            n in 1usize..40,
+            m in 1usize..30,
+            density in 0.02f64..0.5,
+            dense_row in proptest::prelude::any::<bool>(),
+            chunk in 1usize..8,
+            seed in 1u64..1000,
+        ) {
+            let mut rng = crate::random::Xorshift::new(seed);
+            let mut a = crate::sparse::Triplets::default();
+            for j in 0..n {
+                a.push(j, j, 4.0 + rng.next_centred());
+                for i in j + 1..n {
+                    if rng.next_centred() + 0.5 < density {
+                        a.push(i, j, rng.next_centred());
+                    }
+                }
+            }
+            let a = a.into_csc(n, true);
+            let cols = (0..m)
+                .map(|j| {
+                    let mut c = Vec::new();
+                    for i in 0..n {
+                        if i == j % n || rng.next_centred() + 0.5 < density {
+                            c.push((i, rng.next_centred()));
+                        }
+                    }
+                    if dense_row && j % 2 == 0 && !c.iter().any(|e| e.0 == n - 1) {
+                        c.push((n - 1, 1.0 + rng.next_centred()));
+                    }
+                    c
+                })
+                .collect();
+            let t = from_columns(n, cols);
+            let got = congruence_in_chunks(&a, &t, chunk).unwrap();
+            let (ad, td) = (dense(&a), dense(&t));
+            let want = td.transpose() * &ad * &td;
+            let g = dense(&got);
+            let scale = want.norm_max().max(f64::MIN_POSITIVE);
+            proptest::prop_assert!((&g - &want).norm_max() <= 1e-14 * scale * n as f64);
+            proptest::prop_assert_eq!(&g, &g.transpose().to_owned());
         }
     }
 
