@@ -73,6 +73,16 @@ pub fn hz_list(freqs: &[f64], decimals: usize, sep: &str) -> String {
         .join(sep)
 }
 
+/// A memory budget given in GB (`--memory-gb`), in bytes: a finite number above 0.
+pub fn gigabytes(s: &str) -> std::result::Result<usize, String> {
+    match s.trim().parse::<f64>() {
+        Ok(g) if g.is_finite() && g > 0.0 => Ok((g * 1e9) as usize),
+        _ => Err(format!(
+            "{s:?} is no memory budget: give the GB as a number above 0, e.g. 8"
+        )),
+    }
+}
+
 /// 1234567 → "1.2 MB".
 pub fn human_bytes(b: f64) -> String {
     let units = ["B", "kB", "MB", "GB", "TB"];

@@ -31,10 +31,16 @@ pub struct ModesArgs {
     /// Worker threads (0 = all cores).
     #[arg(long, default_value_t = 0)]
     threads: usize,
+    /// Memory budget of the run in GB: a shift's real factor that does not fit what the run
+    /// has not used of it is kept on disk, in the temporary directory, and slices run at once
+    /// as far as their bases fit half of it (default: what is available).
+    #[arg(long, value_parser = super::args::gigabytes)]
+    memory_gb: Option<usize>,
 }
 
 pub fn modes(a: &ModesArgs) -> Result<()> {
     let (body, scene) = model_dir::read_body(&a.model)?;
+    let body = body.with_memory_budget(a.memory_gb);
     let req = match (&a.band, a.count) {
         (Some(b), _) => {
             let b = parse_band(b)?;
@@ -47,6 +53,7 @@ pub fn modes(a: &ModesArgs) -> Result<()> {
         slice_size: a.slice_size,
         block: a.block,
         threads: a.threads,
+        memory_budget: a.memory_gb,
         ..EigenOptions::for_band(scene.band_hz[1])
     };
     let t = Instant::now();

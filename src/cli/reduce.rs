@@ -90,8 +90,8 @@ pub struct ReduceArgs {
     /// exceeds it); a real factor (the shifted space's, Craig–Bampton's) that does not fit
     /// what the run has not used of it (default: what is available) is kept on disk, in
     /// the temporary directory.
-    #[arg(long)]
-    memory_gb: Option<f64>,
+    #[arg(long, value_parser = super::args::gigabytes)]
+    memory_gb: Option<usize>,
     /// How line-fitting's responses are computed: auto (one shifted Krylov space when the
     /// damping is proportional, each response certified by its residual; docs/design.md
     /// §3.10) or factor (factor A(iω) at every frequency).
@@ -123,7 +123,7 @@ impl ReduceArgs {
                 e => e,
             })?,
             out_of_core: self.out_of_core.clone(),
-            memory_budget: self.memory_gb.map(|g| (g * 1e9) as usize),
+            memory_budget: self.memory_gb,
             probe_tol: self.probe_tol,
             method: self.solve.parse().map_err(|e| match e {
                 Error::InvalidSetting(m) => Error::InvalidSetting(format!("--solve: {m}")),
@@ -144,7 +144,7 @@ pub fn reduce(a: &ReduceArgs, cluster: Option<Arc<dyn Cluster>>) -> Result<Done>
         names,
         ..
     } = model_dir::load(&a.model)?;
-    let body = Body::new(&model)?.with_memory_budget(a.memory_gb.map(|g| (g * 1e9) as usize));
+    let body = Body::new(&model)?.with_memory_budget(a.memory_gb);
     drop(model); // the body holds the matrices (its pencil): 1.3 GB less on a 10⁶-DoF model
     let reductor = reductor(a, &names, &scene, cluster.clone())?;
     let t = Instant::now();

@@ -40,8 +40,8 @@ pub struct SweepArgs {
     #[arg(long, default_value = "auto")]
     backend: String,
     /// Memory budget for concurrent factorizations in GB (default: half of available).
-    #[arg(long)]
-    memory_gb: Option<f64>,
+    #[arg(long, value_parser = super::args::gigabytes)]
+    memory_gb: Option<usize>,
     /// Keep each factorization's factors in this directory instead of memory (backend mumps;
     /// every frequency is then factored); its files are deleted when the sweep ends.
     #[arg(long)]
@@ -78,7 +78,7 @@ impl SweepArgs {
         let opts = SweepOptions {
             threads: self.threads,
             backend: self.backend.parse().map_err(|e| flag("backend", e))?,
-            memory_budget: self.memory_gb.map(|g| (g * 1e9) as usize),
+            memory_budget: self.memory_gb,
             probe_tol: self.probe_tol,
             method: self.solve.parse().map_err(|e| flag("solve", e))?,
             out_of_core: self.out_of_core.clone(),

@@ -319,6 +319,25 @@ fn generate_refuses_a_non_empty_output_directory() {
     assert_eq!(entries(&work), ["out"]);
 }
 
+/// A memory budget that is not a number above 0 is refused by name, by every command that
+/// takes one, before any work (the model here does not exist). `NaN` used to run with a
+/// budget of 0 bytes and fail later with an unrelated least-squares message.
+#[test]
+fn a_memory_budget_must_be_a_number_above_zero() {
+    let work = scratch("memory_budget");
+    for budget in ["nan", "0", "inf", "8GB"] {
+        for command in [
+            &["reduce", "none", "--method", "linefit", "--out", "o"][..],
+            &["sweep", "none", "--freqs", "100", "--out", "o.csv"],
+            &["modes", "none"],
+        ] {
+            let mut args = command.to_vec();
+            args.extend(["--memory-gb", budget]);
+            fails(&work, &args, &["--memory-gb", "no memory budget"]);
+        }
+    }
+}
+
 /// `reduce` and `report` check their output directory before any work: the model here does
 /// not even exist, and the error is about the directory (a 10⁶-DoF reduction used to fail
 /// only after its minutes of work).
