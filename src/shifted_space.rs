@@ -1526,7 +1526,12 @@ pub(crate) mod tests {
                 ShiftedSpace::new(&body, body.elastic_load(&inputs), sigma, body.n(), Par::Seq)
                     .unwrap();
             let sym = body.symbolic().unwrap();
-            let own = crate::factor::count_eigenvalues_below_with(&sym, body.pencil(), sigma);
+            let own = crate::factor::count_eigenvalues_below_with(
+                &sym,
+                body.pencil(),
+                sigma,
+                crate::factor::Storage::IN_CORE,
+            );
             assert_eq!(space.below(), own.unwrap(), "{what}: count");
             assert!(space.below() > 6 + 2, "{what}: {} below", space.below());
             let (x0, _) = responses(&body, &inputs, &freqs, SolveMethod::Factored);

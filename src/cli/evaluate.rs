@@ -5,7 +5,7 @@ use super::args::{hz, hz_list, parse_band};
 use super::progress::{rank0_share, with_progress, with_slice_progress};
 use sparsemor::eigen::{eigenpairs_with_progress, EigenOptions, Request};
 use sparsemor::engine::Cluster;
-use sparsemor::factor::count_eigenvalues_below_with;
+use sparsemor::factor::{count_eigenvalues_below_with, Storage};
 use sparsemor::grid::linspace;
 use sparsemor::io::{atomic, model_dir, rom_dir};
 use sparsemor::metrics::{
@@ -105,8 +105,12 @@ pub fn evaluate(a: &EvaluateArgs, cluster: Option<Arc<dyn Cluster>>) -> Result<(
     if a.no_modes {
         println!("modes            not computed (--no-modes)");
     } else {
-        let in_band =
-            count_eigenvalues_below_with(&body.symbolic()?, body.pencil(), hz_to_lambda(band[1]))?;
+        let in_band = count_eigenvalues_below_with(
+            &body.symbolic()?,
+            body.pencil(),
+            hz_to_lambda(band[1]),
+            Storage::available(),
+        )?;
         if in_band > a.max_modes {
             println!(
                 "modes            not computed: {in_band} modes up to {} Hz exceed --max-modes {}",

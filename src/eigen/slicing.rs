@@ -128,7 +128,12 @@ impl<'b> Slicer<'b> {
             // relative, alternating sides
             let (mut bound, mut tries) = (l, 0);
             let r = loop {
-                match count_eigenvalues_below_with(&self.sym, self.body.pencil(), bound) {
+                match count_eigenvalues_below_with(
+                    &self.sym,
+                    self.body.pencil(),
+                    bound,
+                    self.body.factor_storage(),
+                ) {
                     Err(Error::Singular { .. }) if tries < 3 => {
                         tries += 1;
                         let side = if tries % 2 == 1 { 1.0 } else { -1.0 };

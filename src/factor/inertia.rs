@@ -31,11 +31,17 @@ use std::sync::Arc;
 /// [`Error::Factor`] when the analysis fails; [`Error::Singular`] when σ is an eigenvalue
 /// to working precision (a zero pivot: the count would be ambiguous).
 pub fn count_eigenvalues_below(pencil: &Pencil, sigma: f64) -> Result<usize> {
-    count_eigenvalues_below_with(&Arc::new(symbolic_cholesky(pencil)?), pencil, sigma)
+    count_eigenvalues_below_with(
+        &Arc::new(symbolic_cholesky(pencil)?),
+        pencil,
+        sigma,
+        Storage::available(),
+    )
 }
 
 /// [`count_eigenvalues_below`] on an existing [`symbolic_cholesky`] of the pencil (no second
-/// pattern analysis).
+/// pattern analysis), its factor kept as `storage` says: on disk when it does not fit the
+/// run's memory budget (a count needs the whole LDLᵀ, as large as any other factor).
 ///
 /// # Errors
 /// As [`count_eigenvalues_below`].
@@ -43,16 +49,9 @@ pub fn count_eigenvalues_below_with(
     sym: &Arc<SymbolicCholesky<usize>>,
     pencil: &Pencil,
     sigma: f64,
+    storage: Storage<'_>,
 ) -> Result<usize> {
-    Ok(ShiftedIndefinite::new(
-        sym.clone(),
-        pencil,
-        sigma,
-        1,
-        pool_par(),
-        Storage::available(),
-    )?
-    .below())
+    Ok(ShiftedIndefinite::new(sym.clone(), pencil, sigma, 1, pool_par(), storage)?.below())
 }
 
 /// `at(f_hz)`, or `at(f_hz (1 + 10⁻⁶))` when (2π f_hz)² is an eigenvalue to working

@@ -60,6 +60,29 @@ fn up_to_counts_exactly() {
     assert_eq!(modes.lambdas.len(), 10);
 }
 
+/// A count whose factor does not fit the budget keeps it on disk and counts the same: at
+/// every bound between the 300-DoF model's dense eigenvalues, in memory and with a zero
+/// budget, the count is the number of dense eigenvalues below.
+#[test]
+fn a_count_on_disk_equals_the_dense_count() {
+    use sparsemor::factor::{count_eigenvalues_below_with, symbolic_cholesky, Storage};
+    let model = random_model(300, 5, 3, Damping::None);
+    let lam = dense_eigenvalues(&model);
+    let body = Body::new(&model).unwrap();
+    let sym = std::sync::Arc::new(symbolic_cholesky(body.pencil()).unwrap());
+    let on_disk = Storage {
+        dir: None,
+        budget: 0,
+    };
+    for k in [0, 4, 9, 30] {
+        let sigma = 0.5 * (lam[k] + lam[k + 1]);
+        for storage in [Storage::IN_CORE, on_disk] {
+            let counted = count_eigenvalues_below_with(&sym, body.pencil(), sigma, storage);
+            assert_eq!(counted.unwrap(), k + 1, "σ between λ{k} and λ{}", k + 1);
+        }
+    }
+}
+
 // ---------------------------------------------------------------------------------------
 // The paper's bar (N = 1656) against the dense spectrum
 

@@ -32,7 +32,12 @@ pub(super) fn elastic_modes_below(
         None => {
             let sym = body.symbolic()?;
             let below = off_an_eigenfrequency(f_hz, |f| {
-                count_eigenvalues_below_with(&sym, body.pencil(), hz_to_lambda(f))
+                count_eigenvalues_below_with(
+                    &sym,
+                    body.pencil(),
+                    hz_to_lambda(f),
+                    body.factor_storage(),
+                )
             })?;
             (below, 1)
         }
@@ -145,7 +150,13 @@ mod tests {
         let (c, outside) = elastic_modes_below(body, &mut engine, inputs, f).unwrap();
         assert_eq!(outside, 0, "{f} Hz: counted outside the space");
         let sym = body.symbolic().unwrap();
-        let own = count_eigenvalues_below_with(&sym, body.pencil(), hz_to_lambda(f)).unwrap();
+        let own = count_eigenvalues_below_with(
+            &sym,
+            body.pencil(),
+            hz_to_lambda(f),
+            crate::factor::Storage::IN_CORE,
+        )
+        .unwrap();
         let rigid = if body.rigid().is_some() { 6 } else { 0 };
         assert_eq!(c, own - rigid, "{f} Hz: the space's count");
         c
