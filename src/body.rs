@@ -172,6 +172,11 @@ impl Body {
         self
     }
 
+    /// The run's memory budget in bytes, if one was given ([`Self::with_memory_budget`]).
+    pub(crate) fn memory_budget(&self) -> Option<usize> {
+        self.memory_budget
+    }
+
     /// Where a real factor made now keeps L: in memory while it fits the budget less what the
     /// process holds already ([`Self::with_memory_budget`]), or the memory available.
     pub(crate) fn factor_storage(&self) -> Storage<'static> {

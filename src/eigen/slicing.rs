@@ -73,6 +73,9 @@ pub(super) struct Slicer<'b> {
     opts: &'b EigenOptions,
     /// Workers: the size of the pool [`super::eigenpairs`] runs in (`crate::pool`).
     threads: usize,
+    /// Slices that may run at once: the workers, fewer when their factors would pass the
+    /// budget.
+    at_once: usize,
     budget: usize,
     /// Target modes per slice ([`Self::slice_size`]).
     size: usize,
@@ -85,17 +88,24 @@ impl<'b> Slicer<'b> {
         let threads = crate::pool::resolve_threads(opts.threads);
         let budget = opts
             .memory_budget
+            .or(body.memory_budget())
             .unwrap_or_else(|| crate::memory::default_budget(2));
+        let sym = body.symbolic()?;
+        // slices run at once as far as their factors fit the budget (8 bytes per entry of L;
+        // a factor that goes to disk past it takes the budget for itself): cutting the band
+        // for more slices than run at once only adds factorizations
+        let at_once = (budget / (8 * sym.len_val()).max(1)).clamp(1, threads.max(1));
         // a slice of s modes keeps Q and M Q, N × (m + b) with m ≈ 2·(5/4)s: at most half the
-        // budget for the bases of `threads` slices at once
-        let per_slice = budget / 2 / threads.max(1) / (16 * body.n().max(1));
+        // budget for the bases of the slices at once
+        let per_slice = budget / 2 / at_once / (16 * body.n().max(1));
         let fits = per_slice.saturating_sub(opts.block) * 2 / 5;
         let size = opts.slice_size.min(fits.max(16)).max(1);
         Ok(Slicer {
             body,
-            sym: body.symbolic()?,
+            sym,
             opts,
             threads,
+            at_once,
             budget,
             size,
             counts: Mutex::new((0.0, 0)),
@@ -109,8 +119,9 @@ impl<'b> Slicer<'b> {
 
     /// Target modes per slice: [`EigenOptions::slice_size`], lowered when the Krylov bases of
     /// the slices that run at once (Q and M Q, 16·N·(m + b) bytes each, m ≈ 2.5 × the size)
-    /// would take more than half the memory budget; never below 16 (at N = 10⁶ with an 11 GB
-    /// budget and 2 threads: 67).
+    /// would take more than half the memory budget; never below 16. At N = 10⁶ with an 11 GB
+    /// budget: 135 when the 10.7 GB factor of the tet10 crank lets one slice run at a time,
+    /// 67 for two slices at once.
     pub(super) fn slice_size(&self) -> usize {
         self.size
     }
@@ -166,13 +177,13 @@ impl<'b> Slicer<'b> {
     ) -> Result<Vec<Target>> {
         let (lo, nu_lo) = lower.map_or((0.0, 0), |(l, c)| (l.max(0.0), c));
         let total = upper.1.saturating_sub(nu_lo);
-        // a multiple of the workers' count of slices: a slice left over for a second round
+        // a multiple of the slices that run at once: a slice left over for a second round
         // would keep one worker busy while the others idle; a band of more than a quarter
-        // slice is shared among the workers too, as one slice would leave a worker idle
+        // slice is shared among them too, as one slice would leave a worker idle
         // (docs/performance.md)
         let mut parts = total.div_ceil(self.size).max(1);
         if parts > 1 || 4 * total > self.size {
-            parts = parts.next_multiple_of(self.threads.max(1));
+            parts = parts.next_multiple_of(self.at_once);
         }
         // the counts ν at which the slices should end, and how far a bound may miss one
         let want: Vec<f64> = (1..parts)

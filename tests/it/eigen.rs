@@ -876,3 +876,36 @@ fn mul_dense(
     );
     y
 }
+
+/// A budget that holds one factor but not two runs one slice at a time, so the slices are
+/// sized for one worker's share of the budget: the lowest 16 modes come in one slice (two
+/// factorizations: the slice's and the count that bounds it), where slices sized for two
+/// workers would cut them into several, each with its own factorization and counts. The
+/// values are the dense eigenvalues.
+#[test]
+fn a_budget_for_one_factor_sizes_the_slices_for_one_worker() {
+    let (model, lam) = cube10();
+    let body = Body::new(model).unwrap();
+    let factor_bytes = 8 * body.symbolic().unwrap().len_val();
+    let opts = EigenOptions {
+        threads: 2,
+        memory_budget: Some(3 * factor_bytes / 2),
+        ..Default::default()
+    };
+    let modes = eigenpairs(&body, Request::Lowest(16), &opts).unwrap();
+    let st = &modes.stats;
+    println!(
+        "factor {factor_bytes} bytes: {} slices, {} factorizations",
+        st.slices.len(),
+        st.factorizations
+    );
+    assert_eq!(st.slices.len(), 1);
+    assert!(
+        st.factorizations <= 2,
+        "{} factorizations",
+        st.factorizations
+    );
+    for (k, (&l, &d)) in modes.lambdas.iter().zip(lam.iter()).enumerate().skip(6) {
+        assert!((l - d).abs() <= 1e-9 * d, "mode {k}: {l} vs {d}");
+    }
+}
