@@ -32,7 +32,7 @@
 //! unit loads at the pivots is C A⁻¹ Cᵀ: the functionals' transfer function, exactly. Nothing
 //! is dense but the r × |support| block of the rows.
 
-use crate::sparse::{from_parts, Csc};
+use crate::sparse::{from_parts, Csc, Scatter};
 use crate::{Error, Result};
 use faer::linalg::solvers::Solve;
 
@@ -516,31 +516,20 @@ fn congruence_in_chunks(a: &Csc, t: &Csc, chunk: usize) -> Result<Csc> {
 /// the rows j < c from the columns before it, in increasing j, and then its own rows ≥ c,
 /// so every column comes out sorted. Each chunk is freed once it is spread.
 fn mirrored(m: usize, chunks: Vec<Lower>) -> Csc {
-    let mut ptr = vec![0usize; m + 1];
-    for (j, rows, _) in chunks.iter().flat_map(Lower::columns) {
-        ptr[j + 1] += rows.len();
-        for &i in rows.iter().filter(|&&i| i != j) {
-            ptr[i + 1] += 1;
-        }
-    }
-    for j in 0..m {
-        ptr[j + 1] += ptr[j];
-    }
-    let mut next = ptr[..m].to_vec();
-    let (mut row_idx, mut val) = (vec![0usize; ptr[m]], vec![0.0; ptr[m]]);
+    let lower = chunks
+        .iter()
+        .flat_map(Lower::columns)
+        .flat_map(|(j, rows, _)| rows.iter().map(move |&i| (i, j)));
+    let mut scatter = Scatter::count(m, true, lower);
+    let (mut row_idx, mut val) = (vec![0usize; scatter.len()], vec![0.0; scatter.len()]);
     for chunk in chunks {
         for (j, rows, vals) in chunk.columns() {
             for (&i, &v) in rows.iter().zip(vals) {
-                (row_idx[next[j]], val[next[j]]) = (i, v);
-                next[j] += 1;
-                if i != j {
-                    (row_idx[next[i]], val[next[i]]) = (j, v);
-                    next[i] += 1;
-                }
+                scatter.put(i, j, v, &mut row_idx, &mut val);
             }
         }
     }
-    from_parts(m, m, ptr, row_idx, val)
+    from_parts(m, m, scatter.into_col_ptr(), row_idx, val)
 }
 
 /// Consecutive columns of a lower triangle, from column `first`: each column's end in

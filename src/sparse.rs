@@ -1,6 +1,7 @@
 //! Small CSC helpers shared by the model, pencil and reduction code: symmetry check, lower
-//! triangle extraction and its inverse (mirroring a lower triangle to full storage). Products
-//! with the model's matrices are the pencil's ([`crate::pencil::Pencil::mul`]).
+//! triangle extraction and its inverse (mirroring a lower triangle to full storage), compressed
+//! columns filled entry by entry ([`Scatter`]). Products with the model's matrices are the
+//! pencil's ([`crate::pencil::Pencil::mul`]).
 //!
 //! Matrices are faer [`SparseColMat<usize, f64>`] in full storage (both triangles) with sorted
 //! row indices per column, as produced by `io::matrix_market::read_sparse` and `fe`.
@@ -84,35 +85,87 @@ pub fn mirror_lower(
     col_ptr: &[usize],
     row_idx: &[usize],
 ) -> (Vec<usize>, Vec<usize>, Vec<usize>) {
-    let mut full_ptr = vec![0usize; n + 1];
-    for j in 0..n {
-        for &i in &row_idx[col_ptr[j]..col_ptr[j + 1]] {
-            full_ptr[j + 1] += 1;
-            if i != j {
-                full_ptr[i + 1] += 1;
+    let lower = || (0..n).flat_map(|j| (col_ptr[j]..col_ptr[j + 1]).map(move |p| (p, j)));
+    let mut scatter = Scatter::count(n, true, lower().map(|(p, j)| (row_idx[p], j)));
+    let (mut full_row, mut src) = (vec![0usize; scatter.len()], vec![0usize; scatter.len()]);
+    for (p, j) in lower() {
+        scatter.put(row_idx[p], j, p, &mut full_row, &mut src);
+    }
+    (scatter.into_col_ptr(), full_row, src)
+}
+
+/// Compressed columns filled entry by entry: [`Self::count`] counts the entries (row,
+/// column) of each column, [`Self::put`] then places each entry after those already put in
+/// its column. With `mirror` an off-diagonal entry (r, c) is also placed at (c, r): a lower
+/// triangle given column by column, rows increasing, comes out as full storage with sorted
+/// columns (column c receives the rows i < c of the columns before it, in increasing i, then
+/// its own).
+pub struct Scatter {
+    col_ptr: Vec<usize>,
+    next: Vec<usize>,
+    mirror: bool,
+}
+
+impl Scatter {
+    /// The column pointers of `ncols` columns holding `entries` (row, column), mirrored or not.
+    pub fn count(
+        ncols: usize,
+        mirror: bool,
+        entries: impl IntoIterator<Item = (usize, usize)>,
+    ) -> Self {
+        let mut col_ptr = vec![0usize; ncols + 1];
+        for (r, c) in entries {
+            col_ptr[c + 1] += 1;
+            if mirror && r != c {
+                col_ptr[r + 1] += 1;
             }
         }
-    }
-    for j in 0..n {
-        full_ptr[j + 1] += full_ptr[j];
-    }
-    let mut next = full_ptr[..n].to_vec();
-    let mut full_row = vec![0usize; full_ptr[n]];
-    let mut src = vec![0usize; full_ptr[n]];
-    for j in 0..n {
-        for p in col_ptr[j]..col_ptr[j + 1] {
-            let i = row_idx[p];
-            full_row[next[j]] = i;
-            src[next[j]] = p;
-            next[j] += 1;
-            if i != j {
-                full_row[next[i]] = j;
-                src[next[i]] = p;
-                next[i] += 1;
-            }
+        for j in 0..ncols {
+            col_ptr[j + 1] += col_ptr[j];
+        }
+        let next = col_ptr[..ncols].to_vec();
+        Scatter {
+            col_ptr,
+            next,
+            mirror,
         }
     }
-    (full_ptr, full_row, src)
+
+    /// Stored entries in all: the length of the row and item arrays [`Self::put`] fills.
+    pub fn len(&self) -> usize {
+        self.col_ptr[self.col_ptr.len() - 1]
+    }
+
+    /// True when no entry was counted.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Puts entry (r, c) with `item` into `rows`/`items` at its column's next place, and its
+    /// mirror (c, r) when mirroring. Every entry counted is put exactly once.
+    pub fn put<T: Copy>(
+        &mut self,
+        r: usize,
+        c: usize,
+        item: T,
+        rows: &mut [usize],
+        items: &mut [T],
+    ) {
+        let mut place = |r: usize, c: usize| {
+            let p = self.next[c];
+            (rows[p], items[p]) = (r, item);
+            self.next[c] += 1;
+        };
+        place(r, c);
+        if self.mirror && r != c {
+            place(c, r);
+        }
+    }
+
+    /// The column pointers.
+    pub fn into_col_ptr(self) -> Vec<usize> {
+        self.col_ptr
+    }
 }
 
 /// Builds a CSC matrix from parts that are known to be valid (sorted, in range).
@@ -200,31 +253,12 @@ impl Triplets {
     /// becomes full storage. Indices must be < n (checked by the caller while parsing).
     pub fn into_csc(self, n: usize, mirror: bool) -> Csc {
         let Triplets { rows, cols, vals } = self;
-        let mut count = vec![0usize; n + 1];
-        for (&r, &c) in rows.iter().zip(&cols) {
-            count[c + 1] += 1;
-            if mirror && r != c {
-                count[r + 1] += 1;
-            }
-        }
-        for j in 0..n {
-            count[j + 1] += count[j];
-        }
-        let total = count[n];
-        let mut next = count.clone();
-        let mut row_idx = vec![0usize; total];
-        let mut val = vec![0f64; total];
-        let mut put = |r: usize, c: usize, v: f64| {
-            row_idx[next[c]] = r;
-            val[next[c]] = v;
-            next[c] += 1;
-        };
+        let mut scatter = Scatter::count(n, mirror, rows.iter().copied().zip(cols.iter().copied()));
+        let (mut row_idx, mut val) = (vec![0usize; scatter.len()], vec![0f64; scatter.len()]);
         for ((&r, &c), &v) in rows.iter().zip(&cols).zip(&vals) {
-            put(r, c, v);
-            if mirror && r != c {
-                put(c, r, v);
-            }
+            scatter.put(r, c, v, &mut row_idx, &mut val);
         }
+        let count = scatter.into_col_ptr();
         drop((rows, cols, vals));
         // Sort each column by row (stable: duplicates keep push order) and sum duplicates.
         let mut col_ptr = Vec::with_capacity(n + 1);

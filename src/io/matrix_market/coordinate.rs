@@ -376,11 +376,11 @@ pub(super) fn try_filled<T: Clone>(
 /// Assembles the canonical CSC matrix from the entries (in file order), mirroring off-diagonal
 /// entries of a symmetric file and summing duplicates.
 ///
-/// This mirrors while it scatters instead of using [`crate::sparse::mirror_lower`]: the
-/// entries come as unsorted chunks (either triangle, duplicates, 32-bit indices) that are freed
-/// one by one as they are scattered, and every allocation is fallible (a too-large declared
-/// size is an error, not an abort); building the triangle first and mirroring it afterwards
-/// would hold a second copy of the matrix.
+/// This mirrors while it scatters, as [`crate::sparse::Scatter`] does, but on its own
+/// arrays: the entries come as unsorted chunks (either triangle, duplicates, 32-bit indices)
+/// that are freed one by one as they are scattered, and every allocation is fallible (a
+/// too-large declared size is an error, not an abort), where `Scatter` allocates as the
+/// crate's other arrays do.
 pub(super) fn build_csc<I: Ix>(
     h: &Header,
     chunks: Vec<Vec<Entry<I>>>,
