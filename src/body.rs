@@ -164,7 +164,7 @@ impl Body {
         Ok(self.symbolic.get_or_init(|| s).clone())
     }
 
-    /// The body with a memory budget for the whole run (`None`: the memory available when a
+    /// The body with a memory budget for the whole run (`None`: half the memory available when a
     /// factor is made): a real factor that does not fit what is left of it goes to disk
     /// (docs/design.md §3.1).
     pub fn with_memory_budget(mut self, bytes: Option<usize>) -> Self {
@@ -178,7 +178,8 @@ impl Body {
     }
 
     /// Where a real factor made now keeps L: in memory while it fits the budget less what the
-    /// process holds already ([`Self::with_memory_budget`]), or the memory available.
+    /// process holds already ([`Self::with_memory_budget`]), or half the memory available
+    /// ([`Storage::available`]).
     pub(crate) fn factor_storage(&self) -> Storage<'static> {
         match self.memory_budget {
             Some(b) => Storage {

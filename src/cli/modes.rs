@@ -33,7 +33,8 @@ pub struct ModesArgs {
     threads: usize,
     /// Memory budget of the run in GB: a shift's real factor that does not fit what the run
     /// has not used of it is kept on disk, in the temporary directory, and slices run at once
-    /// as far as their bases fit half of it (default: what is available).
+    /// as far as their bases fit half of it (default: a factor may take half of what is
+    /// available).
     #[arg(long, value_parser = super::args::gigabytes)]
     memory_gb: Option<usize>,
 }

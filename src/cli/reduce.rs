@@ -88,8 +88,8 @@ pub struct ReduceArgs {
     /// Memory budget of the run in GB. Line-fitting's per-frequency factorizations share it
     /// (default: half of what is available; backend mumps goes out of core when one
     /// exceeds it); a real factor (the shifted space's, Craig–Bampton's) that does not fit
-    /// what the run has not used of it (default: what is available) is kept on disk, in
-    /// the temporary directory.
+    /// what the run has not used of it (default: half of what is available) is kept on
+    /// disk, in the temporary directory.
     #[arg(long, value_parser = super::args::gigabytes)]
     memory_gb: Option<usize>,
     /// How line-fitting's responses are computed: auto (one shifted Krylov space when the
