@@ -13,6 +13,14 @@ nnz of the factor (iparm[17]), PARDISO's peak memory (KB, iparm[14]
 and iparm[15] + iparm[16]) and the relative residual of the solve. Exit status 2 with a
 message on stderr when pypardiso is not installed. PARDISO is a reference here, not a
 dependency of sparsemor.
+
+    python3 benches/pardiso_reference.py --real MATRIX.mtx MTYPE NRHS [THREADS]
+
+factors a real symmetric matrix instead (`sparsemor bench real`): the lower triangle in
+MATRIX.mtx (Matrix Market, symmetric), with matrix type MTYPE 2 (Cholesky; the matrix must be
+positive definite) or -2 (Bunch-Kaufman LDL^T with perturbed pivots; the JSON line then also
+holds its inertia, iparm[21] positive and iparm[22] negative eigenvalues, and iparm[13], the
+pivots it perturbed).
 """
 
 import ctypes
@@ -38,11 +46,8 @@ def mkl():
     return ctypes.CDLL(pypardiso.PyPardisoSolver().libmkl._name)
 
 
-def main():
-    model_dir, freq, nrhs = sys.argv[1], float(sys.argv[2]), int(sys.argv[3])
-    threads = int(sys.argv[4]) if len(sys.argv) > 4 else 2
-    lib = mkl()
-    lib.MKL_Set_Num_Threads(ctypes.c_int(threads))
+def complex_system(model_dir, freq):
+    """(A, mtype) for the complex-symmetric A(i omega) of a model directory."""
     with open(f"{model_dir}/model.toml", "rb") as f:
         manifest = tomllib.load(f)
     k = read_symmetric(f"{model_dir}/{manifest['stiffness']}")
@@ -50,20 +55,40 @@ def main():
     ray = manifest.get("rayleigh", {})
     alpha, beta = ray.get("alpha", 0.0), ray.get("beta", 0.0)
     w = 2 * np.pi * freq
-    a = (k - w * w * m).astype(np.complex128) + 1j * w * (alpha * m + beta * k)
+    return (k - w * w * m).astype(np.complex128) + 1j * w * (alpha * m + beta * k), 6
+
+
+def main():
+    if sys.argv[1] == "--real":
+        a, mtype_value = read_symmetric(sys.argv[2]), int(sys.argv[3])
+        if mtype_value not in (2, -2):
+            sys.stderr.write(f"matrix type {mtype_value}: the real mode takes 2 or -2\n")
+            sys.exit(1)
+        rest = sys.argv[4:]
+    else:
+        a, mtype_value = complex_system(sys.argv[1], float(sys.argv[2]))
+        rest = sys.argv[3:]
+    nrhs = int(rest[0])
+    threads = int(rest[1]) if len(rest) > 1 else 2
+    lib = mkl()
+    lib.MKL_Set_Num_Threads(ctypes.c_int(threads))
+    dtype = a.dtype
     upper = sp.triu(sp.csr_matrix(a), format="csr")
     upper.sort_indices()
     n = upper.shape[0]
-    vals = np.ascontiguousarray(upper.data, dtype=np.complex128)
+    vals = np.ascontiguousarray(upper.data, dtype=dtype)
     ia = np.ascontiguousarray(upper.indptr + 1, dtype=np.int32)
     ja = np.ascontiguousarray(upper.indices + 1, dtype=np.int32)
     rng = np.random.default_rng(1)
-    b = np.asfortranarray(rng.standard_normal((n, nrhs)) + 1j * rng.standard_normal((n, nrhs)))
+    b = rng.standard_normal((n, nrhs))
+    if dtype == np.complex128:
+        b = b + 1j * rng.standard_normal((n, nrhs))
+    b = np.asfortranarray(b)
     x = np.zeros_like(b, order="F")
 
     pt = np.zeros(64, dtype=np.int64)
     iparm = np.zeros(64, dtype=np.int32)
-    mtype = ctypes.c_int32(6)
+    mtype = ctypes.c_int32(mtype_value)
     lib.pardisoinit(pt.ctypes.data_as(ctypes.c_void_p), ctypes.byref(mtype),
                     iparm.ctypes.data_as(ctypes.c_void_p))
     iparm[17] = -1  # report nnz of the factor
@@ -90,9 +115,12 @@ def main():
         phase(p)
         times[name] = time.perf_counter() - start
     residual = np.linalg.norm(b - a @ x) / np.linalg.norm(b)
-    out = {"n": n, "threads": threads, **times, "nnz_l": int(iparm[17]),
+    out = {"n": n, "threads": threads, "mtype": mtype_value, **times,
+           "nnz_l": int(iparm[17]),
            "peak_kb": int(max(iparm[14], iparm[15] + iparm[16])),
            "residual": float(residual)}
+    if mtype_value == -2:
+        out.update(positive=int(iparm[21]), negative=int(iparm[22]), perturbed=int(iparm[13]))
     phase(-1)
     print(json.dumps(out))
 

@@ -345,11 +345,19 @@ fn measure(model: &Model, scene: &Scene, backend: Backend) -> Result<Row> {
 /// `bench real`: the in-house real LDLᵀ of K + (2π·1 Hz)²M on 2 threads with L in memory and
 /// on disk (docs/design.md §3.1, "Factor out of core"): factorization and one 12-column block
 /// solve, the peak RSS of each (the process's, the model's matrices included: `base` is the
-/// RSS before either), bytes written and read.
+/// RSS before either), bytes written and read; then, in memory, the indefinite K − σM at the
+/// band's top (σ = (2π f_hi)², its negative pivots ν the modes below). Beside each, MKL
+/// PARDISO on the same lower triangle and 2 threads (`benches/pardiso_reference.py --real`,
+/// when `pypardiso` is installed): matrix type 2 (Cholesky) on the definite matrix, −2
+/// (Bunch–Kaufman LDLᵀ) with its inertia on the indefinite one.
 fn real_table(a: &BenchArgs) -> Result<()> {
     use sparsemor::io::model_dir;
-    println!("| model | N | nnz(L) | symbolic s | base RSS | in core: factor s | solve s | peak RSS | on disk: factor s | solve s | peak RSS | written | read |");
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let dir = std::env::temp_dir().join(format!("sparsemor-bench-real-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    let mut note = None;
+    println!("| model | N | nnz(L) | symbolic s | base RSS | in core: factor s | solve s | peak RSS | on disk: factor s | solve s | peak RSS | written | read | PARDISO 2: factor s | ÷ PARDISO | band's top: factor s | ν | PARDISO −2: factor s | ν (perturbed) | ÷ PARDISO |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let mut rows = Vec::new();
     for case in &CASES {
         let spec = BoxSpec {
             elements: case.elements,
@@ -357,20 +365,39 @@ fn real_table(a: &BenchArgs) -> Result<()> {
             ..BoxSpec::paper_bar()
         };
         if spec.n_dofs() <= a.max_n {
-            real_row(case.name, &Body::new(&sparsemor::fe::bar_model(&spec)?)?)?;
+            let body = Body::new(&sparsemor::fe::bar_model(&spec)?)?;
+            rows.push(real_row(
+                case.name,
+                &body,
+                paper_scene(&spec).band_hz[1],
+                &dir,
+                &mut note,
+            ));
         }
     }
-    for dir in &a.models {
-        let (body, _) = model_dir::read_body(dir)?;
+    for path in &a.models {
+        let (body, scene) = model_dir::read_body(path)?;
         if body.n() <= a.max_n {
-            real_row(&dir.display().to_string(), &body)?;
+            let name = path.display().to_string();
+            rows.push(real_row(&name, &body, scene.band_hz[1], &dir, &mut note));
         }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    rows.into_iter().collect::<Result<Vec<()>>>()?;
+    if let Some(note) = note {
+        println!("\nPARDISO columns empty: {note}");
     }
     Ok(())
 }
 
-/// One row of [`real_table`].
-fn real_row(name: &str, body: &Body) -> Result<()> {
+/// One row of [`real_table`]; `note` keeps why PARDISO gave no time.
+fn real_row(
+    name: &str,
+    body: &Body,
+    band_top_hz: f64,
+    dir: &std::path::Path,
+    note: &mut Option<String>,
+) -> Result<()> {
     use sparsemor::factor::{time_real_factor, Storage};
     let t = Instant::now();
     let sym = body.symbolic()?;
@@ -380,17 +407,58 @@ fn real_row(name: &str, body: &Body) -> Result<()> {
         dir: None,
         budget: 0,
     };
+    let definite = -(2.0 * std::f64::consts::PI).powi(2);
+    let top = sparsemor::units::hz_to_lambda(band_top_hz);
     let mut cells = Vec::new();
-    for storage in [Storage::IN_CORE, on_disk] {
+    for (sigma, storage) in [
+        (definite, Storage::IN_CORE),
+        (definite, on_disk),
+        (top, Storage::IN_CORE),
+    ] {
         memory::reset_peak_rss();
         let r = sparsemor::pool::with_pool(2, || {
-            time_real_factor(body.pencil(), sym.clone(), storage, 12, faer::Par::rayon(2))
+            time_real_factor(
+                body.pencil(),
+                sym.clone(),
+                sigma,
+                storage,
+                12,
+                faer::Par::rayon(2),
+            )
         })??;
         cells.push((r, memory::peak_rss_bytes().unwrap_or(0)));
     }
-    let [(core, core_peak), (disk, disk_peak)] = [cells[0], cells[1]];
+    let [(core, core_peak), (disk, disk_peak), (indefinite, _)] = [cells[0], cells[1], cells[2]];
+    let mut pardiso = |sigma: f64, mtype: i32| match pardiso_real(dir, body, sigma, mtype) {
+        Ok(r) => Some(r),
+        Err(e) => {
+            note.get_or_insert(e.to_string());
+            None
+        }
+    };
+    let (spd, ldlt) = (pardiso(definite, 2), pardiso(top, -2));
+    let seconds = |r: &Option<PardisoReal>, ours: f64| match r {
+        Some(r) => (
+            format!("{:.2}", r.factor_s),
+            format!("{:.2}", ours / r.factor_s),
+        ),
+        None => ("—".into(), "—".into()),
+    };
+    let (spd_s, spd_ratio) = seconds(&spd, core.factor_s);
+    let (ldlt_s, ldlt_ratio) = seconds(&ldlt, indefinite.factor_s);
+    let ldlt_nu = ldlt.map_or("—".into(), |r| {
+        format!("{} ({})", r.negative, r.perturbed)
+    });
+    let nu = if indefinite.perturbed > 0 {
+        format!(
+            "{} ({} perturbed)",
+            indefinite.negative, indefinite.perturbed
+        )
+    } else {
+        indefinite.negative.to_string()
+    };
     println!(
-        "| {name} | {} | {} | {symbolic_s:.2} | {} | {:.2} | {:.3} | {} | {:.2} | {:.3} | {} | {} | {} |",
+        "| {name} | {} | {} | {symbolic_s:.2} | {} | {:.2} | {:.3} | {} | {:.2} | {:.3} | {} | {} | {} | {spd_s} | {spd_ratio} | {:.2} | {nu} | {ldlt_s} | {ldlt_nu} | {ldlt_ratio} |",
         body.n(),
         core.factor_nnz,
         human_bytes(base as f64),
@@ -402,8 +470,64 @@ fn real_row(name: &str, body: &Body) -> Result<()> {
         human_bytes(disk_peak as f64),
         human_bytes(disk.place.written as f64),
         human_bytes(disk.place.read as f64),
+        indefinite.factor_s,
     );
     Ok(())
+}
+
+/// MKL PARDISO's real factorization of one matrix ([`pardiso_real`]).
+#[derive(Clone, Copy)]
+struct PardisoReal {
+    factor_s: f64,
+    /// Its inertia's negative count (matrix type −2; 0 for type 2).
+    negative: usize,
+    /// Pivots it perturbed (type −2).
+    perturbed: usize,
+}
+
+/// PARDISO (matrix type `mtype`, 2 threads, 12 right-hand sides) on the lower triangle of
+/// K − σM, written to `dir` for `benches/pardiso_reference.py --real`.
+fn pardiso_real(dir: &std::path::Path, body: &Body, sigma: f64, mtype: i32) -> Result<PardisoReal> {
+    let p = body.pencil();
+    let mut vals = vec![0.0; p.nnz()];
+    p.fill_shifted(sigma, &mut vals);
+    let a = sparsemor::sparse::from_parts(
+        p.n(),
+        p.n(),
+        p.col_ptr().to_vec(),
+        p.row_idx().to_vec(),
+        vals,
+    );
+    let path = dir.join("A.mtx");
+    sparsemor::io::matrix_market::write_coordinate(&path, a.as_ref(), true)?;
+    drop(a);
+    let script =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/pardiso_reference.py");
+    let run = std::process::Command::new("python3")
+        .arg(&script)
+        .arg("--real")
+        .arg(&path)
+        .args([mtype.to_string().as_str(), "12", "2"])
+        .output()
+        .map_err(|e| Error::io(&script, e))?;
+    let _ = std::fs::remove_file(&path);
+    let out = String::from_utf8_lossy(&run.stdout);
+    let number = |key: &str| super::bench_modes::json_number(&out, key);
+    let failed = || {
+        Error::InvalidSetting(format!(
+            "{}: {}",
+            script.display(),
+            String::from_utf8_lossy(&run.stderr).trim()
+        ))
+    };
+    let factor_s = number("factor_s")
+        .filter(|_| run.status.success())
+        .ok_or_else(failed)?;
+    Ok(PardisoReal {
+        factor_s,
+        negative: number("negative").unwrap_or(0.0) as usize,
+        perturbed: number("perturbed").unwrap_or(0.0) as usize,
+    })
 }
 
 fn reduce_table(a: &BenchArgs) -> Result<()> {

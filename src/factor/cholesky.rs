@@ -200,13 +200,18 @@ pub struct RealTiming {
     pub factor_s: f64,
     /// Seconds of one solve of `rhs` columns.
     pub solve_s: f64,
+    /// Negative pivots: the eigenvalues below σ (Sylvester) when none was perturbed.
+    pub negative: usize,
+    /// Pivots replaced by ±ε·max|aᵢⱼ| (the matrix singular to working precision).
+    pub perturbed: usize,
     /// Where L was and the bytes it moved.
     pub place: FactorPlace,
 }
 
-/// Times the in-house real LDLᵀ of K + σM (σ = (2π·1 Hz)², as [`reference_cholesky`]) kept
-/// where `storage` says, on `par`: its factorization and one solve of `rhs` columns (the
-/// benches' in-core against on-disk rows, `sparsemor bench real`).
+/// Times the in-house real LDLᵀ of K − σM kept where `storage` says, on `par`: its
+/// factorization and one solve of `rhs` columns (`sparsemor bench real`: σ = −(2π·1 Hz)², a
+/// positive definite matrix as [`reference_cholesky`]'s, in memory and on disk, and σ at the
+/// band's top, the indefinite matrix whose inertia counts the band's modes, §3.10).
 ///
 /// # Errors
 /// [`Error::Factor`] when the analysis or the factorization fails or the pattern has no
@@ -214,17 +219,17 @@ pub struct RealTiming {
 pub fn time_real_factor(
     pencil: &Pencil,
     sym: Arc<SymbolicCholesky<usize>>,
+    sigma: f64,
     storage: Storage<'_>,
     rhs: usize,
     par: Par,
 ) -> Result<RealTiming> {
-    let sigma = -(2.0 * std::f64::consts::PI).powi(2);
     let mut vals = try_vec(pencil.nnz())?;
     pencil.fill_shifted(sigma, &mut vals);
     let mut f = RealLdlt::new(pencil, sym, rhs, storage)?
         .ok_or_else(|| Error::Factor("a pattern without supernodes".into()))?;
     let t = Instant::now();
-    f.factor(&vals, par)?;
+    let pivots = f.factor(&vals, par)?;
     let factor_s = t.elapsed().as_secs_f64();
     drop(vals);
     let mut x = faer::Mat::<f64>::from_fn(pencil.n(), rhs, |i, j| ((i + 3 * j) % 7) as f64 - 3.0);
@@ -236,6 +241,8 @@ pub fn time_real_factor(
         factor_nnz: f.factor_nnz(),
         factor_s,
         solve_s,
+        negative: pivots.negative,
+        perturbed: pivots.perturbed,
         place: f.place(),
     })
 }
