@@ -33,8 +33,8 @@ pub struct ModesArgs {
     threads: usize,
     /// Memory budget of the run in GB: a shift's real factor that does not fit what the run
     /// has not used of it is kept on disk, in the temporary directory, and slices run at once
-    /// as far as their bases fit half of it (default: a factor may take half of what is
-    /// available).
+    /// as far as their bases fit half of what the run has not used when the slicing starts
+    /// (default: half of what is available).
     #[arg(long, value_parser = super::args::gigabytes)]
     memory_gb: Option<usize>,
 }
@@ -54,7 +54,6 @@ pub fn modes(a: &ModesArgs) -> Result<()> {
         slice_size: a.slice_size,
         block: a.block,
         threads: a.threads,
-        memory_budget: a.memory_gb,
         ..EigenOptions::for_band(scene.band_hz[1])
     };
     let t = Instant::now();

@@ -62,8 +62,9 @@ pub struct EigenOptions {
     pub block: usize,
     /// Worker threads (slices at once, or threads inside a lone factorization); 0 = all cores.
     pub threads: usize,
-    /// Memory the concurrent slices may use (bytes); `None` = the body's budget
-    /// ([`crate::body::Body::with_memory_budget`]), or half of MemAvailable.
+    /// Memory the concurrent slices may use (bytes); `None` = what the body's budget for the
+    /// run ([`crate::body::Body::with_memory_budget`]) leaves beside what the process holds
+    /// when the slicing starts, or half of MemAvailable.
     pub memory_budget: Option<usize>,
     /// The iteration.
     pub backend: EigenBackend,

@@ -86,10 +86,13 @@ pub(super) struct Slicer<'b> {
 impl<'b> Slicer<'b> {
     pub(super) fn new(body: &'b Body, opts: &'b EigenOptions) -> Result<Self> {
         let threads = crate::pool::resolve_threads(opts.threads);
+        // the run's budget is for the whole run: the slices get what it has not used
         let budget = opts
             .memory_budget
-            .or(body.memory_budget())
-            .unwrap_or_else(|| crate::memory::default_budget(2));
+            .unwrap_or_else(|| match body.memory_budget() {
+                Some(run) => run.saturating_sub(crate::memory::rss_bytes().unwrap_or(0)),
+                None => crate::memory::default_budget(2),
+            });
         let sym = body.symbolic()?;
         // slices run at once as far as their factors fit the budget (8 bytes per entry of L;
         // a factor that goes to disk past it takes the budget for itself): cutting the band
