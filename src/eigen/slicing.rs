@@ -122,9 +122,9 @@ impl<'b> Slicer<'b> {
 
     /// Target modes per slice: [`EigenOptions::slice_size`], lowered when the Krylov bases of
     /// the slices that run at once (Q and M Q, 16·N·(m + b) bytes each, m ≈ 2.5 × the size)
-    /// would take more than half the memory budget; never below 16. At N = 10⁶ with an 11 GB
-    /// budget: 135 when the 10.7 GB factor of the tet10 crank lets one slice run at a time,
-    /// 67 for two slices at once.
+    /// would take more than half the memory budget; never below 16. At N = 10⁶ with 11 GB
+    /// left for the slices: 135 when a 10.7 GB factor lets one slice run at a time, 67 for
+    /// two slices at once.
     pub(super) fn slice_size(&self) -> usize {
         self.size
     }
