@@ -172,20 +172,19 @@ impl Body {
         self
     }
 
-    /// The run's memory budget in bytes, if one was given ([`Self::with_memory_budget`]).
-    pub(crate) fn memory_budget(&self) -> Option<usize> {
+    /// What the run's memory budget ([`Self::with_memory_budget`]) leaves beside what the
+    /// process holds now, in bytes, if a budget was given.
+    pub(crate) fn memory_left(&self) -> Option<usize> {
         self.memory_budget
+            .map(|b| b.saturating_sub(crate::memory::rss_bytes().unwrap_or(0)))
     }
 
     /// Where a real factor made now keeps L: in memory while it fits the budget less what the
     /// process holds already ([`Self::with_memory_budget`]), or half the memory available
     /// ([`Storage::available`]).
     pub(crate) fn factor_storage(&self) -> Storage<'static> {
-        match self.memory_budget {
-            Some(b) => Storage {
-                dir: None,
-                budget: b.saturating_sub(crate::memory::rss_bytes().unwrap_or(0)),
-            },
+        match self.memory_left() {
+            Some(budget) => Storage { dir: None, budget },
             None => Storage::available(),
         }
     }

@@ -89,10 +89,8 @@ impl<'b> Slicer<'b> {
         // the run's budget is for the whole run: the slices get what it has not used
         let budget = opts
             .memory_budget
-            .unwrap_or_else(|| match body.memory_budget() {
-                Some(run) => run.saturating_sub(crate::memory::rss_bytes().unwrap_or(0)),
-                None => crate::memory::default_budget(2),
-            });
+            .or_else(|| body.memory_left())
+            .unwrap_or_else(|| crate::memory::default_budget(2));
         let sym = body.symbolic()?;
         // slices run at once as far as their factors fit the budget (8 bytes per entry of L;
         // a factor that goes to disk past it takes the budget for itself): cutting the band
