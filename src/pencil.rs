@@ -310,16 +310,11 @@ impl Pencil {
         matches!(self.split, Split::Proportional(_) | Split::LowRank(..))
     }
 
-    /// The linearized space answers every frequency (§3.13): a viscous D whose remainder
-    /// after the proportional fit is not of low rank (material-wise damping), with K real
-    /// (no structural damping).
+    /// The linearized space answers every frequency (§3.13): a damping whose remainder
+    /// after the proportional fit is not of low rank (material-wise viscous or structural
+    /// damping).
     pub fn linearized_space_applies(&self) -> bool {
-        matches!(self.split, Split::General(..)) && self.real_stiffness()
-    }
-
-    /// No structural damping: the pencil's stiffness part K + iH is real.
-    fn real_stiffness(&self) -> bool {
-        self.eta == 0.0 && self.k4.is_none()
+        matches!(self.split, Split::General(..))
     }
 
     /// The low-rank remainder of the damping, if there is one (§3.12).
@@ -651,13 +646,19 @@ impl Pencil {
         }
     }
 
-    /// out ← K + sD + s²M = A(s) at a real s without structural damping (the linearized
-    /// space's K₀ at s₀ > 0: positive definite when M is and K, D are semi-definite; §3.13).
+    /// out ← K + sD + s²M, A(s) at a real s without structural damping, its real part with
+    /// it (the linearized space's K₀ at s₀ > 0: positive definite when M is and K, D are
+    /// semi-definite; §3.13).
     pub fn fill_quadratic(&self, s: f64, out: &mut [f64]) {
         let d = self.values(Coefficient::Damping);
         for (((r, &k), &m), &d) in out.iter_mut().zip(&self.k).zip(&self.m).zip(d.iter()) {
             *r = k + s * d + (s * s) * m;
         }
+    }
+
+    /// out ← H = ηK + K₄, the structural damping: the imaginary part of A(s) at a real s.
+    pub fn fill_structural(&self, out: &mut [f64]) {
+        out.copy_from_slice(&self.values(Coefficient::Structural));
     }
 
     /// re ← K − ω²M, im ← ωD + H: the values of A(iω) ([`Self::value`] of every entry).

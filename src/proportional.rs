@@ -27,9 +27,9 @@
 //!
 //!   so the space answers U's r columns beside the loads and an r × r solve per frequency
 //!   does the rest ([`Remainder::correction`]), with or without structural damping;
-//! - [`Split::General`]: a remainder on many DoFs (material-wise damping): without
-//!   structural damping the linearized space answers it (§3.13,
-//!   [`crate::linearized_space`]); with it, each frequency is factored.
+//! - [`Split::General`]: a remainder on many DoFs (material-wise damping): the linearized
+//!   space answers it (§3.13, [`crate::linearized_space`]), with a complex factor when there
+//!   is structural damping.
 //!
 //! The fit is robust to the remainder's entries: it is refitted on the entries its residual
 //! leaves within a tightening threshold ([`THRESHOLDS`]), so a few dashpot entries do not

@@ -59,8 +59,8 @@
 
 /**
  * `SparsemorDampingInfo::kind`: a remainder on many DoFs (material-wise damping): one
- * linearized Krylov space answers every frequency (§3.13); with structural damping (η or
- * K₄) every frequency is factored.
+ * linearized Krylov space answers every frequency (§3.13), from a complex factorization
+ * when there is structural damping (η or K₄).
  */
 #define SPARSEMOR_DAMPING_GENERAL 3
 

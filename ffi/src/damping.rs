@@ -35,8 +35,8 @@ pub const SPARSEMOR_DAMPING_PROPORTIONAL: u32 = 1;
 /// shifted pencil plus a Sherman–Morrison–Woodbury correction (§3.12).
 pub const SPARSEMOR_DAMPING_LOW_RANK: u32 = 2;
 /// `SparsemorDampingInfo::kind`: a remainder on many DoFs (material-wise damping): one
-/// linearized Krylov space answers every frequency (§3.13); with structural damping (η or
-/// K₄) every frequency is factored.
+/// linearized Krylov space answers every frequency (§3.13), from a complex factorization
+/// when there is structural damping (η or K₄).
 pub const SPARSEMOR_DAMPING_GENERAL: u32 = 3;
 
 /// How a model's damping is answered (docs/design.md §3.12), from

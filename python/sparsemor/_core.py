@@ -309,7 +309,7 @@ class Model:
         §3.12): A(iω) = (1 + iη + iωβ)K − (ω² − iωα − iγ)M plus a remainder. `kind`:
         "none", "proportional" (one shifted real pencil answers every frequency), "low_rank"
         (plus a correction of rank `remainder_rank` on `remainder_dofs` DoFs) or "general"
-        (one linearized space, §3.13, or with structural damping every frequency factored;
+        (one linearized space, §3.13, with a complex factor under structural damping;
         `remainder_dofs` None when the fit found no proportional part); `alpha`, `beta`,
         `eta`, `gamma` of the proportional part."""
         r = _out("SparsemorDampingInfo")

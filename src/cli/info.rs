@@ -171,18 +171,19 @@ fn describe_split(pencil: &sparsemor::pencil::Pencil) -> String {
             r.rank()
         ),
         Split::General(p, dofs) => format!(
-            "not proportional: the remainder after the fit ({}) touches {} DoFs; {}",
+            "not proportional: the remainder after the fit ({}) touches {} DoFs; one \
+             linearized Krylov space answers every frequency ({} factor; when the damping \
+             keeps a free body's rigid motion apart)",
             coefficients(p),
             if *dofs == usize::MAX {
                 "most".to_string()
             } else {
                 dofs.to_string()
             },
-            if pencil.linearized_space_applies() {
-                "one linearized Krylov space answers every frequency (when D keeps a free \
-                 body's rigid motion apart)"
+            if pencil.structural() == (0.0, false) {
+                "a real"
             } else {
-                "with structural damping every frequency is factored"
+                "a complex"
             }
         ),
     }

@@ -612,6 +612,30 @@ impl<S: std::ops::Deref<Target = Symbolic>, T: FactorScalar> Numeric<S, T> {
         self.scratch = None;
         self.second = None;
     }
+
+    /// The factorization of a matrix factored once and solved with many times (the factors
+    /// of [`super::real_ldlt`]): pivots below `tau` perturbed, the work buffers freed, D
+    /// inverted for the solves.
+    pub(super) fn factor_once(
+        &mut self,
+        a: &(impl Fn(usize) -> T + Sync),
+        tau: f64,
+        par: Par,
+    ) -> Result<Pivots> {
+        let pivots = self.factor_with(a, tau, par)?;
+        self.release_scratch();
+        self.invert_diagonal(par);
+        Ok(pivots)
+    }
+
+    /// X ← A⁻¹X in place, in blocks of the factor's right-hand-side width.
+    pub(super) fn solve_all(&mut self, mut x: MatMut<'_, T>, par: Par) {
+        let width = self.x.ncols();
+        let k = x.ncols();
+        for c in (0..k).step_by(width) {
+            self.solve_block(x.rb_mut().subcols_mut(c, width.min(k - c)), par);
+        }
+    }
 }
 
 impl<S: std::ops::Deref<Target = Symbolic>, T: FactorScalar> Numeric<S, T> {
@@ -786,12 +810,8 @@ impl Factorization for Numeric<&Symbolic, c64> {
         )
     }
 
-    fn solve(&mut self, mut rhs: MatMut<'_, c64>, par: Par) {
-        let width = self.x.ncols();
-        let k = rhs.ncols();
-        for c in (0..k).step_by(width) {
-            self.solve_block(rhs.rb_mut().subcols_mut(c, width.min(k - c)), par);
-        }
+    fn solve(&mut self, rhs: MatMut<'_, c64>, par: Par) {
+        self.solve_all(rhs, par);
     }
 
     fn pivot_ratio(&self) -> f64 {

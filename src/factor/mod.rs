@@ -58,7 +58,7 @@ pub use refine::{BACKWARD_ERROR_FLOOR, MAX_REFINEMENTS};
 pub(crate) use cholesky::Cholesky;
 pub(crate) use inertia::{off_an_eigenfrequency, ShiftedIndefinite};
 pub use real_ldlt::FactorPlace;
-pub(crate) use real_ldlt::RealLdlt;
+pub(crate) use real_ldlt::{ComplexLdlt, RealLdlt};
 
 use crate::pencil::Pencil;
 use crate::Result;

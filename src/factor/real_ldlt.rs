@@ -1,15 +1,18 @@
-//! The real LDLᵀ of a shifted or quadratic pencil (docs/design.md §3.1): the in-house
-//! supernodal kernel in real arithmetic with L in memory ([`super::ldlt`], left-looking), or in
-//! a file when it does not fit the memory budget ([`super::on_disk`], multifrontal).
+//! The LDLᵀ of one matrix factored once and solved with many times (docs/design.md §3.1):
+//! a shifted or quadratic real pencil, by the in-house supernodal kernel in real arithmetic
+//! with L in memory ([`super::ldlt`], left-looking) or in a file when it does not fit the
+//! memory budget ([`super::on_disk`], multifrontal) ([`RealLdlt`]); the quadratic pencil of a
+//! body with structural damping, by the same kernel in complex arithmetic, L in memory
+//! ([`ComplexLdlt`]).
 
 use super::backend::Storage;
-use super::ldlt::{Numeric, Symbolic};
+use super::ldlt::{Numeric, Pivots, Symbolic};
 use super::on_disk;
 use crate::pencil::Pencil;
 use crate::{Error, Result};
 use faer::reborrow::ReborrowMut;
 use faer::sparse::linalg::cholesky::{SymbolicCholesky, SymbolicCholeskyRaw};
-use faer::{MatMut, Par};
+use faer::{c64, MatMut, Par};
 use std::path::Path;
 use std::sync::Arc;
 
@@ -101,21 +104,10 @@ impl RealLdlt {
         let a = |p: usize| vals[p];
         let tau = f64::EPSILON * amax;
         let pivots = match &mut self.0 {
-            Place::InCore(f) => {
-                let pivots = f.factor_with(&a, tau, par)?;
-                f.release_scratch();
-                f.invert_diagonal(par);
-                pivots
-            }
+            Place::InCore(f) => f.factor_once(&a, tau, par)?,
             Place::OnDisk(f) => f.factor(&a, tau, par)?,
         };
-        if !(pivots.hi.is_finite() && pivots.hi > 0.0) {
-            return Err(Error::Factor(
-                "the real LDLᵀ factorization met a non-finite or all-zero pivot (NaN in the \
-                 model?)"
-                    .into(),
-            ));
-        }
+        finite(&pivots, "real")?;
         Ok(RealPivots {
             negative: pivots.negative,
             perturbed: pivots.perturbed,
@@ -148,12 +140,7 @@ impl RealLdlt {
     pub(crate) fn solve(&mut self, mut x: MatMut<'_, f64>, par: Par) {
         let k = x.ncols();
         match &mut self.0 {
-            Place::InCore(f) => {
-                let width = f.x.ncols();
-                for c in (0..k).step_by(width) {
-                    f.solve_block(x.rb_mut().subcols_mut(c, width.min(k - c)), par);
-                }
-            }
+            Place::InCore(f) => f.solve_all(x, par),
             Place::OnDisk(f) => {
                 let width = f.width();
                 for c in (0..k).step_by(width) {
@@ -173,5 +160,79 @@ impl RealLdlt {
             Place::OnDisk(f) => f.failure().map_or(Ok(()), Err),
             Place::InCore(_) => Ok(()),
         }
+    }
+}
+
+/// A factorization's pivots are finite and not all zero.
+fn finite(pivots: &Pivots, arithmetic: &str) -> Result<()> {
+    if pivots.hi.is_finite() && pivots.hi > 0.0 {
+        Ok(())
+    } else {
+        Err(Error::Factor(format!(
+            "the {arithmetic} LDLᵀ factorization met a non-finite or all-zero pivot (NaN in the \
+             model?)"
+        )))
+    }
+}
+
+/// The in-house supernodal LDLᵀ in complex arithmetic of a complex symmetric A = R + iS
+/// given on the pencil's lower pattern: the linearized space's K₀ = K + iH + s₀D + s₀²M of a
+/// body with structural damping (docs/design.md §3.13), whose real part is positive definite,
+/// so that every pivot exists without pivoting. L is in memory: twice the real factor's
+/// bytes.
+pub(crate) struct ComplexLdlt(Box<Numeric<Box<Symbolic>, c64>>);
+
+impl ComplexLdlt {
+    /// The analysis on `sym` (the pencil's [`super::symbolic_cholesky`]), for solves of up
+    /// to `rhs` columns at once; `None` when `sym` has no supernodes.
+    ///
+    /// # Errors
+    /// [`Error::Factor`] as [`RealLdlt::new`], and when the factor and its buffers would take
+    /// more than `budget` bytes.
+    pub(crate) fn new(
+        pencil: &Pencil,
+        sym: Arc<SymbolicCholesky<usize>>,
+        rhs: usize,
+        budget: usize,
+    ) -> Result<Option<Self>> {
+        if !matches!(sym.raw(), SymbolicCholeskyRaw::Supernodal(_)) {
+            return Ok(None);
+        }
+        let rhs = rhs.max(1);
+        let (symbolic, _) = Symbolic::new(pencil, sym, rhs)?;
+        let bytes = 2 * symbolic.real_bytes(rhs);
+        if bytes > budget {
+            return Err(Error::Factor(format!(
+                "the complex factor would take {:.2} GB, more than the {:.2} GB the memory \
+                 budget leaves",
+                bytes as f64 / 1e9,
+                budget as f64 / 1e9
+            )));
+        }
+        symbolic.prepare(pencil)?;
+        Ok(Some(ComplexLdlt(Box::new(Numeric::new(Box::new(
+            symbolic,
+        ))?))))
+    }
+
+    /// Factors A = R + iS, the values `re` and `im` on the pencil's lower pattern; returns
+    /// the pivots below ε·max|aᵢⱼ|, perturbed to it (the caller refuses such a factor).
+    ///
+    /// # Errors
+    /// [`Error::Factor`] on a non-finite or all-zero pivot or short memory.
+    pub(crate) fn factor(&mut self, re: &[f64], im: &[f64], par: Par) -> Result<usize> {
+        let amax = re
+            .iter()
+            .zip(im)
+            .fold(0.0f64, |m, (r, i)| m.max(r.hypot(*i)));
+        let a = |p: usize| c64::new(re[p], im[p]);
+        let pivots = self.0.factor_once(&a, f64::EPSILON * amax, par)?;
+        finite(&pivots, "complex")?;
+        Ok(pivots.perturbed)
+    }
+
+    /// X ← A⁻¹X in place.
+    pub(crate) fn solve(&mut self, x: MatMut<'_, c64>, par: Par) {
+        self.0.solve_all(x, par);
     }
 }
