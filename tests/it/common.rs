@@ -202,7 +202,8 @@ pub fn dense_eigenvalues_shift_invert(model: &Model, sigma: f64) -> Vec<f64> {
     lam
 }
 
-/// Dense elastic transfer function of a free body with Rayleigh (and structural) damping, by the *deflated*
+/// Dense elastic transfer function of a free body with viscous (and structural) damping that
+/// does not load rigid motion, by the *deflated*
 /// pencil Ã = A(iω) + c M V0 M0⁻¹ V0ᵀ M: its rigid eigenvalue is lifted to c = (2π·100 Hz)²
 /// (near the first elastic one), so it is well conditioned down to ω = 0, and it acts on
 /// elastic vectors (V0ᵀMx = 0) as A does: H1 = C Ã⁻¹ P B with P = I − M V0 M0⁻¹ V0ᵀ. A
@@ -216,10 +217,10 @@ pub fn dense_h1_deflated(
 ) -> Mat<c64> {
     let w = 2.0 * std::f64::consts::PI * f;
     let (m, k) = (dense(&model.mass), dense(&model.stiffness));
-    let (alpha, beta) = match model.damping {
-        Damping::Rayleigh { alpha, beta } => (alpha, beta),
-        Damping::None => (0.0, 0.0),
-        Damping::Matrix(_) => panic!("Rayleigh only"),
+    let d = match &model.damping {
+        Damping::Rayleigh { alpha, beta } => &m * *alpha + &k * *beta,
+        Damping::None => Mat::zeros(m.nrows(), m.ncols()),
+        Damping::Matrix(d) => dense(d),
     };
     let mv0 = &m * v0;
     let m0 = v0.transpose() * &mv0;
@@ -233,7 +234,7 @@ pub fn dense_h1_deflated(
     let a = Mat::<c64>::from_fn(n, n, |i, j| {
         c64::new(
             k[(i, j)] - w * w * m[(i, j)] + lift[(i, j)],
-            w * (alpha * m[(i, j)] + beta * k[(i, j)]) + h(i, j),
+            w * d[(i, j)] + h(i, j),
         )
     });
     let mut b = Mat::<f64>::zeros(n, inputs.len());
