@@ -67,6 +67,10 @@ struct SamplingToml {
     #[serde(default)]
     solves: Option<usize>,
     factorizations: usize,
+    /// Every factorization of the run, the verification's too (an older file without them:
+    /// the loop's).
+    #[serde(default)]
+    factorizations_in_all: Option<usize>,
     suggested_dof: usize,
     /// Max ε of the ROM over `verified_points` full solves spread over the band.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -175,6 +179,7 @@ fn write_dir(dir: &Path, rom: &Rom, body: Option<&Body>) -> Result<()> {
                 error_kind: SamplingReport::ERROR_KIND.into(),
                 solves: Some(r.solves),
                 factorizations: r.factorizations,
+                factorizations_in_all: Some(r.factorizations_in_all),
                 suggested_dof: r.suggested_dof,
                 verified_error: r.verified.map(|v| v.error),
                 verified_points: r.verified.map(|v| v.points),
@@ -219,6 +224,7 @@ fn sampling_report(path: &Path, t: SamplingToml) -> Result<SamplingReport> {
             .map(|(points, error)| Verified { points, error }),
         solves: t.solves.unwrap_or(t.factorizations),
         factorizations: t.factorizations,
+        factorizations_in_all: t.factorizations_in_all.unwrap_or(t.factorizations),
         modes_in_band: None,
         spilled: false,
         spill_room: None,

@@ -86,9 +86,11 @@ pub struct SamplingReport {
     pub verified: Option<Verified>,
     /// Full solves of the loop (frequencies solved; the verification's come on top).
     pub solves: usize,
-    /// Factorizations spent by the loop (the verification's come on top): one per factored
-    /// frequency, one per shifted Krylov space.
+    /// Factorizations spent by the loop (the verification's come on top): the inertia
+    /// count's, one per factored frequency, one per response space.
     pub factorizations: usize,
+    /// Every factorization of the run: the loop's and the verification's.
+    pub factorizations_in_all: usize,
     /// Elastic modes in the band, counted by inertia when a default (the interface, the order
     /// cap) needed them.
     pub modes_in_band: Option<usize>,
@@ -117,8 +119,9 @@ impl SamplingReport {
         let last = self.steps.last();
         let verified = match &self.verified {
             Some(v) => format!(
-                "; verified max eps {:.2e} over {} full solves across the band",
-                v.error, v.points
+                "; verified max eps {:.2e} over {} full solves across the band ({} \
+                 factorizations in all)",
+                v.error, v.points, self.factorizations_in_all
             ),
             None => String::new(),
         };

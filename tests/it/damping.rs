@@ -266,7 +266,7 @@ fn far_half_stiffness(spec: &BoxSpec, n: usize) -> Mat<f64> {
 /// K₄ = 0.002 K + 0.018 K_far (the far half 10× more damped). A line-fitting ROM meets its
 /// tolerance against dense solves on 40 points with every response of the run from one
 /// linearized space about a complex K₀ (docs/design.md §3.13): one factorization for the
-/// space, none per frequency.
+/// space, none per frequency, and the report and rom.toml count the inertia count's too.
 #[test]
 fn material_wise_structural_damping_reduces_from_one_space() {
     let spec = BoxSpec {
@@ -297,6 +297,15 @@ fn material_wise_structural_damping_reduces_from_one_space() {
     let s = &rom.fit().unwrap().solves;
     assert!(s.frequencies > 0 && s.from_space == s.frequencies, "{s:?}");
     assert_eq!(s.space_factorizations, 1, "{s:?}");
+    // the report counts them all: the inertia count's and the space's, none per frequency;
+    // rom.toml keeps the count
+    let report = rom.sampling().unwrap();
+    assert_eq!(report.factorizations_in_all, 2);
+    let root = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("damping_material");
+    let _ = std::fs::remove_dir_all(&root);
+    rom_dir::write(&root, &rom).unwrap();
+    let read = rom_dir::read(&root).unwrap();
+    assert_eq!(read.sampling().unwrap().factorizations_in_all, 2);
     let v0 = sparsemor::rigid::rigid_modes(model.nodes.as_ref().unwrap(), 3);
     let mut worst = 0.0f64;
     for k in 0..40 {

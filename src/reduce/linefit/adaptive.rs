@@ -460,6 +460,7 @@ impl<'a> Loop<'a> {
             .map(|(v, _)| v),
         };
         let outcome = stop::confirmed(outcome, error, verified, self.sampling.tol);
+        let factorizations_in_all = self.plan.counted + self.engine.accuracy().factorizations();
         let report = SamplingReport {
             tol: self.sampling.tol,
             suggested_dof: rom.fit().map(|f| f.residual_argmax_dof).unwrap_or(0),
@@ -469,6 +470,7 @@ impl<'a> Loop<'a> {
             verified,
             solves,
             factorizations,
+            factorizations_in_all,
             modes_in_band: self.plan.modes_in_band,
             spilled: self.engine.spilled(),
             spill_room: self.plan.spill_room,
