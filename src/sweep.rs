@@ -93,10 +93,12 @@ impl Default for SweepOptions {
 /// How the responses are computed.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum SolveMethod {
-    /// From one shifted Krylov space when the damping is proportional (D = 0 or αM + βK,
-    /// [`crate::shifted_space`], docs/design.md §3.10): one real factorization serves every
-    /// frequency, each response certified by its residual; a frequency whose response does
-    /// not pass is factored. Factored otherwise.
+    /// From one Krylov space: shifted when the damping is proportional but for a low-rank
+    /// remainder ([`crate::shifted_space`], docs/design.md §3.10, §3.12), linearized for any
+    /// other ([`crate::linearized_space`], §3.13). One factorization serves every frequency,
+    /// each response certified by its residual; a frequency whose response does not pass is
+    /// factored, and so is every frequency when the space does not apply (a damping that
+    /// couples a free body's rigid motion to the elastic, a total response of a free body).
     #[default]
     Auto,
     /// Factor A(iω) at every frequency.
@@ -111,7 +113,7 @@ impl std::str::FromStr for SolveMethod {
             "auto" => Ok(Self::Auto),
             "factor" => Ok(Self::Factored),
             _ => Err(Error::InvalidSetting(format!(
-                "solve method `{s}`: expected auto (a shifted Krylov space when the damping is proportional) or factor (factor A(iw) at every frequency)"
+                "solve method `{s}`: expected auto (one Krylov space for every frequency where the damping allows) or factor (factor A(iw) at every frequency)"
             ))),
         }
     }

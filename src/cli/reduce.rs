@@ -92,9 +92,10 @@ pub struct ReduceArgs {
     /// disk, in the temporary directory.
     #[arg(long, value_parser = super::args::gigabytes)]
     memory_gb: Option<usize>,
-    /// How line-fitting's responses are computed: auto (one shifted Krylov space when the
-    /// damping is proportional, each response certified by its residual; docs/design.md
-    /// §3.10) or factor (factor A(iω) at every frequency).
+    /// How line-fitting's responses are computed: auto (one Krylov space for every frequency,
+    /// each response certified by its residual: shifted for proportional damping and dampers,
+    /// linearized for any other; docs/design.md §3.10–§3.13) or factor (factor A(iω) at every
+    /// frequency).
     #[arg(long, default_value = "auto")]
     solve: String,
     /// Worker threads (0 = all cores).

@@ -46,9 +46,10 @@ pub struct SweepArgs {
     /// every frequency is then factored); its files are deleted when the sweep ends.
     #[arg(long)]
     out_of_core: Option<PathBuf>,
-    /// How responses are computed: auto (one shifted Krylov space when the damping is
-    /// proportional, each response certified by its residual; docs/design.md §3.10) or
-    /// factor (factor A(iω) at every frequency).
+    /// How responses are computed: auto (one Krylov space for every frequency, each response
+    /// certified by its residual: shifted for proportional damping and dampers, linearized
+    /// for any other; docs/design.md §3.10–§3.13) or factor (factor A(iω) at every
+    /// frequency).
     #[arg(long, default_value = "auto")]
     solve: String,
     /// Output CSV: f_hz,output,input,re,im.
