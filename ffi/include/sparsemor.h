@@ -1204,8 +1204,9 @@ enum SparsemorStatus sparsemor_rom_transfer_error(const struct SparsemorModel *m
  * sampled points and the last step's points, the verified indicator maxima or every
  * candidate of a shifted Krylov space's grid — a lower bound of the max over the band;
  * when the tolerance was not met, the best such value of the loop) and the factorizations
- * spent (`*factorizations_out`). Any out pointer may be NULL. `SPARSEMOR_STATUS_NOT_AVAILABLE`
- * for a ROM that did not come from the sampling loop.
+ * the loop spent (`*factorizations_out`, the inertia count's included; with the verification
+ * pass's: `sparsemor_rom_factorizations_in_all`). Any out pointer may be NULL.
+ * `SPARSEMOR_STATUS_NOT_AVAILABLE` for a ROM that did not come from the sampling loop.
  *
  * # Safety
  * `rom` a live handle; each out pointer NULL or writable.
@@ -1214,6 +1215,18 @@ enum SparsemorStatus sparsemor_rom_sampling_result(const struct SparsemorRom *ro
                                                    double *tol_out,
                                                    double *error_out,
                                                    size_t *factorizations_out);
+
+/**
+ * Every factorization of the run that made a tolerance-driven line-fitting ROM
+ * (`*count_out`): the inertia count's, the sampling loop's and the verification pass's (docs/
+ * design.md §3.5). `SPARSEMOR_STATUS_NOT_AVAILABLE` for a ROM that did not come from the
+ * sampling loop.
+ *
+ * # Safety
+ * `rom` a live handle; `count_out` writable.
+ */
+enum SparsemorStatus sparsemor_rom_factorizations_in_all(const struct SparsemorRom *rom,
+                                                         size_t *count_out);
 
 /**
  * Whether the ROM came from the sampling loop (`*is_sampled_out`, 0/1) and, if so, whether

@@ -917,8 +917,9 @@ pub unsafe extern "C" fn sparsemor_rom_transfer_error(
 /// sampled points and the last step's points, the verified indicator maxima or every
 /// candidate of a shifted Krylov space's grid — a lower bound of the max over the band;
 /// when the tolerance was not met, the best such value of the loop) and the factorizations
-/// spent (`*factorizations_out`). Any out pointer may be NULL. `SPARSEMOR_STATUS_NOT_AVAILABLE`
-/// for a ROM that did not come from the sampling loop.
+/// the loop spent (`*factorizations_out`, the inertia count's included; with the verification
+/// pass's: `sparsemor_rom_factorizations_in_all`). Any out pointer may be NULL.
+/// `SPARSEMOR_STATUS_NOT_AVAILABLE` for a ROM that did not come from the sampling loop.
 ///
 /// # Safety
 /// `rom` a live handle; each out pointer NULL or writable.
@@ -930,16 +931,38 @@ pub unsafe extern "C" fn sparsemor_rom_sampling_result(
     factorizations_out: *mut usize,
 ) -> SparsemorStatus {
     ffi_body!({
-        let r = unsafe { obj(rom, "rom")? };
-        let s = r.rom.sampling().ok_or_else(|| {
-            Failure::new(
-                SparsemorStatus::NotAvailable,
-                "the ROM did not come from the sampling loop (no tolerance was set)",
-            )
-        })?;
+        let s = sampling(unsafe { obj(rom, "rom")? })?;
         unsafe { write_opt(tol_out, s.tol, "tol_out")? };
         unsafe { write_opt(error_out, s.error, "error_out")? };
         unsafe { write_opt(factorizations_out, s.factorizations, "factorizations_out") }
+    })
+}
+
+/// Every factorization of the run that made a tolerance-driven line-fitting ROM
+/// (`*count_out`): the inertia count's, the sampling loop's and the verification pass's (docs/
+/// design.md §3.5). `SPARSEMOR_STATUS_NOT_AVAILABLE` for a ROM that did not come from the
+/// sampling loop.
+///
+/// # Safety
+/// `rom` a live handle; `count_out` writable.
+#[no_mangle]
+pub unsafe extern "C" fn sparsemor_rom_factorizations_in_all(
+    rom: *const SparsemorRom,
+    count_out: *mut usize,
+) -> SparsemorStatus {
+    ffi_body!({
+        let s = sampling(unsafe { obj(rom, "rom")? })?;
+        unsafe { write_out(count_out, s.factorizations_in_all, "count_out") }
+    })
+}
+
+/// The ROM's sampling report, or `NOT_AVAILABLE` when it did not come from the sampling loop.
+fn sampling(r: &SparsemorRom) -> Result<&sparsemor::reduce::linefit::SamplingReport, Failure> {
+    r.rom.sampling().ok_or_else(|| {
+        Failure::new(
+            SparsemorStatus::NotAvailable,
+            "the ROM did not come from the sampling loop (no tolerance was set)",
+        )
     })
 }
 

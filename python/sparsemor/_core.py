@@ -546,15 +546,19 @@ class Rom:
     @property
     def sampling(self) -> Optional[dict]:
         """For a ROM reduced with a tolerance (docs/design.md §3.5): the tolerance, the error
-        reached, whether it converged, the factorizations spent and the step log; None
+        reached, whether it converged, the factorizations the loop spent (the inertia count's
+        included) and the run's in all (the verification's too), and the step log; None
         otherwise."""
         def read():
             tol, err, facts = _out("double"), _out("double"), _out("size_t")
             _check(lib.sparsemor_rom_sampling_result(self._h, tol, err, facts))
             sampled, converged = _out("int32_t"), _out("int32_t")
             _check(lib.sparsemor_rom_sampling_converged(self._h, sampled, converged))
+            in_all = _out("size_t")
+            _check(lib.sparsemor_rom_factorizations_in_all(self._h, in_all))
             return {"tolerance": tol[0], "error": err[0], "converged": bool(converged[0]),
-                    "factorizations": facts[0], "steps": self._steps()}
+                    "factorizations": facts[0], "factorizations_in_all": in_all[0],
+                    "steps": self._steps()}
         return self._optional(read)
 
     def _steps(self) -> list:

@@ -169,6 +169,7 @@ def test_tolerance_drives_the_sampling_loop_and_reports_it():
     s = rom.sampling
     assert s["tolerance"] == 1e-4 and s["converged"] and s["error"] <= 1e-4
     assert s["factorizations"] >= 1 and len(s["steps"]) >= 1
+    assert s["factorizations_in_all"] >= s["factorizations"]
     assert s["steps"][-1]["order"] == rom.order
     grid = np.linspace(band[1] / 150, band[1], 150)
     D = 2e-4 * K

@@ -178,6 +178,7 @@ int main(void) {
         double *br = rom_matrix(rom, SPARSEMOR_MATRIX_BR, &r_, &p);
         double *cr = rom_matrix(rom, SPARSEMOR_MATRIX_CR, &q, &c_);
         double *refs, *eps_el, *eps_tot, worst = 0.0, tol = 0, err = 0;
+        size_t loop_factorizations = 0, in_all = 0;
         double complex hf[6], hr[6];
         CHECK(sparsemor_rom_has_structural_damping(rom, &has));
         if (has != 1) fail("the ROM has structural damping");
@@ -185,9 +186,13 @@ int main(void) {
         if (r_ != n || c_ != n) fail("K4r is n x n");
         if (n2 != n || p != 2 || q != 3) fail("ROM shape");
         CHECK(sparsemor_rom_sampling_converged(rom, &sampled, &converged));
-        CHECK(sparsemor_rom_sampling_result(rom, &tol, &err, NULL));
-        printf("line-fitting with tol %.0e: order %zu, converged %d, error reached %.2e\n", tol,
-               n, (int)converged, err);
+        CHECK(sparsemor_rom_sampling_result(rom, &tol, &err, &loop_factorizations));
+        CHECK(sparsemor_rom_factorizations_in_all(rom, &in_all));
+        printf("line-fitting with tol %.0e: order %zu, converged %d, error reached %.2e, %zu "
+               "factorizations (%zu in all)\n",
+               tol, n, (int)converged, err, loop_factorizations, in_all);
+        if (loop_factorizations < 1 || in_all < loop_factorizations)
+            fail("every factorization of the run is counted, the loop's among them");
         if (!sampled || !converged) fail("the sampling loop did not reach its tolerance");
         CHECK(sparsemor_rom_reference_frequencies(rom, NULL, 0, &n_ref));
         refs = malloc(sizeof(double) * (n_ref ? n_ref : 1));

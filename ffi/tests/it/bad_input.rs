@@ -458,6 +458,13 @@ fn tolerance_is_validated_and_reserved() {
             err.is_finite() && err >= 0.0 && facts_total >= 1,
             "{err} {facts_total}"
         );
+        // every factorization of the run: the loop's and the verification's, as rom.toml
+        let mut in_all = 0usize;
+        let st = sparsemor_rom_factorizations_in_all(rom, &mut in_all);
+        assert_eq!(st, SparsemorStatus::Ok, "{}", last_error());
+        assert!(in_all >= facts_total, "{in_all} < {facts_total}");
+        let st = sparsemor_rom_factorizations_in_all(rom, null_mut());
+        expect(st, SparsemorStatus::NullPointer, "count_out");
         sparsemor_rom_free(rom);
         // a ROM from explicit frequencies has no sampling result
         assert_eq!(sparsemor_options_set_tolerance(o, 0.0), SparsemorStatus::Ok);
@@ -466,6 +473,8 @@ fn tolerance_is_validated_and_reserved() {
         let st = sparsemor_reduce_linefit(h, o, None, null_mut(), &mut rom);
         assert_eq!(st, SparsemorStatus::Ok, "{}", last_error());
         let st = sparsemor_rom_sampling_result(rom, &mut tol, null_mut(), null_mut());
+        expect(st, SparsemorStatus::NotAvailable, "sampling loop");
+        let st = sparsemor_rom_factorizations_in_all(rom, &mut facts_total);
         expect(st, SparsemorStatus::NotAvailable, "sampling loop");
         sparsemor_rom_free(rom);
         sparsemor_options_set_reference_frequencies(o, f.as_ptr(), 1);
