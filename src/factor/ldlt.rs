@@ -629,12 +629,21 @@ impl<S: std::ops::Deref<Target = Symbolic>, T: FactorScalar> Numeric<S, T> {
     }
 
     /// X ← A⁻¹X in place, in blocks of the factor's right-hand-side width.
-    pub(super) fn solve_all(&mut self, mut x: MatMut<'_, T>, par: Par) {
+    pub(super) fn solve_all(&mut self, x: MatMut<'_, T>, par: Par) {
         let width = self.x.ncols();
-        let k = x.ncols();
-        for c in (0..k).step_by(width) {
-            self.solve_block(x.rb_mut().subcols_mut(c, width.min(k - c)), par);
-        }
+        in_blocks(x, width, |b| self.solve_block(b, par));
+    }
+}
+
+/// `solve` on the columns of `x`, `width` at a time (a factor's solve buffers hold that many).
+pub(super) fn in_blocks<T>(
+    mut x: MatMut<'_, T>,
+    width: usize,
+    mut solve: impl FnMut(MatMut<'_, T>),
+) {
+    let k = x.ncols();
+    for c in (0..k).step_by(width) {
+        solve(x.rb_mut().subcols_mut(c, width.min(k - c)));
     }
 }
 

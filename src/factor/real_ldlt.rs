@@ -6,11 +6,10 @@
 //! ([`ComplexLdlt`]).
 
 use super::backend::Storage;
-use super::ldlt::{Numeric, Pivots, Symbolic};
+use super::ldlt::{in_blocks, Numeric, Pivots, Symbolic};
 use super::on_disk;
 use crate::pencil::Pencil;
 use crate::{Error, Result};
-use faer::reborrow::ReborrowMut;
 use faer::sparse::linalg::cholesky::{SymbolicCholesky, SymbolicCholeskyRaw};
 use faer::{c64, MatMut, Par};
 use std::path::Path;
@@ -137,15 +136,12 @@ impl RealLdlt {
 
     /// X ← A⁻¹X in place, in blocks of the `rhs` columns of [`Self::new`]. A factor on disk
     /// that cannot be read leaves X NaN and keeps the error for [`Self::check_solves`].
-    pub(crate) fn solve(&mut self, mut x: MatMut<'_, f64>, par: Par) {
-        let k = x.ncols();
+    pub(crate) fn solve(&mut self, x: MatMut<'_, f64>, par: Par) {
         match &mut self.0 {
             Place::InCore(f) => f.solve_all(x, par),
             Place::OnDisk(f) => {
                 let width = f.width();
-                for c in (0..k).step_by(width) {
-                    f.solve_block(x.rb_mut().subcols_mut(c, width.min(k - c)), par);
-                }
+                in_blocks(x, width, |b| f.solve_block(b, par));
             }
         }
     }
