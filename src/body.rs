@@ -33,6 +33,7 @@ pub struct Body {
     pencil: Pencil,
     rigid: Option<RigidBody>,
     symbolic: OnceLock<Arc<SymbolicCholesky<usize>>>,
+    formed_symbolic: OnceLock<Arc<SymbolicCholesky<usize>>>,
     /// The memory budget of the run (bytes), if one was set: what the real factors may take.
     memory_budget: Option<usize>,
 }
@@ -59,6 +60,7 @@ impl Body {
             pencil,
             rigid,
             symbolic: OnceLock::new(),
+            formed_symbolic: OnceLock::new(),
             memory_budget: None,
         })
     }
@@ -75,6 +77,7 @@ impl Body {
             pencil: self.pencil.restricted(pos, keep),
             rigid: None,
             symbolic: OnceLock::new(),
+            formed_symbolic: OnceLock::new(),
             memory_budget: self.memory_budget,
         }
     }
@@ -151,8 +154,9 @@ impl Body {
         self.rigid.as_ref()
     }
 
-    /// The ordered symbolic Cholesky of the pencil's N×N lower pattern, computed on the
-    /// first call and kept.
+    /// The ordered symbolic Cholesky of the N×N lower pattern the real factorizations take
+    /// ([`Pencil::factored`]: the pencil's own, or through a coupling the pencil before its
+    /// functionals became coordinates), computed on the first call and kept.
     ///
     /// # Errors
     /// [`crate::Error::Factor`] when the analysis fails (allocation, index overflow).
@@ -162,6 +166,23 @@ impl Body {
         }
         let s = Arc::new(crate::factor::symbolic_cholesky(&self.pencil)?);
         Ok(self.symbolic.get_or_init(|| s).clone())
+    }
+
+    /// The ordered symbolic Cholesky of the pencil's own pattern, which the per-frequency
+    /// factorizations of A(iω) fill: [`Self::symbolic`] unless the real factorizations go
+    /// through a coupling, then its own analysis, computed on the first call and kept.
+    ///
+    /// # Errors
+    /// As [`Self::symbolic`].
+    pub fn formed_symbolic(&self) -> Result<Arc<SymbolicCholesky<usize>>> {
+        if self.pencil.through_coupling().is_none() {
+            return self.symbolic();
+        }
+        if let Some(s) = self.formed_symbolic.get() {
+            return Ok(s.clone());
+        }
+        let (s, _) = crate::factor::symbolic_cholesky_ordered(&self.pencil)?;
+        Ok(self.formed_symbolic.get_or_init(|| Arc::new(s)).clone())
     }
 
     /// The body with a memory budget for the whole run (`None`: half the memory available when a

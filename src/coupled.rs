@@ -32,13 +32,14 @@ use crate::coupling::{
     RemotePoint, SparseRow,
 };
 use crate::model::{Damping, Model, Structural};
-use crate::pencil::Pencil;
+use crate::pencil::{Congruent, Pencil};
 use crate::proportional::Split;
 use crate::rigid::{centroid, rigid_modes, rigid_modes_about};
 use crate::sparse::linear_combination;
 use crate::{Error, Result};
 use faer::Mat;
 use std::collections::BTreeMap;
+use std::sync::Arc;
 
 /// One input or output of a scene.
 #[derive(Clone, Debug, PartialEq)]
@@ -297,22 +298,43 @@ pub fn couple(
     for ((_, label), &p) in unique.iter().zip(&pivots) {
         coordinates[p] = label.clone();
     }
+    let t2 = change.t;
     let t = match &t1 {
         Some(t1) => faer::sparse::linalg::matmul::sparse_sparse_matmul(
             t1.as_ref(),
-            change.t.as_ref(),
+            t2.as_ref(),
             1.0,
             faer::Par::Seq,
         )
         .map_err(|e| Error::Factor(format!("coupled model: {e:?}")))?,
-        None => change.t,
+        None => t2.clone(),
     };
     let stiffness = congruence(&model.stiffness, &t)?;
     let mass = congruence(&model.mass, &t)?;
     let nnz = [model.stiffness.compute_nnz(), stiffness.compute_nnz()];
-    let (damping, structural) = carried_damping(model, &t, &mass, &stiffness)?;
+    // A₁ = T₁ᵀAT₁ (the model itself without rigid points) when going through it pays
+    let first = if Congruent::pays(nnz[0], t2.compute_nnz(), nnz[1]) {
+        Some(match &t1 {
+            Some(t1) => (
+                congruence(&model.stiffness, t1)?,
+                congruence(&model.mass, t1)?,
+            ),
+            None => (model.stiffness.clone(), model.mass.clone()),
+        })
+    } else {
+        None
+    };
+    let inner = first.as_ref().map(|(k1, m1)| (t1.as_ref(), m1, k1));
+    let ((damping, structural), first_damping) =
+        carried_damping(model, &t, &mass, &stiffness, inner)?;
     let (coupled, _) = Model::new(model.name.clone(), mass, stiffness, damping, None, dpn)?;
     let mut coupled = coupled.with_structural(structural)?;
+    if let (Some((k1, m1)), Some((damping, structural))) = (first, first_damping) {
+        let (first, _) = Model::new(model.name.clone(), m1, k1, damping, None, dpn)?;
+        let first = first.with_structural(structural)?;
+        let s = inverse_of_t2(&rows, &pivots, n1);
+        coupled.congruent = Some(Arc::new(Congruent::new(&first, &t2, &s)?));
+    }
     if let Some(nodes) = nodes {
         coupled = coupled.with_rigid_modes(rigid_modes_in(
             nodes, dpn, points, &rigid, &kept, &rows, &pivots,
@@ -330,17 +352,28 @@ pub fn couple(
     })
 }
 
+/// A damping and a structural damping.
+type Carried = (Damping, Structural);
+
 /// D' and H' of the coupled model (docs/design.md §3.12): an explicit D or K₄ that splits
 /// into a proportional part and a low-rank remainder keeps the split exactly, as
 /// αM' + βK' + TᵀET (and γM' + η₄K' + TᵀFT), instead of TᵀDT, whose rounding in the dense
 /// blocks' cancellations would hide the proportional part from the coupled pencil's fit; any
-/// other damping is carried by congruence.
+/// other damping is carried by congruence. With `first` = (T₁, M₁, K₁), also the damping of
+/// the model after the rigid points' elimination q = T₁z₁ (none: T₁ = I) whose congruence
+/// that is (αM₁ + βK₁ + T₁ᵀET₁, …; T₁ᵀDT₁ for any other D), for the products and solves
+/// through the coupling ([`Congruent`]).
 fn carried_damping(
     model: &Model,
     t: &crate::sparse::Csc,
     mass: &crate::sparse::Csc,
     stiffness: &crate::sparse::Csc,
-) -> Result<(Damping, Structural)> {
+    first: Option<(
+        Option<&crate::sparse::Csc>,
+        &crate::sparse::Csc,
+        &crate::sparse::Csc,
+    )>,
+) -> Result<(Carried, Option<Carried>)> {
     let eta = model.structural.eta;
     let explicit = matches!(model.damping, Damping::Matrix(_)) || model.structural.matrix.is_some();
     let by_congruence = |x: &Option<&crate::sparse::Csc>| x.map(|x| congruence(x, t)).transpose();
@@ -354,11 +387,69 @@ fn carried_damping(
                 other => other.clone(),
             };
             let matrix = by_congruence(&model.structural.matrix.as_ref())?;
-            return Ok((damping, Structural { eta, matrix }));
+            let first = match first {
+                Some((t1, _, _)) => {
+                    let by_t1 = |x: &crate::sparse::Csc| match t1 {
+                        Some(t1) => congruence(x, t1),
+                        None => Ok(x.clone()),
+                    };
+                    let damping = match &model.damping {
+                        Damping::Matrix(d) => Damping::Matrix(by_t1(d)?),
+                        other => other.clone(),
+                    };
+                    let matrix = model.structural.matrix.as_ref().map(by_t1).transpose()?;
+                    Some((damping, Structural { eta, matrix }))
+                }
+                None => None,
+            };
+            return Ok(((damping, Structural { eta, matrix }), first));
         }
     };
     let (e, f) = remainder.unwrap_or((None, None));
-    let (e, f) = (by_congruence(&e.as_ref())?, by_congruence(&f.as_ref())?);
+    let coupled = (by_congruence(&e.as_ref())?, by_congruence(&f.as_ref())?);
+    let coupled = split_damping(model, &p, mass, stiffness, coupled);
+    let first = match first {
+        Some((t1, m1, k1)) => {
+            let by_t1 = |x: Option<crate::sparse::Csc>| match (x, t1) {
+                (Some(x), Some(t1)) => congruence(&x, t1).map(Some),
+                (x, _) => Ok(x),
+            };
+            Some(split_damping(model, &p, m1, k1, (by_t1(e)?, by_t1(f)?)))
+        }
+        None => None,
+    };
+    Ok((coupled, first))
+}
+
+/// S = T₂⁻¹: the identity with each pivot row `pivots[k]` replaced by the functional
+/// `rows[k]` (z = S z₁; docs/design.md §3.11), N' × N'.
+fn inverse_of_t2(rows: &[SparseRow], pivots: &[usize], n: usize) -> crate::sparse::Csc {
+    let mut is_pivot = vec![false; n];
+    pivots.iter().for_each(|&p| is_pivot[p] = true);
+    let mut s = crate::sparse::Triplets::default();
+    (0..n)
+        .filter(|&i| !is_pivot[i])
+        .for_each(|i| s.push(i, i, 1.0));
+    for (row, &p) in rows.iter().zip(pivots) {
+        row.idx
+            .iter()
+            .zip(&row.val)
+            .for_each(|(&j, &v)| s.push(p, j, v));
+    }
+    s.into_csc(n, false)
+}
+
+/// The damping of a split (docs/design.md §3.12) on `mass` and `stiffness`: Rayleigh (or
+/// none) for a proportional D, αM + βK + E with a remainder E; γM + (η₄ − η)K + F beside the
+/// model's η for a K₄ (η₄ alone when γ = 0 and there is no F).
+fn split_damping(
+    model: &Model,
+    p: &crate::proportional::Proportional,
+    mass: &crate::sparse::Csc,
+    stiffness: &crate::sparse::Csc,
+    (e, f): (Option<crate::sparse::Csc>, Option<crate::sparse::Csc>),
+) -> Carried {
+    let eta = model.structural.eta;
     let damping = match (e, &model.damping) {
         (None, Damping::Matrix(_)) if p.alpha == 0.0 && p.beta == 0.0 => Damping::None,
         (None, Damping::Matrix(_)) => Damping::Rayleigh {
@@ -377,13 +468,11 @@ fn carried_damping(
     let matrix = match (f, model.structural.matrix.is_some()) {
         (_, false) => None,
         (None, true) if p.gamma == 0.0 => {
-            return Ok((
-                damping,
-                Structural {
-                    eta: p.eta,
-                    matrix: None,
-                },
-            ))
+            let structural = Structural {
+                eta: p.eta,
+                matrix: None,
+            };
+            return (damping, structural);
         }
         (f, true) => Some(linear_combination(
             p.gamma,
@@ -393,7 +482,7 @@ fn carried_damping(
             f.as_ref(),
         )),
     };
-    Ok((damping, Structural { eta, matrix }))
+    (damping, Structural { eta, matrix })
 }
 
 /// The rows `over_z1` (functionals of z₁) as functionals of z, z₁ = T₂ z (module doc): a
@@ -628,6 +717,212 @@ mod tests {
             Coordinate::Point { point: 0, dir: 0 }
         );
         assert_eq!(cp.coordinates[cp.outputs[2]], Coordinate::Dof(7));
+    }
+
+    /// A 2 × 2 × 12 bar (351 DoFs), Rayleigh β = 1e-5: long enough that a point over every
+    /// node has a dense block larger than the bar's K.
+    fn through_bar() -> Model {
+        let mut m = bar_model(&BoxSpec {
+            elements: [2, 2, 12],
+            ..BoxSpec::small()
+        })
+        .unwrap();
+        m.damping = Damping::Rayleigh {
+            alpha: 0.0,
+            beta: 1e-5,
+        };
+        m
+    }
+
+    /// That bar with a rigid point at its base and a distributing one over every node,
+    /// damped by `damping` (D, K₄ and η; Rayleigh β = 1e-5 when `damping` is `None`), coupled:
+    /// the point's dense block outweighs the bar, so it goes through the coupling.
+    fn coupled_through(damping: Option<(Csc, Option<Csc>, f64)>) -> Coupled {
+        let mut model = through_bar();
+        if let Some((d, k4, eta)) = damping {
+            model.damping = Damping::Matrix(d);
+            model.structural = Structural { eta, matrix: k4 };
+        }
+        let nodes = model.nodes.clone().unwrap();
+        let base: Vec<usize> = (0..nodes.len()).filter(|&i| nodes[i][2] < 1e-9).collect();
+        let points = [
+            RemotePoint {
+                name: "base".into(),
+                position: [0.01, 0.015, -0.01],
+                nodes: base,
+                weights: Vec::new(),
+                kind: Kind::Rigid,
+            },
+            RemotePoint {
+                name: "all".into(),
+                position: [0.013, 0.017, 0.104],
+                nodes: (0..nodes.len()).collect(),
+                weights: Vec::new(),
+                kind: Kind::Distributing,
+            },
+        ];
+        let io: Vec<Functional> = (0..6)
+            .map(|dir| Functional::Point { point: 1, dir })
+            .chain([Functional::Point { point: 0, dir: 2 }])
+            .collect();
+        let cp = couple(&model, &points, &io, &io).unwrap();
+        assert!(cp.model.congruent.is_some(), "a point over every node pays");
+        cp
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(16))]
+        /// Products through the coupling, Tᵀ(X(T z)), equal the formed X' z for M, K, D
+        /// (Rayleigh, split into αM + βK + a dashpot, material-like) and H (η, K₄), and so do
+        /// A(iω)x and the damping and structural terms: to 1e-12 of the product's size.
+        #[test]
+        fn products_through_the_coupling_equal_the_formed_ones(
+            kind in 0usize..4,
+            c in 1.0f64..100.0,
+            eta in 0.0f64..0.05,
+            seed in 0u64..1000,
+        ) {
+            let base = through_bar();
+            let n0 = base.n();
+            let lin = |a: f64, b: f64, extra: &[(usize, usize, f64)]| {
+                let mut t = crate::sparse::Triplets::default();
+                extra.iter().for_each(|&(i, j, v)| t.push(i, j, v));
+                let e = t.into_csc(n0, false);
+                linear_combination(a, &base.mass, b, &base.stiffness, Some(&e))
+            };
+            let dashpot = [(2, 2, c), (47, 47, c), (2, 47, -c), (47, 2, -c)];
+            let diagonal: Vec<(usize, usize, f64)> = (0..n0).map(|i| (i, i, c)).collect();
+            let damping = match kind {
+                0 => None,
+                1 => Some((lin(0.0, 1e-5, &dashpot), None, 0.0)),
+                2 => Some((lin(2.0, 1e-5, &diagonal), None, eta)),
+                _ => Some((lin(0.0, 1e-5, &[]), Some(lin(0.0, 0.01, &diagonal)), eta)),
+            };
+            let cp = coupled_through(damping);
+            let through = Pencil::new(&cp.model);
+            proptest::prop_assert!(through.through_coupling().is_some());
+            let formed = Pencil::new(&Model { congruent: None, ..cp.model.clone() });
+            proptest::prop_assert!(formed.through_coupling().is_none());
+            let n = cp.model.n();
+            let mut random = crate::random::Xorshift::new(seed + 1);
+            let x = Mat::from_fn(n, 6, |_, _| random.next_centred());
+            let close = |a: &Mat<f64>, b: &Mat<f64>| (a - b).norm_l2() <= 1e-12 * b.norm_l2();
+            use crate::pencil::Coefficient::*;
+            for which in [Mass, Stiffness, Damping, Structural] {
+                let (a, b) = (through.mul(which, x.as_ref()), formed.mul(which, x.as_ref()));
+                proptest::prop_assert!(close(&a, &b) || b.norm_l2() == 0.0 && a.norm_l2() == 0.0);
+            }
+            let terms = |p: &Pencil| {
+                let (m, k) = (p.mul(Mass, x.as_ref()), p.mul(Stiffness, x.as_ref()));
+                let d = p.damping_term(&m, &k, |d| d(x.as_ref()));
+                let h = p.structural_term(&k, || p.mul(Structural, x.as_ref()));
+                (d, h)
+            };
+            let ((d1, h1), (d2, h2)) = (terms(&through), terms(&formed));
+            proptest::prop_assert!(close(&d1, &d2));
+            proptest::prop_assert!(h1.zip(h2).is_none_or(|(a, b)| close(&a, &b)));
+            let xc = Mat::<c64>::from_fn(n, 2, |i, j| c64::new(x[(i, j)], x[(i, j + 2)]));
+            let (mut a, mut b) = (Mat::<c64>::zeros(n, 2), Mat::<c64>::zeros(n, 2));
+            through.apply(2.0e3, xc.as_ref(), a.as_mut());
+            formed.apply(2.0e3, xc.as_ref(), b.as_mut());
+            proptest::prop_assert!((&a - &b).norm_l2() <= 1e-12 * b.norm_l2());
+        }
+    }
+
+    /// Factorizations through the coupling take A₁, which has no dense block, and solve the
+    /// coupled A' = TᵀA₁T as S A₁⁻¹ Sᵀ: the Cholesky factor of K' − σM' below the spectrum,
+    /// the indefinite LDLᵀ inside it (which counts as many eigenvalues below σ as the formed
+    /// pencil's) and the complex LDLᵀ of K' + iH' + s²M' solve to a backward error below
+    /// 1e-12, measured with the coupled products.
+    #[test]
+    fn factorizations_through_the_coupling_solve_the_coupled_model() {
+        use crate::factor::{
+            count_eigenvalues_below, symbolic_cholesky, Cholesky, ComplexLdlt, ShiftedIndefinite,
+            Storage,
+        };
+        use crate::pencil::Coefficient::{Mass, Stiffness, Structural};
+        use faer::Par;
+        let base = through_bar();
+        let k4 = linear_combination(0.0, &base.mass, 0.01, &base.stiffness, None);
+        let d = linear_combination(0.0, &base.mass, 1e-5, &base.stiffness, None);
+        let cp = coupled_through(Some((d, Some(k4), 0.02)));
+        let through = Pencil::new(&cp.model);
+        let formed = Pencil::new(&Model {
+            congruent: None,
+            ..cp.model.clone()
+        });
+        assert!(through.through_coupling().is_some());
+        assert!(2 * through.factored().nnz() < formed.nnz());
+        let n = cp.model.n();
+        let mut random = crate::random::Xorshift::new(7);
+        let b = Mat::from_fn(n, 3, |_, _| random.next_centred());
+        let sym = Arc::new(symbolic_cholesky(&through).unwrap());
+        // ‖(K − σM)x − b‖ / (‖K − σM‖₁‖x‖ + ‖b‖) with the coupled products
+        let backward = |sigma: f64, x: &Mat<f64>| {
+            let r = through.mul(Stiffness, x.as_ref()) - through.mul(Mass, x.as_ref()) * sigma - &b;
+            let norm = formed.norm_1(Stiffness) + sigma.abs() * formed.norm_1(Mass);
+            r.norm_l2() / (norm * x.norm_l2() + b.norm_l2())
+        };
+        let below = -(2.0 * std::f64::consts::PI * 10.0).powi(2);
+        let mut chol =
+            Cholesky::with_rhs(&through, sym.clone(), Par::Seq, 3, Storage::IN_CORE).unwrap();
+        chol.factor(&through, below, Par::Seq).unwrap();
+        let mut x = b.clone();
+        chol.solve_block(x.as_mut(), Par::Seq);
+        assert!(backward(below, &x) < 1e-12, "{:e}", backward(below, &x));
+        let inside = (2.0 * std::f64::consts::PI * 3000.0).powi(2);
+        let mut ldlt =
+            ShiftedIndefinite::new(sym.clone(), &through, inside, 3, Par::Seq, Storage::IN_CORE)
+                .unwrap();
+        let count = count_eigenvalues_below(&formed, inside).unwrap();
+        assert!(count > 6, "the band holds elastic modes");
+        assert_eq!(ldlt.below(), count);
+        let mut x = b.clone();
+        ldlt.solve_in_place(x.as_mut(), Par::Seq);
+        assert!(backward(inside, &x) < 1e-12, "{:e}", backward(inside, &x));
+        // K + iH + s²M at s = 1000: complex symmetric, real part positive definite
+        let s2 = 1e6;
+        let mut complex = ComplexLdlt::new(&through, sym, 3, usize::MAX)
+            .unwrap()
+            .unwrap();
+        let (mut re, mut im) = (vec![0.0; through.factored().nnz()], vec![0.0; 0]);
+        through.factored().fill_shifted(-s2, &mut re);
+        im.resize(re.len(), 0.0);
+        through.factored().fill_structural(&mut im);
+        assert_eq!(complex.factor(&re, &im, Par::Seq).unwrap(), 0);
+        let mut x = Mat::<c64>::from_fn(n, 3, |i, j| c64::new(b[(i, j)], 0.0));
+        complex.solve(x.as_mut(), Par::Seq);
+        let part = |f: fn(&c64) -> f64| Mat::from_fn(n, 3, |i, j| f(&x[(i, j)]));
+        let (xr, xi) = (part(|z| z.re), part(|z| z.im));
+        let a =
+            |v: &Mat<f64>| through.mul(Stiffness, v.as_ref()) + through.mul(Mass, v.as_ref()) * s2;
+        let h = |v: &Mat<f64>| through.mul(Structural, v.as_ref());
+        let (rr, ri) = (a(&xr) - h(&xi) - &b, a(&xi) + h(&xr));
+        let r = (rr.norm_l2().powi(2) + ri.norm_l2().powi(2)).sqrt();
+        let norm = formed.norm_1(Stiffness) + s2 * formed.norm_1(Mass) + formed.norm_1(Structural);
+        let x_norm = (xr.norm_l2().powi(2) + xi.norm_l2().powi(2)).sqrt();
+        let e = r / (norm * x_norm + b.norm_l2());
+        assert!(e < 1e-12, "{e:e}");
+    }
+
+    /// A coupling that no longer matches the model is not used: the damping dropped after
+    /// coupling, or the stiffness scaled.
+    #[test]
+    fn a_coupling_that_no_longer_matches_the_model_is_ignored() {
+        let cp = coupled_through(None);
+        assert!(Pencil::new(&cp.model).through_coupling().is_some());
+        let undamped = Model {
+            damping: Damping::None,
+            ..cp.model.clone()
+        };
+        assert!(Pencil::new(&undamped).through_coupling().is_none());
+        let mut scaled = cp.model.clone();
+        scaled
+            .stiffness
+            .val_mut()
+            .iter_mut()
+            .for_each(|v| *v *= 2.0);
+        assert!(Pencil::new(&scaled).through_coupling().is_none());
     }
 
     /// The coupled model's rigid modes are the original ones: T V0' = V0 (rigid motions are

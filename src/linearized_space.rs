@@ -214,8 +214,9 @@ impl<'a> LinearizedSpace<'a> {
                 )));
             }
         }
-        let mut vals = vec![0.0; pencil.nnz()];
-        pencil.fill_quadratic(s0, &mut vals);
+        // on the factored pencil's pattern (through the coupling, A₁'s: §3.11)
+        let mut vals = vec![0.0; pencil.factored().nnz()];
+        pencil.factored().fill_quadratic(s0, &mut vals);
         let p = load.ncols();
         let not_definite = |e: Error| {
             Error::Factor(format!(
@@ -239,8 +240,8 @@ impl<'a> LinearizedSpace<'a> {
                             .into(),
                     )
                 })?;
-            let mut im = vec![0.0; pencil.nnz()];
-            pencil.fill_structural(&mut im);
+            let mut im = vec![0.0; pencil.factored().nnz()];
+            pencil.factored().fill_structural(&mut im);
             let perturbed = factor.factor(&vals, &im, par).map_err(not_definite)?;
             if perturbed > 0 {
                 return Err(Error::Factor(format!(

@@ -82,6 +82,11 @@ pub struct Model {
     pub rigid_modes: Option<faer::Mat<f64>>,
     /// Structural damping H = ηK + K₄ (none from [`Model::new`]; [`Model::with_structural`]).
     pub structural: Structural,
+    /// A coupled model's coupling, through which its products are cheaper than with its
+    /// formed matrices (docs/design.md §3.11; set by [`crate::coupled::couple`] when it pays,
+    /// none from [`Model::new`]). The pencil checks it against the formed matrices and
+    /// ignores it when they differ.
+    pub congruent: Option<std::sync::Arc<crate::pencil::Congruent>>,
 }
 
 /// What [`Model::new`] measured while validating: returned to the user (`sparsemor info`).
@@ -172,6 +177,7 @@ impl Model {
             dofs_per_node,
             rigid_modes: None,
             structural: Structural::default(),
+            congruent: None,
         };
         Ok((
             model,

@@ -15,13 +15,18 @@
 //! (docs/design.md §2: on the 10⁶-DoF bar they are 1.36 GB beside the pencil's 0.77 GB).
 //! Products with M, the most frequent (Krylov spaces, M-inner products), read a copy of M by
 //! rows on its own nonzeros, made at the first one (the 10⁶-DoF bar: 21.2 M entries, 254 MB).
+//!
+//! A coupled model (§3.11) may carry its coupling ([`Congruent`]): its products are then
+//! X'z = Tᵀ(X(T z)) with the original model's X, which reads far fewer entries than the formed
+//! X' = TᵀXT when distributing points give X' dense blocks. The formed values stay the
+//! pattern the factorizations fill.
 
 use crate::model::{Damping, Model};
 use crate::proportional::{split, Pattern, Proportional, Remainder, Split, Viscous};
 use crate::sparse::{from_parts, lower_triangle, mirror_lower, Csc};
 use faer::{c64, Mat, MatMut, MatRef};
 use std::borrow::Cow;
-use std::sync::OnceLock;
+use std::sync::{Arc, OnceLock};
 
 /// Columns per pass of [`Pencil::mul_to`] over the matrix.
 const BLOCK: usize = 4;
@@ -66,6 +71,159 @@ pub struct Pencil {
     split: Split,
     /// M by rows on its own nonzeros (built at the first product with M).
     mass_rows: OnceLock<Option<Rows>>,
+    /// The coupling the products go through, when the model carries one that agrees with
+    /// the formed values ([`Congruent`]).
+    through: Option<Arc<Congruent>>,
+}
+
+/// A coupled model's products and factorizations through its coupling (docs/design.md
+/// §3.11). The coupled X' = TᵀX₁T, with X₁ ∈ {M, K, D, H} the model's after its rigid points'
+/// elimination and T = S⁻¹ the change of variables that makes the functionals coordinates
+/// (N' × N', S the identity with the pivot rows replaced by the functionals):
+/// - products X'z = Tᵀ(X₁(T z)). A distributing point over s DoFs gives X' a dense s × s
+///   block, while T has s entries in each of the point's rows: a product reads
+///   nnz(X₁) + 2·nnz(T) entries instead of nnz(X') (the 77k-DoF crank's two bores: K 5.6 M and
+///   T 0.1 M entries against the formed K' 28.4 M);
+/// - solves A'⁻¹ = S A₁⁻¹ Sᵀ: the real factorizations take A₁ ([`Pencil::factored`]), which
+///   has no dense block and, being congruent to A', the same inertia.
+///
+/// Set on a model by [`crate::coupled::couple`] when it pays ([`Congruent::pays`]);
+/// [`Pencil::new`] uses it only if probe products agree with the formed matrices and S
+/// inverts T on the probe.
+#[derive(Debug)]
+pub struct Congruent {
+    /// The pencil of A₁, with the damping whose congruence is the coupled model's.
+    inner: Pencil,
+    /// T by columns: (Tᵀy)_j is column j of T times y.
+    t: Csc,
+    /// Tᵀ by columns, i.e. T by rows: (Tz)_i is column i of Tᵀ times z.
+    t_rows: Csc,
+    /// S = T⁻¹ by columns: (Sᵀy)_j is column j of S times y.
+    s: Csc,
+    /// Sᵀ by columns: (Sz)_i is column i of Sᵀ times z.
+    s_rows: Csc,
+}
+
+impl Congruent {
+    /// The products and solves of `first`'s matrices (A₁) through T = `t` and its inverse
+    /// S = `s` (both N' × N', N' = `first`'s N). `first` must carry the damping whose
+    /// congruence is the coupled model's (an explicit D, or the proportional part and
+    /// remainder it was split into).
+    ///
+    /// # Errors
+    /// [`crate::Error::InvalidSetting`] when T or S does not match the model;
+    /// [`crate::Error::Factor`] when their transposes cannot be stored.
+    pub fn new(first: &Model, t: &Csc, s: &Csc) -> crate::Result<Congruent> {
+        let n = first.n();
+        if [t.nrows(), t.ncols(), s.nrows(), s.ncols()] != [n; 4] {
+            return Err(crate::Error::InvalidSetting(format!(
+                "coupling: T is {}×{} and S {}×{} for a model of N = {n}",
+                t.nrows(),
+                t.ncols(),
+                s.nrows(),
+                s.ncols()
+            )));
+        }
+        let transposed = |a: &Csc| {
+            a.as_ref()
+                .transpose()
+                .to_col_major()
+                .map_err(|e| crate::Error::Factor(format!("coupling: a transpose: {e:?}")))
+        };
+        Ok(Congruent {
+            inner: Pencil::new(first),
+            t: t.clone(),
+            t_rows: transposed(t)?,
+            s: s.clone(),
+            s_rows: transposed(s)?,
+        })
+    }
+
+    /// True when a product through T reads at most half the entries of one with the formed
+    /// X' (`formed`: the stored entries of K' in full storage), from the stored entries of
+    /// K before coupling (`original`) and of T (`t`): original + 2·t ≤ formed / 2.
+    pub fn pays(original: usize, t: usize, formed: usize) -> bool {
+        2 * (original + 2 * t) <= formed
+    }
+
+    /// Stored entries a product reads: the first pencil's lower pattern and T twice.
+    pub fn entries(&self) -> usize {
+        self.inner.nnz() + 2 * self.t.compute_nnz()
+    }
+
+    /// y ← Tᵀ(X₁(T x)) for W interleaved columns, X₁'s lower values `vals` on the first
+    /// pencil's pattern.
+    fn product<const W: usize>(
+        &self,
+        which: Coefficient,
+        vals: &[f64],
+        x: &[[f64; W]],
+        y: &mut [[f64; W]],
+    ) {
+        let mut tx = vec![[0.0; W]; self.t.nrows()];
+        gather(&self.t_rows, x, &mut tx);
+        let mut xtx = vec![[0.0; W]; self.t.nrows()];
+        self.inner.block_product(which, vals, &tx, &mut xtx);
+        gather(&self.t, &xtx, y);
+    }
+
+    /// X ← S(solve(SᵀX)): A'⁻¹X from `solve`, X ← A₁⁻¹X.
+    fn solve<T: Through>(&self, mut x: MatMut<'_, T>, solve: impl FnOnce(MatMut<'_, T>)) {
+        each_column(&self.s, x.as_mut());
+        solve(x.as_mut());
+        each_column(&self.s_rows, x);
+    }
+}
+
+/// X ← A'⁻¹X from `solve`, which does X ← A⁻¹X with the matrix of [`Pencil::factored`]:
+/// through `coupling` when there is one (S(solve(SᵀX)), [`Congruent`]), else `solve` itself.
+pub(crate) fn solve_through<T: Through>(
+    coupling: Option<&Congruent>,
+    x: MatMut<'_, T>,
+    solve: impl FnOnce(MatMut<'_, T>),
+) {
+    match coupling {
+        Some(c) => c.solve(x, solve),
+        None => solve(x),
+    }
+}
+
+/// The scalars a solve goes through the coupling with: f64 and c64.
+pub trait Through:
+    Copy + Default + std::ops::Mul<f64, Output = Self> + std::ops::AddAssign + 'static
+{
+}
+impl Through for f64 {}
+impl Through for c64 {}
+
+/// x ← (column j of `a` times x for every j) = aᵀx, column by column of X.
+fn each_column<T: Through>(a: &Csc, mut x: MatMut<'_, T>) {
+    let n = x.nrows();
+    let (mut col, mut out) = (vec![[T::default()]; n], vec![[T::default()]; a.ncols()]);
+    for c in 0..x.ncols() {
+        col.iter_mut()
+            .zip(x.as_ref().col(c).iter())
+            .for_each(|(a, &b)| a[0] = b);
+        gather(a, &col, &mut out);
+        x.as_mut()
+            .col_mut(c)
+            .iter_mut()
+            .zip(&out)
+            .for_each(|(a, b)| *a = b[0]);
+    }
+}
+
+/// out_j ← Σ_i a_ij x_i: column j of `a` times the interleaved block `x`, for every column.
+fn gather<T: Through, const W: usize>(a: &Csc, x: &[[T; W]], out: &mut [[T; W]]) {
+    for (j, o) in out.iter_mut().enumerate() {
+        let mut sum = [T::default(); W];
+        for (&i, &v) in a.row_idx_of_col_raw(j).iter().zip(a.val_of_col(j)) {
+            for k in 0..W {
+                sum[k] += x[i][k] * v;
+            }
+        }
+        *o = sum;
+    }
 }
 
 /// A symmetric matrix in full storage by rows, its nonzeros only, columns ascending in each
@@ -248,7 +406,7 @@ impl Pencil {
                 k4.as_deref(),
             ),
         };
-        Pencil {
+        let mut pencil = Pencil {
             n,
             col_ptr,
             row_idx,
@@ -259,7 +417,70 @@ impl Pencil {
             k4,
             split,
             mass_rows: OnceLock::new(),
+            through: None,
+        };
+        pencil.through = model
+            .congruent
+            .as_ref()
+            .filter(|c| pencil.agrees_with(c))
+            .cloned();
+        pencil
+    }
+
+    /// True when the products through `c` equal the formed matrices' on a probe vector x
+    /// (uniform in [−½, ½)) to 10⁻¹² ‖X'‖₁‖x‖_∞, for M, K, D and H, and S(Tx) = x to
+    /// 10⁻¹²‖x‖_∞: a coupling that no longer matches the model (a matrix changed after
+    /// coupling) is not used.
+    fn agrees_with(&self, c: &Congruent) -> bool {
+        if c.t.ncols() != self.n {
+            return false;
         }
+        let mut random = crate::random::Xorshift::new(0x5eed);
+        let x: Vec<[f64; 1]> = (0..self.n).map(|_| [random.next_centred()]).collect();
+        let x_max = x.iter().fold(0.0f64, |m, v| m.max(v[0].abs()));
+        let coefficients = [
+            Coefficient::Mass,
+            Coefficient::Stiffness,
+            Coefficient::Damping,
+            Coefficient::Structural,
+        ];
+        let (mut tx, mut stx) = (vec![[0.0]; self.n], vec![[0.0]; self.n]);
+        gather(&c.t_rows, &x, &mut tx);
+        gather(&c.s_rows, &tx, &mut stx);
+        let inverts = x
+            .iter()
+            .zip(&stx)
+            .all(|(a, b)| (a[0] - b[0]).abs() <= 1e-12 * x_max);
+        inverts
+            && coefficients.into_iter().all(|which| {
+                let (mut formed, mut through) = (vec![[0.0]; self.n], vec![[0.0]; self.n]);
+                self.scatter_product(&self.values(which), &x, &mut formed);
+                c.product(which, &c.inner.values(which), &x, &mut through);
+                let bound = 1e-12 * self.norm_1(which) * x_max;
+                formed
+                    .iter()
+                    .zip(&through)
+                    .all(|(a, b)| (a[0] - b[0]).abs() <= bound)
+            })
+    }
+
+    /// The stored entries a product reads through the model's coupling, beside the formed
+    /// pattern's, when the products go through it ([`Congruent`]).
+    pub fn through_coupling(&self) -> Option<(usize, usize)> {
+        self.through.as_ref().map(|c| (c.entries(), self.nnz()))
+    }
+
+    /// The pencil whose pattern and values the real factorizations take: A₁ before the
+    /// functionals became coordinates when the products go through the coupling (the same
+    /// N, congruent to this one: the same inertia; its solves go through
+    /// [`Self::solve_through`]), else this one.
+    pub fn factored(&self) -> &Pencil {
+        self.through.as_ref().map_or(self, |c| &c.inner)
+    }
+
+    /// The coupling a factor of [`Self::factored`] keeps for its solves.
+    pub(crate) fn coupling(&self) -> Option<Arc<Congruent>> {
+        self.through.clone()
     }
 
     /// Dimension N.
@@ -387,7 +608,10 @@ impl Pencil {
     /// space's M W). Every column's sums are those of a product with that column alone.
     pub fn mul_to(&self, which: Coefficient, x: MatRef<'_, f64>, mut y: MatMut<'_, f64>) {
         use rayon::prelude::*;
-        let vals = self.values(which);
+        let vals = match &self.through {
+            Some(c) => c.inner.values(which),
+            None => self.values(which),
+        };
         // one contiguous column (the eigensolver's M x, once per Krylov step): in place
         if x.ncols() == 1 {
             if let (Some(xc), Some(yc)) = (
@@ -432,7 +656,8 @@ impl Pencil {
     /// y ← X x for W interleaved columns (row i of the block is `x[i]`), X given by its lower
     /// values `vals`: row j of X is summed in ascending columns, as a product with both
     /// triangles would sum it. M is multiplied by its own rows ([`Rows`]; the same sums
-    /// without the union pattern's zeros).
+    /// without the union pattern's zeros). Through the coupling, when there is one, `vals`
+    /// are the original pencil's.
     fn block_product<const W: usize>(
         &self,
         which: Coefficient,
@@ -440,6 +665,10 @@ impl Pencil {
         x: &[[f64; W]],
         y: &mut [[f64; W]],
     ) {
+        if let Some(c) = &self.through {
+            c.product(which, vals, x, y);
+            return;
+        }
         if which == Coefficient::Mass {
             let rows = self
                 .mass_rows
@@ -593,6 +822,7 @@ impl Pencil {
             k4: None,
             split: Split::Proportional(Proportional::default()),
             mass_rows: OnceLock::new(),
+            through: None,
         }
     }
 
@@ -684,8 +914,16 @@ impl Pencil {
         c64::new(k - (omega * omega) * m, im + h)
     }
 
-    /// y ← A(iω) x for the symmetric A stored by its lower triangle.
+    /// y ← A(iω) x for the symmetric A stored by its lower triangle (through the coupling,
+    /// Tᵀ(A₁(iω)(T x)) with the factored pencil's A₁, when the products go through it).
     pub fn apply(&self, omega: f64, x: MatRef<'_, c64>, mut y: MatMut<'_, c64>) {
+        if let Some(c) = &self.through {
+            let mut tx = x.to_owned();
+            each_column(&c.t_rows, tx.as_mut());
+            c.inner.apply(omega, tx.as_ref(), y.as_mut());
+            each_column(&c.t, y);
+            return;
+        }
         y.fill(c64::new(0.0, 0.0));
         for c in 0..x.ncols() {
             for j in 0..self.n {

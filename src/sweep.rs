@@ -428,7 +428,7 @@ impl<'a> Solver<'a> {
             body.pencil(),
             opts.backend,
             inputs.len() + 1,
-            || body.symbolic(),
+            || body.formed_symbolic(),
             storage,
         )?;
         let load = match response {

@@ -44,6 +44,11 @@ pub fn info(dir: &Path) -> Result<()> {
         println!("structural       {text}");
     }
     println!("damping path     {}", describe_split(&pencil));
+    if let Some((through, formed)) = pencil.through_coupling() {
+        println!(
+            "products         through the coupling, Tᵀ(X(T z)): {through} stored entries per product, against {formed} formed"
+        );
+    }
     let v0 = match (&model.rigid_modes, &model.nodes) {
         (Some(v0), _) => {
             println!("nodes            none: a coupled model, rigid modes from its couplings");

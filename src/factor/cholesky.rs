@@ -19,7 +19,7 @@
 use super::backend::{try_vec, workspace, Storage};
 use super::pattern;
 use super::real_ldlt::{FactorPlace, RealLdlt};
-use crate::pencil::Pencil;
+use crate::pencil::{solve_through, Congruent, Pencil};
 use crate::{Error, Result};
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltError;
@@ -38,7 +38,7 @@ use std::time::Instant;
 /// # Errors
 /// [`Error::Factor`] when the analysis fails (allocation, index overflow).
 pub fn symbolic_cholesky(pencil: &Pencil) -> Result<SymbolicCholesky<usize>> {
-    super::ordering::symbolic_cholesky_ordered(pencil).map(|(sym, _)| sym)
+    super::ordering::symbolic_cholesky_ordered(pencil.factored()).map(|(sym, _)| sym)
 }
 
 /// A numeric factor of a real symmetric positive definite matrix on the pencil's pattern
@@ -50,7 +50,11 @@ pub fn symbolic_cholesky(pencil: &Pencil) -> Result<SymbolicCholesky<usize>> {
 /// required positive, none perturbed: then L D^{1/2} is the Cholesky factor), faster than
 /// faer's LLᵀ on every body measured (docs/performance.md); a pattern without off-diagonal
 /// entries, which has no supernodes, takes faer's LLᵀ.
-pub(crate) struct Cholesky(Kernel);
+pub(crate) struct Cholesky {
+    kernel: Kernel,
+    /// The coupling its solves go through ([`Pencil::factored`]).
+    coupling: Option<Arc<Congruent>>,
+}
 
 enum Kernel {
     InHouse(Box<RealLdlt>),
@@ -75,25 +79,29 @@ impl Cholesky {
         rhs: usize,
         storage: Storage<'_>,
     ) -> Result<Self> {
-        match RealLdlt::new(pencil, sym.clone(), rhs, storage)? {
-            Some(f) => Ok(Cholesky(Kernel::InHouse(Box::new(f)))),
-            None => Self::faer(sym, par, rhs),
-        }
+        let kernel = match RealLdlt::new(pencil.factored(), sym.clone(), rhs, storage)? {
+            Some(f) => Kernel::InHouse(Box::new(f)),
+            None => Self::faer(sym, par, rhs)?,
+        };
+        Ok(Cholesky {
+            kernel,
+            coupling: pencil.coupling(),
+        })
     }
 
     /// faer's LLᵀ on `sym` (the benches' reference, and a pattern without supernodes).
-    fn faer(sym: Arc<SymbolicCholesky<usize>>, par: Par, rhs: usize) -> Result<Self> {
+    fn faer(sym: Arc<SymbolicCholesky<usize>>, par: Par, rhs: usize) -> Result<Kernel> {
         let l = try_vec(sym.len_val())?;
         let stack = workspace(
             sym.factorize_numeric_llt_scratch::<f64>(par, Default::default())
                 .or(sym.solve_in_place_scratch::<f64>(rhs.max(1), par)),
         )?;
-        Ok(Cholesky(Kernel::Faer { sym, l, stack }))
+        Ok(Kernel::Faer { sym, l, stack })
     }
 
     /// Entries of the factor L.
     pub(crate) fn factor_nnz(&self) -> usize {
-        match &self.0 {
+        match &self.kernel {
             Kernel::InHouse(f) => f.factor_nnz(),
             Kernel::Faer { l, .. } => l.len(),
         }
@@ -101,7 +109,7 @@ impl Cholesky {
 
     /// The in-house factor, when it is the kernel.
     pub(crate) fn in_house(&self) -> Option<&RealLdlt> {
-        match &self.0 {
+        match &self.kernel {
             Kernel::InHouse(f) => Some(f),
             Kernel::Faer { .. } => None,
         }
@@ -112,19 +120,19 @@ impl Cholesky {
     /// # Errors
     /// As [`Self::factor_values`].
     pub(crate) fn factor(&mut self, pencil: &Pencil, sigma: f64, par: Par) -> Result<()> {
-        let mut vals = try_vec(pencil.nnz())?;
-        pencil.fill_shifted(sigma, &mut vals);
+        let mut vals = try_vec(pencil.factored().nnz())?;
+        pencil.factored().fill_shifted(sigma, &mut vals);
         self.factor_values(pencil, &vals, par)
     }
 
-    /// Factors the real matrix with the values `vals` on the pencil's lower pattern (e.g.
-    /// K + s₀D + s₀²M, [`Pencil::fill_quadratic`]).
+    /// Factors the real matrix with the values `vals` on the lower pattern of
+    /// [`Pencil::factored`] (e.g. K + s₀D + s₀²M, [`Pencil::fill_quadratic`]).
     ///
     /// # Errors
     /// [`Error::Factor`] when a pivot is not positive (the matrix is not positive definite,
     /// or singular to working precision) or memory is short.
     pub(crate) fn factor_values(&mut self, pencil: &Pencil, vals: &[f64], par: Par) -> Result<()> {
-        match &mut self.0 {
+        match &mut self.kernel {
             Kernel::InHouse(f) => {
                 let pivots = f.factor(vals, par)?;
                 if pivots.negative + pivots.perturbed > 0 {
@@ -137,7 +145,7 @@ impl Cholesky {
             Kernel::Faer { sym, l, stack } => {
                 sym.factorize_numeric_llt(
                     l,
-                    SparseColMatRef::new(pattern::lower(pencil), vals),
+                    SparseColMatRef::new(pattern::lower(pencil.factored()), vals),
                     Side::Lower,
                     Default::default(),
                     par,
@@ -150,14 +158,16 @@ impl Cholesky {
         Ok(())
     }
 
-    /// X ← A⁻¹ X for a block of at most the `rhs` columns of [`Self::with_rhs`].
+    /// X ← A⁻¹ X for a block of at most the `rhs` columns of [`Self::with_rhs`] (through the
+    /// coupling: A⁻¹ = S A₁⁻¹ Sᵀ, [`Pencil::factored`]).
     pub(crate) fn solve_block(&mut self, x: MatMut<'_, f64>, par: Par) {
-        match &mut self.0 {
+        let kernel = &mut self.kernel;
+        solve_through(self.coupling.as_deref(), x, |x| match kernel {
             Kernel::InHouse(f) => f.solve(x, par),
             Kernel::Faer { sym, l, stack } => {
                 LltRef::new(sym, l).solve_in_place_with_conj(Conj::No, x, par, MemStack::new(stack))
             }
-        }
+        })
     }
 }
 
@@ -172,6 +182,7 @@ impl Cholesky {
 /// [`Error::Factor`] when the analysis or a factorization fails, or the in-house factor finds
 /// K + σM not positive definite.
 pub fn reference_cholesky(pencil: &Pencil) -> Result<(usize, f64, f64)> {
+    let pencil = pencil.factored();
     let sym = Arc::new(symbolic_cholesky(pencil)?);
     let nnz = sym.len_val();
     let sigma = -(2.0 * std::f64::consts::PI).powi(2);
@@ -183,9 +194,13 @@ pub fn reference_cholesky(pencil: &Pencil) -> Result<(usize, f64, f64)> {
             .map_err(|e| Error::Factor(format!("reference factorization of K + σM: {e}")))?;
         Ok::<f64, Error>(t.elapsed().as_secs_f64())
     };
-    let faer_s = time(Cholesky::faer(sym.clone(), Par::Seq, 1)?)?;
+    let alone = |kernel| Cholesky {
+        kernel,
+        coupling: None,
+    };
+    let faer_s = time(alone(Cholesky::faer(sym.clone(), Par::Seq, 1)?))?;
     let in_house_s = match RealLdlt::new(pencil, sym, 1, Storage::IN_CORE)? {
-        Some(f) => time(Cholesky(Kernel::InHouse(Box::new(f))))?,
+        Some(f) => time(alone(Kernel::InHouse(Box::new(f))))?,
         None => f64::NAN,
     };
     Ok((nnz, faer_s, in_house_s))
@@ -224,6 +239,7 @@ pub fn time_real_factor(
     rhs: usize,
     par: Par,
 ) -> Result<RealTiming> {
+    let pencil = pencil.factored();
     let mut vals = try_vec(pencil.nnz())?;
     pencil.fill_shifted(sigma, &mut vals);
     let mut f = RealLdlt::new(pencil, sym, rhs, storage)?
@@ -316,7 +332,10 @@ mod tests {
         let mut vals = vec![0.0; pencil.nnz()];
         pencil.fill_shifted(sigma, &mut vals);
         let b = Mat::<f64>::from_fn(pencil.n(), 5, |i, j| ((i * 7 + j * 13) % 11) as f64 - 5.0);
-        let mut reference = Cholesky::faer(sym.clone(), Par::Seq, 5).unwrap();
+        let mut reference = Cholesky {
+            kernel: Cholesky::faer(sym.clone(), Par::Seq, 5).unwrap(),
+            coupling: None,
+        };
         reference.factor(&pencil, sigma, Par::Seq).unwrap();
         let mut y = b.clone();
         reference.solve_block(y.as_mut(), Par::Seq);

@@ -16,7 +16,7 @@ use super::lblt::Factor;
 use super::pattern;
 use super::real_ldlt::RealLdlt;
 use super::refine::{refine, Buffers, Stop};
-use crate::pencil::Pencil;
+use crate::pencil::{solve_through, Congruent, Pencil};
 use crate::{Error, Result};
 use faer::sparse::linalg::cholesky::SymbolicCholesky;
 use faer::sparse::SparseColMatRef;
@@ -112,8 +112,11 @@ pub(crate) struct ShiftedIndefinite<'a> {
     /// Largest |l_ij| below the diagonal of the LBLᵀ ([`super::PivotStats::max_l`]); 0 for
     /// the static-pivot LDLᵀ.
     max_l: f64,
+    /// The pencil factored ([`Pencil::factored`]).
     pencil: &'a Pencil,
-    /// Lower values of K − σM on the pencil's pattern.
+    /// The coupling the solves go through, if any.
+    coupling: Option<Arc<Congruent>>,
+    /// Lower values of K − σM on the factored pencil's pattern.
     vals: Vec<f64>,
     /// ‖K − σM‖∞.
     norm_inf: f64,
@@ -168,6 +171,8 @@ impl<'a> ShiftedIndefinite<'a> {
         par: Par,
         storage: Storage<'_>,
     ) -> Result<Self> {
+        let coupling = pencil.coupling();
+        let pencil = pencil.factored();
         let mut vals = try_vec::<f64>(pencil.nnz())?;
         pencil.fill_shifted(sigma, &mut vals);
         let norm_inf = pattern::symmetric_norm_inf(pencil, |p| vals[p]);
@@ -194,6 +199,7 @@ impl<'a> ShiftedIndefinite<'a> {
             below,
             max_l,
             pencil,
+            coupling,
             vals,
             norm_inf,
             refinements: 0,
@@ -235,32 +241,37 @@ impl<'a> ShiftedIndefinite<'a> {
     /// x ← (K − σM)⁻¹ x (the LDLᵀ's on the threads of `par`, the LBLᵀ's sequential), checked
     /// as the type's doc says and refined to a normwise backward error ≤ [`REFINE_ABOVE`]
     /// when [`MAX_REFINEMENTS`](super::MAX_REFINEMENTS) steps reach it (module `refine`).
-    pub(crate) fn solve_in_place(&mut self, mut x: MatMut<'_, f64>, par: Par) {
+    pub(crate) fn solve_in_place(&mut self, x: MatMut<'_, f64>, par: Par) {
         let check =
             self.refinements > 0 || self.solves < CHECK_FIRST || self.solves % CHECK_EVERY == 0;
         self.solves += 1;
         let (sym, kernel, vals) = (&self.sym, &mut self.kernel, &self.vals);
-        if !check {
-            kernel.solve(sym, x, par);
-            return;
-        }
-        let b = x.to_owned();
-        kernel.solve(sym, x.as_mut(), par);
-        self.refinements += refine(
-            pattern::Lower {
-                pencil: self.pencil,
-                entry: &|p: usize| vals[p],
-            },
-            Stop::Normwise {
-                norm_inf: self.norm_inf,
-                above: REFINE_ABOVE,
-            },
-            |mut out| out.copy_from(&b),
-            x,
-            |r| kernel.solve(sym, r, par),
-            &mut self.refine_buffers,
-            par,
-        );
+        let (pencil, norm_inf) = (self.pencil, self.norm_inf);
+        let (refinements, buffers) = (&mut self.refinements, &mut self.refine_buffers);
+        // through the coupling, the system solved and refined is the factored pencil's
+        solve_through(self.coupling.as_deref(), x, |mut x| {
+            if !check {
+                kernel.solve(sym, x, par);
+                return;
+            }
+            let b = x.to_owned();
+            kernel.solve(sym, x.as_mut(), par);
+            *refinements += refine(
+                pattern::Lower {
+                    pencil,
+                    entry: &|p: usize| vals[p],
+                },
+                Stop::Normwise {
+                    norm_inf,
+                    above: REFINE_ABOVE,
+                },
+                |mut out| out.copy_from(&b),
+                x,
+                |r| kernel.solve(sym, r, par),
+                buffers,
+                par,
+            );
+        });
     }
 }
 

@@ -159,7 +159,7 @@ impl Analysis {
     /// [`Error::InvalidSetting`](crate::Error::InvalidSetting) for `umfpack` without the feature.
     pub fn new(pencil: &Pencil, backend: Backend, max_rhs: usize) -> Result<Self> {
         Self::with_symbolic(pencil, backend, max_rhs, || {
-            Ok(Arc::new(symbolic_cholesky(pencil)?))
+            Ok(Arc::new(symbolic_cholesky_ordered(pencil)?.0))
         })
     }
 

@@ -8,7 +8,7 @@
 use super::backend::Storage;
 use super::ldlt::{in_blocks, Numeric, Pivots, Symbolic};
 use super::on_disk;
-use crate::pencil::Pencil;
+use crate::pencil::{solve_through, Congruent, Pencil};
 use crate::{Error, Result};
 use faer::sparse::linalg::cholesky::{SymbolicCholesky, SymbolicCholeskyRaw};
 use faer::{c64, MatMut, Par};
@@ -176,7 +176,11 @@ fn finite(pivots: &Pivots, arithmetic: &str) -> Result<()> {
 /// body with structural damping (docs/design.md §3.13), whose real part is positive definite,
 /// so that every pivot exists without pivoting. L is in memory: twice the real factor's
 /// bytes.
-pub(crate) struct ComplexLdlt(Box<Numeric<Box<Symbolic>, c64>>);
+pub(crate) struct ComplexLdlt {
+    numeric: Box<Numeric<Box<Symbolic>, c64>>,
+    /// The coupling its solves go through ([`Pencil::factored`]).
+    coupling: Option<Arc<Congruent>>,
+}
 
 impl ComplexLdlt {
     /// The analysis on `sym` (the pencil's [`super::symbolic_cholesky`]), for solves of up
@@ -194,6 +198,8 @@ impl ComplexLdlt {
         if !matches!(sym.raw(), SymbolicCholeskyRaw::Supernodal(_)) {
             return Ok(None);
         }
+        let coupling = pencil.coupling();
+        let pencil = pencil.factored();
         let rhs = rhs.max(1);
         let (symbolic, _) = Symbolic::new(pencil, sym, rhs)?;
         let bytes = 2 * symbolic.real_bytes(rhs);
@@ -206,12 +212,14 @@ impl ComplexLdlt {
             )));
         }
         symbolic.prepare(pencil)?;
-        Ok(Some(ComplexLdlt(Box::new(Numeric::new(Box::new(
-            symbolic,
-        ))?))))
+        Ok(Some(ComplexLdlt {
+            numeric: Box::new(Numeric::new(Box::new(symbolic))?),
+            coupling,
+        }))
     }
 
-    /// Factors A = R + iS, the values `re` and `im` on the pencil's lower pattern; returns
+    /// Factors A = R + iS, the values `re` and `im` on the lower pattern of
+    /// [`Pencil::factored`]; returns
     /// the pivots below ε·max|aᵢⱼ|, perturbed to it (the caller refuses such a factor).
     ///
     /// # Errors
@@ -222,13 +230,14 @@ impl ComplexLdlt {
             .zip(im)
             .fold(0.0f64, |m, (r, i)| m.max(r.hypot(*i)));
         let a = |p: usize| c64::new(re[p], im[p]);
-        let pivots = self.0.factor_once(&a, f64::EPSILON * amax, par)?;
+        let pivots = self.numeric.factor_once(&a, f64::EPSILON * amax, par)?;
         finite(&pivots, "complex")?;
         Ok(pivots.perturbed)
     }
 
-    /// X ← A⁻¹X in place.
+    /// X ← A⁻¹X in place (through the coupling: A⁻¹ = S A₁⁻¹ Sᵀ, [`Pencil::factored`]).
     pub(crate) fn solve(&mut self, x: MatMut<'_, c64>, par: Par) {
-        self.0.solve_all(x, par);
+        let numeric = &mut self.numeric;
+        solve_through(self.coupling.as_deref(), x, |x| numeric.solve_all(x, par));
     }
 }

@@ -30,6 +30,11 @@ pub(crate) fn bar() -> Model {
 /// A directory with the bar's files and a `model.toml` whose remote points and scene are
 /// `joints` (TOML text after the common keys).
 pub(crate) fn directory(name: &str, joints: &str) -> PathBuf {
+    directory_of(name, &bar(), joints)
+}
+
+/// [`directory`] with the files of `model` (Rayleigh damped as the bar).
+fn directory_of(name: &str, model: &Model, joints: &str) -> PathBuf {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
         .join("remote_points")
         .join(name);
@@ -40,7 +45,7 @@ pub(crate) fn directory(name: &str, joints: &str) -> PathBuf {
         outputs: vec![0],
         band_hz: [0.0, 2000.0],
     };
-    model_dir::write(&dir, &bar(), &scene).unwrap();
+    model_dir::write(&dir, model, &scene).unwrap();
     let toml = format!(
         "name = \"bar\"\nmass = \"M.mtx\"\nstiffness = \"K.mtx\"\nnodes = \"nodes.csv\"\n\
          dofs_per_node = 3\n[rayleigh]\nbeta = {BETA}\n{joints}"
@@ -262,6 +267,68 @@ fn line_fitting_reaches_its_tolerance_at_remote_points() {
     let rom = linefit::reduce(&body, &loaded.scene, &opts, None, &no_progress).unwrap();
     let grid: Vec<f64> = (0..300).map(|k| 3.0 + 2990.0 * k as f64 / 299.0).collect();
     let reference = crate::common::full_reference(&body, &loaded.scene, &grid);
+    let err = reference.error(&rom).unwrap().eps_elastic;
+    let max = err.iter().copied().fold(0.0, f64::max);
+    assert!(max <= tol, "max error {max:e} > tol {tol:e}");
+}
+
+/// A distributing point over every node of the bar gives the coupled matrices a dense block
+/// larger than the bar's own, so the body's products go through the coupling (docs/design.md
+/// §3.11): the certified responses equal those of the formed matrices, and line-fitting by
+/// tolerance meets its tolerance on a fresh grid.
+#[test]
+fn a_point_over_the_whole_body_multiplies_through_the_coupling() {
+    use sparsemor::reduce::linefit::{
+        self, Interface, LineFitOptions, References, SamplingOptions,
+    };
+    // 2 × 2 × 12 hexahedra: 351 DoFs, so the point's dense block (its rows over every DoF)
+    // outweighs K
+    let mut model = bar_model(&BoxSpec {
+        elements: [2, 2, 12],
+        ..BoxSpec::small()
+    })
+    .unwrap();
+    model.damping = sparsemor::model::Damping::Rayleigh {
+        alpha: 0.0,
+        beta: BETA,
+    };
+    let dir = directory_of(
+        "through",
+        &model,
+        "[scene]\n\
+         inputs = [\"all:x\", \"all:rz\", \"tip:y\"]\n\
+         outputs = [\"all:x\", \"all:rz\", \"tip:y\"]\n\
+         band_hz = [0.0, 3000.0]\n\
+         [[remote_points]]\nname = \"all\"\nkind = \"distributing\"\n\
+         box = { min = [-1, -1, -1], max = [1, 1, 1] }\nposition = [0.013, 0.017, 0.104]\n\
+         [[remote_points]]\nname = \"tip\"\nkind = \"rigid\"\n\
+         box = { min = [-1, -1, 0.199], max = [1, 1, 1] }\nposition = [0.01, 0.015, 0.21]\n",
+    );
+    let loaded = model_dir::load(&dir).unwrap();
+    let body = Body::new(&loaded.model).unwrap();
+    let (through, formed_entries) = body.pencil().through_coupling().unwrap();
+    assert!(
+        2 * through <= formed_entries,
+        "{through} against {formed_entries}"
+    );
+    let formed = Body::new(&Model {
+        congruent: None,
+        ..loaded.model.clone()
+    })
+    .unwrap();
+    assert!(formed.pencil().through_coupling().is_none());
+    let grid: Vec<f64> = (0..300).map(|k| 3.0 + 2990.0 * k as f64 / 299.0).collect();
+    let reference = crate::common::full_reference(&body, &loaded.scene, &grid);
+    let want = crate::common::full_reference(&formed, &loaded.scene, &grid);
+    for (a, b) in reference.h.iter().zip(&want.h) {
+        assert!((a - b).norm_l2() <= 1e-10 * b.norm_l2());
+    }
+    let tol = 1e-4;
+    let opts = LineFitOptions::new(
+        Interface::OutputsPlus(0),
+        References::Tolerance(SamplingOptions::new(tol)),
+    );
+    let rom = linefit::reduce(&body, &loaded.scene, &opts, None, &no_progress).unwrap();
     let err = reference.error(&rom).unwrap().eps_elastic;
     let max = err.iter().copied().fold(0.0, f64::max);
     assert!(max <= tol, "max error {max:e} > tol {tol:e}");
