@@ -117,7 +117,10 @@ pub fn transfer_function(
             *h += h0;
         }
     }
-    let (symbolic, schedule) = engine.local_stats(response, inputs, freqs_hz.len()).unzip();
+    let (symbolic, schedule) = match engine.local_stats(response, inputs, freqs_hz.len()) {
+        Some((symbolic, schedule)) => (symbolic, Some(schedule)),
+        None => (None, None),
+    };
     Ok(Frf {
         freqs_hz: freqs_hz.to_vec(),
         h,

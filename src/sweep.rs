@@ -307,7 +307,12 @@ pub struct Snapshot<'a> {
 /// Frequency-independent preparation of a sweep; see the module doc.
 pub struct Solver<'a> {
     body: &'a Body,
-    analysis: Analysis,
+    /// The symbolic analysis of the per-frequency factorizations: made here, or, for the
+    /// in-house LDLᵀ in memory, by the first factorization (a run the shifted Krylov space
+    /// answers never needs it; through a coupling it is an analysis of its own, §3.11).
+    analysis: std::sync::OnceLock<Analysis>,
+    /// The backend of a lazily made analysis.
+    backend: Backend,
     response: Response,
     inputs: Vec<usize>,
     /// B or P B (N×p), real.
@@ -424,13 +429,13 @@ impl<'a> Solver<'a> {
             dir: opts.out_of_core.as_deref(),
             budget: memory_budget,
         };
-        let analysis = Analysis::with_storage(
-            body.pencil(),
-            opts.backend,
-            inputs.len() + 1,
-            || body.formed_symbolic(),
-            storage,
-        )?;
+        let analysis = std::sync::OnceLock::new();
+        let lazy = storage.dir.is_none()
+            && opts.backend.resolved(n, body.pencil().is_real()) == Backend::Ldlt;
+        if !lazy {
+            let made = Self::analyse(body, opts.backend, inputs.len(), storage)?;
+            let _ = analysis.set(made);
+        }
         let load = match response {
             Response::Elastic => body.elastic_load(inputs),
             Response::Total => body.unit_load(inputs),
@@ -444,6 +449,7 @@ impl<'a> Solver<'a> {
         Ok(Solver {
             body,
             analysis,
+            backend: opts.backend,
             response,
             inputs: inputs.to_vec(),
             load,
@@ -477,9 +483,40 @@ impl<'a> Solver<'a> {
         }
     }
 
-    /// The symbolic analysis' measurements.
-    pub fn symbolic_stats(&self) -> &SymbolicStats {
-        self.analysis.stats()
+    /// The symbolic analysis' measurements, once it is made (`None` while every frequency
+    /// came from a shifted Krylov space).
+    pub fn symbolic_stats(&self) -> Option<&SymbolicStats> {
+        self.analysis.get().map(Analysis::stats)
+    }
+
+    /// The analysis of the per-frequency factorizations of `body` with `backend` for
+    /// `inputs` right-hand sides and a probe, kept where `storage` says.
+    fn analyse(
+        body: &Body,
+        backend: Backend,
+        inputs: usize,
+        storage: Storage<'_>,
+    ) -> Result<Analysis> {
+        Analysis::with_storage(
+            body.pencil(),
+            backend,
+            inputs + 1,
+            || body.formed_symbolic(),
+            storage,
+        )
+    }
+
+    /// The analysis, made on the first call when it was left for the first factorization.
+    fn analysis(&self) -> Result<&Analysis> {
+        if let Some(a) = self.analysis.get() {
+            return Ok(a);
+        }
+        let storage = Storage {
+            dir: None,
+            budget: self.memory_budget,
+        };
+        let made = Self::analyse(self.body, self.backend, self.inputs.len(), storage)?;
+        Ok(self.analysis.get_or_init(|| made))
     }
 
     /// The rigid body, if the model is free.
@@ -500,7 +537,11 @@ impl<'a> Solver<'a> {
     /// The schedule [`Self::run`] uses for `n_freqs` frequencies.
     pub fn schedule(&self, n_freqs: usize) -> Schedule {
         let workers = self.threads.min(n_freqs).max(1);
-        let bytes = self.analysis.stats().bytes_per_factor;
+        // no analysis yet: nothing was factored, and the workers hold a response each
+        let bytes = self
+            .analysis
+            .get()
+            .map_or(0, |a| a.stats().bytes_per_factor);
         if workers > 1 && workers.saturating_mul(bytes) <= self.memory_budget {
             Schedule::FrequencyParallel { workers }
         } else {
@@ -672,7 +713,10 @@ impl<'a> Solver<'a> {
             Some(_) => Schedule::FrequencyParallel {
                 workers: self.threads.min(items.len()).max(1),
             },
-            None => self.schedule(items.len()),
+            None => {
+                self.analysis()?;
+                self.schedule(items.len())
+            }
         };
         // Frequency-parallel, a worker that runs out of frequencies lends its thread to the
         // others: each phase of a frequency (factorization, solves, residuals) asks how many
@@ -792,7 +836,7 @@ impl<'a> Solver<'a> {
         par: &dyn Fn() -> Par,
     ) -> Result<(faer::MatRef<'w, c64>, FreqStats)> {
         if slot.is_none() {
-            let numeric = self.analysis.numeric(self.body.pencil())?;
+            let numeric = self.analysis()?.numeric(self.body.pencil())?;
             let n = self.body.n();
             // the load and probe columns, and the probe's right-hand side A(iω) z (for refinement)
             *slot = Some((

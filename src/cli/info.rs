@@ -128,6 +128,12 @@ pub fn info(dir: &Path) -> Result<()> {
         },
         human_bytes(s.bytes_per_factor as f64)
     );
+    if pencil.through_coupling().is_some() {
+        let (_, first) = sparsemor::factor::symbolic_cholesky_ordered(pencil.factored())?;
+        println!(
+            "real factors     through the coupling, of the pencil before its functionals became coordinates: ordering {first}"
+        );
+    }
     println!(
         "read in          {t_read:.2} s; ordering + symbolic analysis {:.2} s",
         t_order + s.seconds

@@ -188,19 +188,19 @@ impl<'a> Engine<'a> {
         Ok(&self.solvers[i].2)
     }
 
-    /// This rank's symbolic analysis and the schedule of `n_freqs` frequencies, once the
-    /// solver of (response, inputs) was used.
+    /// This rank's symbolic analysis (once the solver of (response, inputs) has factored)
+    /// and the schedule of `n_freqs` frequencies, once that solver was used.
     pub fn local_stats(
         &self,
         response: Response,
         inputs: &[usize],
         n_freqs: usize,
-    ) -> Option<(SymbolicStats, Schedule)> {
+    ) -> Option<(Option<SymbolicStats>, Schedule)> {
         let per_rank = n_freqs.div_ceil(self.ranks());
         self.solvers
             .iter()
             .find(|(r, i, _)| *r == response && i == inputs)
-            .map(|(_, _, s)| (s.symbolic_stats().clone(), s.schedule(per_rank)))
+            .map(|(_, _, s)| (s.symbolic_stats().cloned(), s.schedule(per_rank)))
     }
 
     /// Whether this rank's kept snapshots are in a temporary file.

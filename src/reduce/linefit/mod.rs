@@ -130,7 +130,8 @@ fn fixed(
     let absorb_s = absorbed.absorb_s;
     let symbolic_s = engine
         .local_stats(Response::Elastic, &scene.inputs, freqs.len())
-        .map_or(0.0, |(s, _)| s.seconds);
+        .and_then(|(s, _)| s)
+        .map_or(0.0, |s| s.seconds);
 
     let t_fit = Instant::now();
     let qr = absorbed.qr;
