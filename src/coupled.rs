@@ -31,7 +31,7 @@ use crate::coupling::{
     congruence, distributing_rows, functionals_as_coordinates, rigid_elimination, Kind,
     RemotePoint, SparseRow,
 };
-use crate::model::{Damping, Model, Structural};
+use crate::model::{Coupling, Damping, Model, Structural};
 use crate::pencil::{Congruent, Pencil};
 use crate::proportional::Split;
 use crate::rigid::{centroid, rigid_modes, rigid_modes_about};
@@ -333,7 +333,7 @@ pub fn couple(
         let (first, _) = Model::new(model.name.clone(), m1, k1, damping, None, dpn)?;
         let first = first.with_structural(structural)?;
         let s = inverse_of_t2(&rows, &pivots, n1);
-        coupled.congruent = Some(Arc::new(Congruent::new(&first, &t2, &s)?));
+        coupled.coupling = Some(Arc::new(Coupling { first, t: t2, s }));
     }
     if let Some(nodes) = nodes {
         coupled = coupled.with_rigid_modes(rigid_modes_in(
@@ -766,7 +766,7 @@ mod tests {
             .chain([Functional::Point { point: 0, dir: 2 }])
             .collect();
         let cp = couple(&model, &points, &io, &io).unwrap();
-        assert!(cp.model.congruent.is_some(), "a point over every node pays");
+        assert!(cp.model.coupling.is_some(), "a point over every node pays");
         cp
     }
 
@@ -801,7 +801,7 @@ mod tests {
             let cp = coupled_through(damping);
             let through = Pencil::new(&cp.model);
             proptest::prop_assert!(through.through_coupling().is_some());
-            let formed = Pencil::new(&Model { congruent: None, ..cp.model.clone() });
+            let formed = Pencil::new(&Model { coupling: None, ..cp.model.clone() });
             proptest::prop_assert!(formed.through_coupling().is_none());
             let n = cp.model.n();
             let mut random = crate::random::Xorshift::new(seed + 1);
@@ -848,7 +848,7 @@ mod tests {
         let cp = coupled_through(Some((d, Some(k4), 0.02)));
         let through = Pencil::new(&cp.model);
         let formed = Pencil::new(&Model {
-            congruent: None,
+            coupling: None,
             ..cp.model.clone()
         });
         assert!(through.through_coupling().is_some());

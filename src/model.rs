@@ -82,11 +82,24 @@ pub struct Model {
     pub rigid_modes: Option<faer::Mat<f64>>,
     /// Structural damping H = ηK + K₄ (none from [`Model::new`]; [`Model::with_structural`]).
     pub structural: Structural,
-    /// A coupled model's coupling, through which its products are cheaper than with its
-    /// formed matrices (docs/design.md §3.11; set by [`crate::coupled::couple`] when it pays,
-    /// none from [`Model::new`]). The pencil checks it against the formed matrices and
-    /// ignores it when they differ.
-    pub congruent: Option<std::sync::Arc<crate::pencil::Congruent>>,
+    /// A coupled model's coupling, through which its products and real factorizations are
+    /// cheaper than with its formed matrices (docs/design.md §3.11; set by
+    /// [`crate::coupled::couple`] when it pays, none from [`Model::new`]). The pencil checks
+    /// it against the formed matrices and ignores it when they differ.
+    pub coupling: Option<std::sync::Arc<Coupling>>,
+}
+
+/// A coupled model M' = TᵀM₁T (and K', D', H' alike) as the model before its functionals
+/// became coordinates and the change of variables (docs/design.md §3.11).
+#[derive(Clone, Debug)]
+pub struct Coupling {
+    /// The model A₁ (M₁, K₁ and the damping whose congruence is the coupled model's; the
+    /// rigid points already eliminated).
+    pub first: Model,
+    /// T (N × N): a state of the coupled model as one of `first`.
+    pub t: Csc,
+    /// S = T⁻¹: the identity with each functional's pivot row replaced by the functional.
+    pub s: Csc,
 }
 
 /// What [`Model::new`] measured while validating: returned to the user (`sparsemor info`).
@@ -177,7 +190,7 @@ impl Model {
             dofs_per_node,
             rigid_modes: None,
             structural: Structural::default(),
-            congruent: None,
+            coupling: None,
         };
         Ok((
             model,

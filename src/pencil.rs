@@ -87,9 +87,9 @@ pub struct Pencil {
 /// - solves A'⁻¹ = S A₁⁻¹ Sᵀ: the real factorizations take A₁ ([`Pencil::factored`]), which
 ///   has no dense block and, being congruent to A', the same inertia.
 ///
-/// Set on a model by [`crate::coupled::couple`] when it pays ([`Congruent::pays`]);
-/// [`Pencil::new`] uses it only if probe products agree with the formed matrices and S
-/// inverts T on the probe.
+/// Built by [`Pencil::new`] from the model's [`crate::model::Coupling`], which
+/// [`crate::coupled::couple`] sets when it pays ([`Congruent::pays`]), and used only if probe
+/// products agree with the formed matrices and S inverts T on the probe.
 #[derive(Debug)]
 pub struct Congruent {
     /// The pencil of A₁, with the damping whose congruence is the coupled model's.
@@ -420,10 +420,11 @@ impl Pencil {
             through: None,
         };
         pencil.through = model
-            .congruent
+            .coupling
             .as_ref()
+            .and_then(|c| Congruent::new(&c.first, &c.t, &c.s).ok())
             .filter(|c| pencil.agrees_with(c))
-            .cloned();
+            .map(Arc::new);
         pencil
     }
 

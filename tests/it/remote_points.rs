@@ -312,7 +312,7 @@ fn a_point_over_the_whole_body_multiplies_through_the_coupling() {
         "{through} against {formed_entries}"
     );
     let formed = Body::new(&Model {
-        congruent: None,
+        coupling: None,
         ..loaded.model.clone()
     })
     .unwrap();
