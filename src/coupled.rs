@@ -23,7 +23,10 @@
 //! Cost: each functional's pivot DoF is expressed through all DoFs of its support, so M' and
 //! K' gain a dense block over the union of a functional's support (a distributing point over
 //! s DoFs adds up to s² entries); [`Coupled::nnz`] reports it, and [`couple`] refuses a
-//! scene past [`MAX_FILL_ENTRIES`] or [`MAX_ELIMINATION_ENTRIES`] before allocating.
+//! scene past [`MAX_FILL_ENTRIES`] or [`MAX_ELIMINATION_ENTRIES`] before allocating. Where
+//! those blocks outweigh the body, the model also carries its [`Coupling`] (the model after
+//! the rigid elimination, T₂ and S = T₂⁻¹), through which its products and real
+//! factorizations go ([`Congruent`]).
 //!
 //! Entry point: [`couple`].
 

@@ -16,10 +16,12 @@
 //! Products with M, the most frequent (Krylov spaces, M-inner products), read a copy of M by
 //! rows on its own nonzeros, made at the first one (the 10⁶-DoF bar: 21.2 M entries, 254 MB).
 //!
-//! A coupled model (§3.11) may carry its coupling ([`Congruent`]): its products are then
-//! X'z = Tᵀ(X(T z)) with the original model's X, which reads far fewer entries than the formed
-//! X' = TᵀXT when distributing points give X' dense blocks. The formed values stay the
-//! pattern the factorizations fill.
+//! A coupled model (§3.11) may carry its coupling ([`crate::model::Coupling`], made
+//! [`Congruent`] here): its products are then X'z = Tᵀ(X₁(T z)) with the model before its
+//! functionals became coordinates, which reads far fewer entries than the formed X' = TᵀX₁T
+//! when distributing points give X' dense blocks, and its real factorizations take X₁
+//! ([`Pencil::factored`]). The formed values stay the pattern the per-frequency
+//! factorizations fill and the certificates read.
 
 use crate::model::{Damping, Model};
 use crate::proportional::{split, Pattern, Proportional, Remainder, Split, Viscous};
@@ -141,7 +143,7 @@ impl Congruent {
 
     /// True when a product through T reads at most half the entries of one with the formed
     /// X' (`formed`: the stored entries of K' in full storage), from the stored entries of
-    /// K before coupling (`original`) and of T (`t`): original + 2·t ≤ formed / 2.
+    /// the body's own K (`original`) and of T (`t`): original + 2·t ≤ formed / 2.
     pub fn pays(original: usize, t: usize, formed: usize) -> bool {
         2 * (original + 2 * t) <= formed
     }
@@ -658,7 +660,7 @@ impl Pencil {
     /// values `vals`: row j of X is summed in ascending columns, as a product with both
     /// triangles would sum it. M is multiplied by its own rows ([`Rows`]; the same sums
     /// without the union pattern's zeros). Through the coupling, when there is one, `vals`
-    /// are the original pencil's.
+    /// are those of the pencil before its functionals became coordinates (A₁'s).
     fn block_product<const W: usize>(
         &self,
         which: Coefficient,
