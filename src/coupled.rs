@@ -333,8 +333,19 @@ pub fn couple(
     let (coupled, _) = Model::new(model.name.clone(), mass, stiffness, damping, None, dpn)?;
     let mut coupled = coupled.with_structural(structural)?;
     if let (Some((k1, m1)), Some((damping, structural))) = (first, first_damping) {
-        let (first, _) = Model::new(model.name.clone(), m1, k1, damping, None, dpn)?;
-        let first = first.with_structural(structural)?;
+        // the model's own matrices, or congruences of them (exactly symmetric): validated
+        // with the model, not again
+        let first = Model {
+            name: model.name.clone(),
+            mass: m1,
+            stiffness: k1,
+            damping,
+            nodes: None,
+            dofs_per_node: dpn,
+            rigid_modes: None,
+            structural,
+            coupling: None,
+        };
         let s = inverse_of_t2(&rows, &pivots, n1);
         coupled.coupling = Some(Arc::new(Coupling { first, t: t2, s }));
     }

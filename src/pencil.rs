@@ -115,7 +115,7 @@ impl Congruent {
     /// # Errors
     /// [`crate::Error::InvalidSetting`] when T or S does not match the model;
     /// [`crate::Error::Factor`] when their transposes cannot be stored.
-    pub fn new(first: &Model, t: &Csc, s: &Csc) -> crate::Result<Congruent> {
+    fn new(first: &Model, t: &Csc, s: &Csc) -> crate::Result<Congruent> {
         let n = first.n();
         if [t.nrows(), t.ncols(), s.nrows(), s.ncols()] != [n; 4] {
             return Err(crate::Error::InvalidSetting(format!(
@@ -149,7 +149,7 @@ impl Congruent {
     }
 
     /// Stored entries a product reads: the first pencil's lower pattern and T twice.
-    pub fn entries(&self) -> usize {
+    fn entries(&self) -> usize {
         self.inner.nnz() + 2 * self.t.compute_nnz()
     }
 
@@ -191,7 +191,7 @@ pub(crate) fn solve_through<T: Through>(
 }
 
 /// The scalars a solve goes through the coupling with: f64 and c64.
-pub trait Through:
+pub(crate) trait Through:
     Copy + Default + std::ops::Mul<f64, Output = Self> + std::ops::AddAssign + 'static
 {
 }
